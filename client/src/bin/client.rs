@@ -1,0 +1,7 @@
+//! The metrics client on its own (the launcher starts the same code as `fastslam-stack client`).
+
+use fastslam_client::process;
+
+fn main() -> anyhow::Result<()> {
+    fastslam_protocol::cli::main_of("client", process::ABOUT, process::run)
+}

@@ -1,0 +1,629 @@
+//! Scores a [`Recording`] against ground truth (ALGORITHMS.md §6): trajectory error
+//! (ATE, RPE, heading, final), consistency (NEES), map error with an optimal landmark
+//! assignment, filter health from the status topic, and cost (step time, end-to-end
+//! latency, CPU time and peak memory). `METRICS.md` documents every field.
+
+use crate::align::{Se2, umeyama_se2};
+use crate::recording::{Estimate, Recording, StampedPose};
+use crate::resources::ProcessUsage;
+use crate::rpe::{RPE_DELTAS_M, Rpe, rpe};
+use crate::stats::{Spread, mean};
+use fastslam_estimation::wrap_angle;
+use fastslam_protocol::MapLandmark;
+use nalgebra::{Matrix3, Vector3};
+use serde::Serialize;
+
+/// Estimated landmarks farther than this from every true one count as spurious (m).
+pub const LANDMARK_CUTOFF_M: f64 = 5.0;
+/// Upper 95 % point of χ² with 3 degrees of freedom: a consistent filter's pose NEES
+/// stays below it at 95 % of the steps.
+pub const CHI2_3_95: f64 = 7.814_727_903_251_178;
+/// The service's iceoryx2 node name, whose CPU time is the filter's cost.
+pub const SERVICE_NODE: &str = "fastslam-service";
+
+/// How the estimate is brought into the truth's frame before it is scored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum AlignMode {
+    /// No alignment: in simulation the map frame is the true frame.
+    #[default]
+    None,
+    /// Least-squares rigid alignment (Umeyama, SE(2)) of each trajectory onto the truth,
+    /// for external data whose estimate starts in a frame of its own.
+    Se2,
+}
+
+/// The alignment that was applied before scoring.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct Alignment {
+    /// `none` or `se2`.
+    pub method: AlignMode,
+    /// Transform applied to the estimate (poses, covariances and map); identity for `none`.
+    pub estimate: Se2,
+    /// Transform applied to dead reckoning; identity for `none`.
+    pub dead_reckoning: Se2,
+}
+
+impl Default for Alignment {
+    fn default() -> Self {
+        Self {
+            method: AlignMode::None,
+            estimate: Se2::IDENTITY,
+            dead_reckoning: Se2::IDENTITY,
+        }
+    }
+}
+
+/// Everything the client measured, as written to `metrics.json`.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Metrics {
+    /// False when the run was interrupted before every stream ended.
+    pub complete: bool,
+    /// How the estimate was aligned with the truth before scoring.
+    pub alignment: Alignment,
+    /// The service's pose estimates against ground truth.
+    pub estimate: TrajectoryMetrics,
+    /// Dead reckoning (the odometry's own pose) at the same stamps: the baseline.
+    pub dead_reckoning: TrajectoryMetrics,
+    /// Consistency of the estimate's covariance.
+    pub consistency: Consistency,
+    /// The final landmark map against the true one.
+    pub map: MapMetrics,
+    /// Filter health from the service's status topic.
+    pub filter: FilterHealth,
+    /// What the run cost: time and memory. Not reproducible bit for bit (wall clock).
+    pub cost: Cost,
+}
+
+/// Errors of one trajectory against ground truth at the estimate stamps.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct TrajectoryMetrics {
+    /// Poses compared with ground truth.
+    pub poses: usize,
+    /// Absolute trajectory error, RMSE of the position error (m), after the alignment
+    /// in [`Metrics::alignment`] (none in simulation).
+    pub ate_rmse_m: f64,
+    /// Largest position error (m).
+    pub max_error_m: f64,
+    /// Position error of the last pose (m).
+    pub final_error_m: f64,
+    /// RMSE of the heading error (rad).
+    pub heading_rmse_rad: f64,
+    /// Relative pose error over each distance of [`RPE_DELTAS_M`].
+    pub rpe: Vec<Rpe>,
+}
+
+/// Normalised estimation error squared of the pose (x, y, θ).
+///
+/// A pose whose covariance is not positive definite (the particles collapsed onto one
+/// pose, leaving a covariance of rounding noise) has no finite NEES — the filter claims no
+/// uncertainty in some direction. It is counted in `singular`, left out of the mean, and
+/// counted as outside the 95 % bound.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Consistency {
+    /// Poses with a positive definite covariance (those the mean is taken over).
+    pub poses: usize,
+    /// Poses whose covariance is not positive definite.
+    pub singular: usize,
+    /// Mean NEES over `poses` (≈ 3 for a consistent filter; larger means over-confident).
+    pub nees_mean: f64,
+    /// Fraction of all compared poses (`poses + singular`) with NEES below the χ²₃ 95 %
+    /// point (≈ 0.95 when consistent).
+    pub nees_within_95: f64,
+}
+
+/// The estimated map against the true landmarks.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct MapMetrics {
+    /// Landmarks in the estimated map.
+    pub estimated: usize,
+    /// Landmarks in the true map.
+    pub truth: usize,
+    /// Estimated landmarks assigned to a true one within the cut-off.
+    pub matched: usize,
+    /// True landmarks without an estimate.
+    pub missed: usize,
+    /// Estimated landmarks without a true one.
+    pub spurious: usize,
+    /// RMSE of the matched landmarks' position error (m).
+    pub rmse_m: f64,
+    /// The assignment cut-off (m).
+    pub cutoff_m: f64,
+}
+
+/// How the particle set fared, from the service's status messages.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct FilterHealth {
+    /// Observation steps with a status message.
+    pub steps: usize,
+    /// Steps that resampled.
+    pub resamplings: usize,
+    /// Number of particles (of the last step).
+    pub particles: u32,
+    /// Mean effective sample size before resampling.
+    pub n_eff_mean: f64,
+    /// Smallest effective sample size.
+    pub n_eff_min: f64,
+    /// Mean of `N_eff / particles` (1 = all weights equal).
+    pub n_eff_ratio_mean: f64,
+    /// Mean number of distinct particles after a step (all steps).
+    pub distinct_mean: f64,
+    /// Mean number of distinct particles right after resampling (diversity).
+    pub distinct_after_resampling_mean: f64,
+    /// Fewest distinct particles after a step.
+    pub distinct_min: f64,
+}
+
+/// Time and memory the run took.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Cost {
+    /// The service's filter update time per observation step, as it reported it (ms).
+    pub step_time_ms: Spread,
+    /// End-to-end latency from an observation's publication to the publication of the
+    /// pose it produced, as the client received both (ms).
+    pub latency_ms: Spread,
+    /// CPU time and peak memory of each process of the stack.
+    pub processes: Vec<ProcessUsage>,
+    /// CPU time of the FastSLAM service (s); NaN when it was not found.
+    pub service_cpu_s: f64,
+    /// CPU time of all processes of the stack together (s).
+    pub stack_cpu_s: f64,
+}
+
+impl Metrics {
+    /// Scores `rec` (already aligned as `alignment` says, see [`align`]); `complete`
+    /// says whether every stream ended normally.
+    pub fn compute(rec: &Recording, complete: bool, alignment: Alignment) -> Self {
+        let estimates: Vec<StampedPose> = rec.estimates.iter().map(|e| e.pose).collect();
+        let dead_reckoning: Vec<StampedPose> = estimates
+            .iter()
+            .filter_map(|p| interpolate(&rec.dead_reckoning, p.stamp_ns))
+            .collect();
+        Self {
+            complete,
+            alignment,
+            estimate: trajectory(&estimates, &rec.truth),
+            dead_reckoning: trajectory(&dead_reckoning, &rec.truth),
+            consistency: consistency(rec),
+            map: map(&rec.map, &rec.true_map, LANDMARK_CUTOFF_M),
+            filter: filter_health(rec),
+            cost: cost(rec),
+        }
+    }
+}
+
+/// Brings `rec` into the truth's frame as `mode` says: a copy with the estimate (poses,
+/// covariances, map) and dead reckoning transformed, and the transforms used. Each
+/// trajectory is fitted to the truth at its own stamps; one that cannot be fitted (fewer
+/// than two poses with truth) stays as it is.
+pub fn align(rec: &Recording, mode: AlignMode) -> (Recording, Alignment) {
+    if mode == AlignMode::None {
+        return (rec.clone(), Alignment::default());
+    }
+    let fit = |poses: &mut dyn Iterator<Item = &StampedPose>| {
+        let (est, truth): (Vec<_>, Vec<_>) = poses
+            .filter_map(|p| interpolate(&rec.truth, p.stamp_ns).map(|t| ((p.x, p.y), (t.x, t.y))))
+            .unzip();
+        umeyama_se2(&est, &truth).unwrap_or(Se2::IDENTITY)
+    };
+    let estimate = fit(&mut rec.estimates.iter().map(|e| &e.pose));
+    let dead_reckoning = fit(&mut rec.dead_reckoning.iter());
+    let mut out = rec.clone();
+    for e in &mut out.estimates {
+        *e = Estimate {
+            pose: estimate.apply_pose(&e.pose),
+            covariance: estimate.apply_covariance(&e.covariance),
+        };
+    }
+    for p in &mut out.dead_reckoning {
+        *p = dead_reckoning.apply_pose(p);
+    }
+    for l in &mut out.map {
+        (l.x, l.y) = estimate.apply(l.x, l.y);
+        (l.cov_xx, l.cov_xy, l.cov_yy) =
+            estimate.apply_point_covariance(l.cov_xx, l.cov_xy, l.cov_yy);
+    }
+    let alignment = Alignment {
+        method: mode,
+        estimate,
+        dead_reckoning,
+    };
+    (out, alignment)
+}
+
+/// The pose of `track` (sorted by stamp) at `stamp_ns`, linearly interpolated between
+/// its neighbours; `None` outside the track.
+pub fn interpolate(track: &[StampedPose], stamp_ns: u64) -> Option<StampedPose> {
+    let i = track.partition_point(|p| p.stamp_ns < stamp_ns);
+    let after = track.get(i)?;
+    if after.stamp_ns == stamp_ns {
+        return Some(*after);
+    }
+    let before = track.get(i.checked_sub(1)?)?;
+    let f = (stamp_ns - before.stamp_ns) as f64 / (after.stamp_ns - before.stamp_ns) as f64;
+    Some(StampedPose {
+        stamp_ns,
+        x: before.x + f * (after.x - before.x),
+        y: before.y + f * (after.y - before.y),
+        theta: wrap_angle(before.theta + f * wrap_angle(after.theta - before.theta)),
+    })
+}
+
+/// Position error (m), heading error (rad) and the true pose at `p`'s stamp; `None`
+/// when the truth does not cover the stamp.
+pub fn error(p: &StampedPose, truth: &[StampedPose]) -> Option<(f64, f64, StampedPose)> {
+    let t = interpolate(truth, p.stamp_ns)?;
+    Some((
+        (p.x - t.x).hypot(p.y - t.y),
+        wrap_angle(p.theta - t.theta),
+        t,
+    ))
+}
+
+/// Position and heading errors of `poses` against `truth` at the poses' stamps.
+pub fn trajectory(poses: &[StampedPose], truth: &[StampedPose]) -> TrajectoryMetrics {
+    let (mut matched, mut truth_at, mut errors) = (Vec::new(), Vec::new(), Vec::new());
+    for p in poses {
+        if let Some((d, h, t)) = error(p, truth) {
+            matched.push(*p);
+            truth_at.push(t);
+            errors.push((d, h));
+        }
+    }
+    let rms = |f: &dyn Fn(&(f64, f64)) -> f64| {
+        crate::stats::rms(&errors.iter().map(f).collect::<Vec<_>>())
+    };
+    TrajectoryMetrics {
+        poses: errors.len(),
+        ate_rmse_m: rms(&|e| e.0),
+        max_error_m: errors.iter().map(|e| e.0).fold(f64::NAN, f64::max),
+        final_error_m: errors.last().map_or(f64::NAN, |e| e.0),
+        heading_rmse_rad: rms(&|e| e.1),
+        rpe: RPE_DELTAS_M
+            .iter()
+            .map(|&d| rpe(&matched, &truth_at, d))
+            .collect(),
+    }
+}
+
+/// NEES of an estimate against the truth at its stamp, through the Cholesky factor of its
+/// covariance (which exists exactly when the covariance is positive definite). `None`
+/// without truth at the stamp; `Some(None)` when the covariance is not positive definite
+/// (see [`Consistency`]).
+pub fn nees(e: &Estimate, truth: &[StampedPose]) -> Option<Option<f64>> {
+    let t = interpolate(truth, e.pose.stamp_ns)?;
+    let err = Vector3::new(
+        e.pose.x - t.x,
+        e.pose.y - t.y,
+        wrap_angle(e.pose.theta - t.theta),
+    );
+    Some(
+        Matrix3::from_row_slice(&e.covariance)
+            .cholesky()
+            .map(|c| err.dot(&c.solve(&err)))
+            .filter(|v| v.is_finite()),
+    )
+}
+
+/// NEES of each estimate against the truth at its stamp.
+pub fn consistency(rec: &Recording) -> Consistency {
+    let compared: Vec<Option<f64>> = rec
+        .estimates
+        .iter()
+        .filter_map(|e| nees(e, &rec.truth))
+        .collect();
+    let nees: Vec<f64> = compared.iter().flatten().copied().collect();
+    Consistency {
+        poses: nees.len(),
+        singular: compared.len() - nees.len(),
+        nees_mean: mean(&nees),
+        nees_within_95: if compared.is_empty() {
+            f64::NAN
+        } else {
+            nees.iter().filter(|&&v| v <= CHI2_3_95).count() as f64 / compared.len() as f64
+        },
+    }
+}
+
+/// Filter health over the status messages.
+pub fn filter_health(rec: &Recording) -> FilterHealth {
+    let s = &rec.status;
+    let of =
+        |f: &dyn Fn(&crate::recording::StatusSample) -> f64| s.iter().map(f).collect::<Vec<f64>>();
+    let n_eff = of(&|x| x.n_eff);
+    let distinct = of(&|x| f64::from(x.distinct));
+    let after: Vec<f64> = s
+        .iter()
+        .filter(|x| x.resampled)
+        .map(|x| f64::from(x.distinct))
+        .collect();
+    FilterHealth {
+        steps: s.len(),
+        resamplings: after.len(),
+        particles: s.last().map_or(0, |x| x.particles),
+        n_eff_mean: mean(&n_eff),
+        n_eff_min: n_eff.iter().copied().fold(f64::NAN, f64::min),
+        n_eff_ratio_mean: mean(&of(&|x| x.n_eff / f64::from(x.particles.max(1)))),
+        distinct_mean: mean(&distinct),
+        distinct_after_resampling_mean: mean(&after),
+        distinct_min: distinct.iter().copied().fold(f64::NAN, f64::min),
+    }
+}
+
+/// Step times, latencies and process usage.
+pub fn cost(rec: &Recording) -> Cost {
+    let service_cpu_s = rec
+        .processes
+        .iter()
+        .filter(|p| p.name == SERVICE_NODE)
+        .map(|p| p.cpu_s)
+        .reduce(|a, b| a + b)
+        .unwrap_or(f64::NAN);
+    Cost {
+        step_time_ms: Spread::of(rec.status.iter().map(|x| x.step_time_s * 1e3)),
+        latency_ms: Spread::of(rec.latencies.iter().map(|l| l.1 * 1e3)),
+        processes: rec.processes.clone(),
+        service_cpu_s,
+        stack_cpu_s: rec.processes.iter().map(|p| p.cpu_s).sum(),
+    }
+}
+
+/// Assigns estimated to true landmarks minimising the total squared distance (Hungarian
+/// method), then drops pairs farther apart than `cutoff_m`.
+pub fn map(estimated: &[MapLandmark], truth: &[MapLandmark], cutoff_m: f64) -> MapMetrics {
+    let pairs = assign(estimated, truth, cutoff_m);
+    let matched = pairs.len();
+    let rmse_m = crate::stats::rms(&pairs);
+    MapMetrics {
+        estimated: estimated.len(),
+        truth: truth.len(),
+        matched,
+        missed: truth.len() - matched,
+        spurious: estimated.len() - matched,
+        rmse_m,
+        cutoff_m,
+    }
+}
+
+/// Distances of the optimally assigned pairs within the cut-off.
+fn assign(a: &[MapLandmark], b: &[MapLandmark], cutoff_m: f64) -> Vec<f64> {
+    use pathfinding::prelude::{Matrix, kuhn_munkres_min};
+    // The Hungarian method wants rows ≤ columns and integer costs: squared distance in
+    // mm², with pairs beyond the cut-off all at the same (prohibitive) cost.
+    let (rows, cols) = if a.len() <= b.len() { (a, b) } else { (b, a) };
+    if rows.is_empty() {
+        return Vec::new();
+    }
+    let dist = |p: &MapLandmark, q: &MapLandmark| (p.x - q.x).hypot(p.y - q.y);
+    let beyond = ((cutoff_m * 1e3).powi(2) as i64 + 1) * 4;
+    let weights = Matrix::from_fn(rows.len(), cols.len(), |(i, j)| {
+        let d = dist(&rows[i], &cols[j]);
+        if d <= cutoff_m {
+            (d * 1e3).powi(2) as i64
+        } else {
+            beyond
+        }
+    });
+    let (_, columns) = kuhn_munkres_min(&weights);
+    columns
+        .iter()
+        .enumerate()
+        .map(|(i, &j)| dist(&rows[i], &cols[j]))
+        .filter(|&d| d <= cutoff_m)
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::recording::StatusSample;
+
+    fn pose(t: u64, x: f64, y: f64, theta: f64) -> StampedPose {
+        StampedPose {
+            stamp_ns: t,
+            x,
+            y,
+            theta,
+        }
+    }
+
+    fn lm(x: f64, y: f64) -> MapLandmark {
+        MapLandmark {
+            x,
+            y,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn interpolation_is_linear_and_wraps_heading() {
+        let track = [pose(0, 0.0, 0.0, 3.0), pose(10, 10.0, 0.0, -3.0)];
+        let mid = interpolate(&track, 5).unwrap();
+        assert!((mid.x - 5.0).abs() < 1e-12);
+        assert!(
+            (mid.theta.abs() - std::f64::consts::PI).abs() < 1e-9,
+            "{}",
+            mid.theta
+        );
+        assert_eq!(interpolate(&track, 11), None);
+        assert_eq!(interpolate(&track, 10), Some(track[1]));
+    }
+
+    #[test]
+    fn ate_of_a_constant_offset_is_the_offset() {
+        let truth: Vec<_> = (0..10).map(|k| pose(k, k as f64, 0.0, 0.0)).collect();
+        let est: Vec<_> = (0..10).map(|k| pose(k, k as f64, 0.5, 0.1)).collect();
+        let m = trajectory(&est, &truth);
+        assert_eq!(m.poses, 10);
+        assert!((m.ate_rmse_m - 0.5).abs() < 1e-12 && (m.final_error_m - 0.5).abs() < 1e-12);
+        assert!((m.heading_rmse_rad - 0.1).abs() < 1e-12);
+    }
+
+    #[test]
+    fn map_assignment_is_optimal_not_greedy() {
+        // Greedy would pair e0 with t1 (0.9 m) and leave e1 to t0 (2.0 m);
+        // the optimum pairs e0–t0 (1.0) and e1–t1 (1.0).
+        let truth = [lm(0.0, 0.0), lm(1.9, 0.0)];
+        let est = [lm(1.0, 0.0), lm(2.9, 0.0)];
+        let m = map(&est, &truth, 5.0);
+        assert_eq!((m.matched, m.missed, m.spurious), (2, 0, 0));
+        assert!((m.rmse_m - 1.0).abs() < 1e-9, "{}", m.rmse_m);
+    }
+
+    #[test]
+    fn map_counts_missed_and_spurious_beyond_cutoff() {
+        let truth = [lm(0.0, 0.0), lm(100.0, 0.0), lm(200.0, 0.0)];
+        let est = [lm(0.3, 0.4), lm(50.0, 0.0)];
+        let m = map(&est, &truth, 5.0);
+        assert_eq!((m.matched, m.missed, m.spurious), (1, 2, 1));
+        assert!((m.rmse_m - 0.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_covariance_that_is_not_positive_definite_is_singular_not_a_negative_nees() {
+        // Particles collapsed onto one pose give a covariance of rounding noise: symmetric
+        // and invertible, but indefinite. Its "NEES" would be a huge negative number.
+        let indefinite = [1e-20, 0.0, 0.0, 0.0, 1e-20, 0.0, 0.0, 0.0, -1e-22];
+        let ok = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+        let estimate = |t: u64, covariance: [f64; 9]| crate::recording::Estimate {
+            pose: pose(t, 0.0, 0.0, 0.1),
+            covariance,
+        };
+        let rec = Recording {
+            truth: vec![pose(0, 0.0, 0.0, 0.0), pose(1, 0.0, 0.0, 0.0)],
+            estimates: vec![estimate(0, indefinite), estimate(1, ok)],
+            ..Default::default()
+        };
+        let c = consistency(&rec);
+        assert_eq!((c.poses, c.singular), (1, 1));
+        assert!((c.nees_mean - 0.01).abs() < 1e-12, "{}", c.nees_mean);
+        assert_eq!(
+            c.nees_within_95, 0.5,
+            "a singular pose is outside the bound"
+        );
+    }
+
+    #[test]
+    fn nees_of_a_one_sigma_error_is_one() {
+        let cov = [4.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+        let rec = Recording {
+            truth: vec![pose(0, 0.0, 0.0, 0.0)],
+            estimates: vec![crate::recording::Estimate {
+                pose: pose(0, 2.0, 0.0, 0.0),
+                covariance: cov,
+            }],
+            ..Default::default()
+        };
+        let c = consistency(&rec);
+        assert_eq!(c.poses, 1);
+        assert!((c.nees_mean - 1.0).abs() < 1e-12);
+        assert_eq!(c.nees_within_95, 1.0);
+    }
+
+    #[test]
+    fn se2_alignment_removes_a_frame_offset_and_moves_the_map_with_it() {
+        // The estimate is the truth seen from a rotated, shifted frame.
+        let frame = Se2 {
+            x: 4.0,
+            y: -1.0,
+            theta: 0.3,
+        };
+        let truth: Vec<_> = (0..20)
+            .map(|k| pose(k, k as f64, (k as f64 * 0.4).sin() * 3.0, 0.2))
+            .collect();
+        let to_estimate = frame.inverse();
+        let cov = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+        let rec = Recording {
+            estimates: truth
+                .iter()
+                .map(|p| crate::recording::Estimate {
+                    pose: to_estimate.apply_pose(p),
+                    covariance: cov,
+                })
+                .collect(),
+            dead_reckoning: truth.clone(),
+            map: vec![{
+                let (x, y) = to_estimate.apply(10.0, 5.0);
+                MapLandmark {
+                    x,
+                    y,
+                    ..lm(0.0, 0.0)
+                }
+            }],
+            true_map: vec![lm(10.0, 5.0)],
+            truth,
+            ..Default::default()
+        };
+        let unaligned = Metrics::compute(&rec, true, Alignment::default());
+        assert!(unaligned.estimate.ate_rmse_m > 1.0);
+        let (aligned_rec, alignment) = align(&rec, AlignMode::Se2);
+        let m = Metrics::compute(&aligned_rec, true, alignment);
+        assert!(m.estimate.ate_rmse_m < 1e-9, "{:?}", m.estimate);
+        assert!(m.estimate.heading_rmse_rad < 1e-9);
+        assert!(m.map.rmse_m < 1e-9 && m.map.matched == 1, "{:?}", m.map);
+        let t = m.alignment.estimate;
+        assert!((t.x - frame.x).abs() < 1e-9 && (t.theta - frame.theta).abs() < 1e-9);
+        // Dead reckoning already sat in the true frame: its fit is the identity.
+        assert!(m.alignment.dead_reckoning.x.abs() < 1e-9);
+        // Relative errors do not depend on the frame.
+        assert_eq!(m.estimate.rpe.len(), RPE_DELTAS_M.len());
+        assert!(m.estimate.rpe[0].translation_rmse_m < 1e-9);
+    }
+
+    fn status(stamp_ns: u64, n_eff: f64, distinct: u32, resampled: bool) -> StatusSample {
+        StatusSample {
+            stamp_ns,
+            n_eff,
+            particles: 10,
+            distinct,
+            resampled,
+            landmarks: 3,
+            step_time_s: 0.001 * stamp_ns as f64,
+        }
+    }
+
+    #[test]
+    fn filter_health_summarises_the_status_stream() {
+        let rec = Recording {
+            status: vec![
+                status(1, 9.0, 10, false),
+                status(2, 3.0, 4, true),
+                status(3, 6.0, 6, true),
+            ],
+            ..Default::default()
+        };
+        let h = filter_health(&rec);
+        assert_eq!((h.steps, h.resamplings, h.particles), (3, 2, 10));
+        assert!((h.n_eff_mean - 6.0).abs() < 1e-12 && h.n_eff_min == 3.0);
+        assert!((h.n_eff_ratio_mean - 0.6).abs() < 1e-12);
+        assert!((h.distinct_mean - 20.0 / 3.0).abs() < 1e-12);
+        assert_eq!(
+            (h.distinct_after_resampling_mean, h.distinct_min),
+            (5.0, 4.0)
+        );
+        let c = cost(&rec);
+        assert_eq!(c.step_time_ms.samples, 3);
+        assert!((c.step_time_ms.median - 2.0).abs() < 1e-9);
+        assert!(c.service_cpu_s.is_nan() && c.stack_cpu_s == 0.0);
+    }
+
+    #[test]
+    fn service_cpu_is_the_service_node_s() {
+        let usage = |name: &str, cpu_s: f64| ProcessUsage {
+            name: name.into(),
+            pid: 1,
+            cpu_user_s: cpu_s,
+            cpu_system_s: 0.0,
+            cpu_s,
+            peak_rss_mib: 1.0,
+        };
+        let rec = Recording {
+            processes: vec![usage("truth-sim", 0.5), usage(SERVICE_NODE, 2.0)],
+            latencies: vec![(1, 0.002), (2, 0.004), (3, 0.003)],
+            ..Default::default()
+        };
+        let c = cost(&rec);
+        assert_eq!((c.service_cpu_s, c.stack_cpu_s), (2.0, 2.5));
+        assert!((c.latency_ms.median - 3.0).abs() < 1e-9 && (c.latency_ms.p99 - 4.0).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,297 @@
+//! Records a run of the stack and writes its run folder when every stream has ended
+//! (or, marked incomplete, on SIGINT/SIGTERM). While it records, it prints a progress
+//! line on stdout a few times a second (see [`crate::progress`]).
+
+use crate::latency::LatencyMatcher;
+use crate::metrics::{AlignMode, align, interpolate};
+use crate::progress::{LiveAte, Progress};
+use crate::resources::ProcessMonitor;
+use crate::{Metrics, Recording, report};
+use fastslam_protocol::ipc::{Ended, Flow, Ipc, Sub};
+use fastslam_protocol::stream::StreamEnd;
+use fastslam_protocol::{
+    EndOfStream, GroundTruth, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation,
+    ObservationsHeader, OccupancyGridHeader, Odometry, PoseEstimate, ServiceStatus, StreamId, cli,
+    topics, validate,
+};
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// How often the client prints a progress line and samples the processes' CPU and memory.
+const SAMPLE_EVERY: Duration = Duration::from_millis(200);
+
+/// What `--help` says about this process.
+pub const ABOUT: &str = "Metrics client: records ground truth, odometry, pose estimates, maps and the \
+occupancy grid from the stack and, when every stream has ended, writes a run folder scored against \
+ground truth.";
+
+/// Flags of the client.
+#[derive(Debug, Clone, clap::Args)]
+pub struct Args {
+    /// Stack to join.
+    #[command(flatten)]
+    pub stack: cli::StackArgs,
+    /// Run folder to write (metrics.json, TUM trajectories, maps).
+    #[arg(long, default_value = "runs/latest")]
+    pub out: PathBuf,
+    /// Give up waiting for the stack's publishers after this many seconds.
+    #[arg(long, default_value_t = 60.0)]
+    pub wait_timeout_s: f64,
+    /// Align the estimate with the truth before scoring: none (simulation: the map frame
+    /// is the true frame) or se2 (external data: least-squares rigid alignment).
+    #[arg(long, value_enum, default_value_t = AlignMode::None)]
+    pub align: AlignMode,
+}
+
+/// Records until every stream has ended (or a signal arrives), then writes the run folder.
+///
+/// # Errors
+/// IPC failures or a run folder that cannot be written.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let ipc = Ipc::open(
+        &args.stack.stack(),
+        "client",
+        Duration::from_secs_f64(args.wait_timeout_s.max(0.0)),
+    )?;
+    // A producer starts once the subscribers of one topic are there (truth simulator:
+    // ground truth; odometry: odometry; lidar: its scans or observations; service: pose),
+    // and a short run may be over before a later subscription exists: end-of-stream and
+    // each producer's other topics come before the topic it waits on.
+    let eos = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
+    let true_map =
+        ipc.slice_subscriber::<LandmarkMapHeader, MapLandmark>(&topics::TRUE_LANDMARKS)?;
+    let map = ipc.slice_subscriber::<LandmarkMapHeader, MapLandmark>(&topics::MAP)?;
+    let grid = ipc.slice_subscriber::<OccupancyGridHeader, i8>(&topics::GRID)?;
+    let status = ipc.subscriber::<ServiceStatus>(&topics::STATUS)?;
+    let lidar = Lidar::open(&ipc)?;
+    let truth = ipc.subscriber::<GroundTruth>(&topics::GROUND_TRUTH)?;
+    let odometry = ipc.subscriber::<Odometry>(&topics::ODOMETRY)?;
+    let pose = ipc.subscriber::<PoseEstimate>(&topics::POSE)?;
+    tracing::info!(lidar = ?lidar.stream(), "recording");
+
+    let mut rec = Recording::default();
+    let mut ends = Ends::new(lidar.stream());
+    let mut latency = LatencyMatcher::default();
+    let mut monitor = ProcessMonitor::new();
+    let mut live_ate = LiveAte::default();
+    let mut last_sample = Instant::now();
+    monitor.sample(&ipc);
+    let listeners = [
+        truth.listener(),
+        odometry.listener(),
+        lidar.listener(),
+        status.listener(),
+        map.listener(),
+        grid.listener(),
+        pose.listener(),
+        true_map.listener(),
+        eos.listener(),
+    ];
+    let ended = ipc.wake_loop::<anyhow::Error>(&listeners, Some(SAMPLE_EVERY), || {
+        // Truth before poses, observations before poses: a pose's truth and observation
+        // were published before it, so they are in by the time the pose is.
+        truth.drain(|s| {
+            ends.saw(StreamId::GroundTruth, s.header.seq);
+            accept(validate::ground_truth(s.payload()), "ground truth", || {
+                rec.add_truth(s.payload())
+            });
+        })?;
+        odometry.drain(|s| {
+            ends.saw(StreamId::Odometry, s.header.seq);
+            accept(validate::odometry(s.payload()), "odometry", || {
+                rec.add_odometry(s.payload())
+            });
+        })?;
+        lidar.drain(|header| {
+            ends.saw(lidar.stream(), header.seq);
+            latency.observation(header.stamp_ns, Instant::now());
+        })?;
+        pose.drain(|s| {
+            let stamp_ns = s.header.stamp_ns;
+            latency.pose(stamp_ns, Instant::now());
+            ends.saw(StreamId::Pose, s.header.seq);
+            rec.add_estimate(s.payload());
+            if let Some(t) = interpolate(&rec.truth, stamp_ns) {
+                live_ate.add((s.x - t.x).hypot(s.y - t.y));
+            }
+        })?;
+        status.drain(|s| {
+            ends.saw(StreamId::Status, s.header.seq);
+            rec.add_status(s.payload());
+        })?;
+        map.drain(|s| {
+            ends.saw(StreamId::Map, s.user_header().header.seq);
+            accept(
+                validate::landmark_map(s.user_header(), s.payload()),
+                "map",
+                || rec.map = s.payload().to_vec(),
+            );
+        })?;
+        grid.drain(|s| {
+            ends.saw(StreamId::Grid, s.user_header().header.seq);
+            accept(
+                validate::occupancy_grid(s.user_header(), s.payload()),
+                "grid",
+                || rec.grid = Some((*s.user_header(), s.payload().to_vec())),
+            );
+        })?;
+        true_map.drain(|s| {
+            accept(
+                validate::landmark_map(s.user_header(), s.payload()),
+                "true map",
+                || rec.true_map = s.payload().to_vec(),
+            );
+        })?;
+        let mut announced = false;
+        eos.drain(|s| announced |= ends.announce(s.payload()))?;
+        // A publisher that announced its end has done its work: sample its CPU time now,
+        // before it exits (see `resources`).
+        if announced || last_sample.elapsed() >= SAMPLE_EVERY {
+            last_sample = Instant::now();
+            monitor.sample(&ipc);
+            let p = Progress {
+                sim_s: rec
+                    .estimates
+                    .last()
+                    .map_or(0.0, |e| e.pose.stamp_ns as f64 * 1e-9),
+                ate_m: live_ate.rmse(),
+                poses: rec.estimates.len(),
+            };
+            print_progress(&p);
+        }
+        Ok(if ends.finished() {
+            Flow::Stop
+        } else {
+            Flow::Continue
+        })
+    })?;
+    monitor.sample(&ipc);
+    rec.latencies = latency.latencies().to_vec();
+    rec.processes = monitor.usage();
+
+    let (rec, alignment) = align(&rec, args.align);
+    let metrics = Metrics::compute(&rec, ended == Ended::Done, alignment);
+    report::write(&args.out, &rec, &metrics)?;
+    tracing::info!(
+        folder = %args.out.display(), complete = metrics.complete,
+        ate_m = metrics.estimate.ate_rmse_m, landmark_rmse_m = metrics.map.rmse_m,
+        "run folder written"
+    );
+    Ok(())
+}
+
+/// The streams the client records until they end, each with its end bookkeeping.
+struct Ends([(StreamId, StreamEnd); 7]);
+
+impl Ends {
+    /// The stack's streams, with `lidar` (scans or observations) as the lidar's.
+    fn new(lidar: StreamId) -> Self {
+        Self(
+            [
+                StreamId::GroundTruth,
+                StreamId::Odometry,
+                lidar,
+                StreamId::Pose,
+                StreamId::Map,
+                StreamId::Grid,
+                StreamId::Status,
+            ]
+            .map(|id| (id, StreamEnd::default())),
+        )
+    }
+
+    /// The message `seq` of stream `id` was processed.
+    fn saw(&mut self, id: StreamId, seq: u64) {
+        if let Some((_, end)) = self.0.iter_mut().find(|(s, _)| *s == id) {
+            end.saw(seq);
+        }
+    }
+
+    /// Records an end-of-stream message; true when it closes one of these streams.
+    fn announce(&mut self, eos: &EndOfStream) -> bool {
+        let id = StreamId::from_u32(eos.stream);
+        match self.0.iter_mut().find(|(s, _)| Some(*s) == id) {
+            Some((_, end)) => {
+                end.announce(eos);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// True once every stream has ended and its last message was processed.
+    fn finished(&self) -> bool {
+        self.0.iter().all(|(_, end)| end.finished())
+    }
+}
+
+/// Prints a progress line on stdout. A reader that went away (closed pipe) is not an
+/// error of the recording: the line is dropped.
+fn print_progress(p: &Progress) {
+    let mut out = std::io::stdout().lock();
+    let _ = writeln!(out, "{p}").and_then(|()| out.flush());
+}
+
+/// The lidar's output, subscribed to only for its stamps (latency): raw scans or landmark
+/// observations, whichever has a publisher, scans when both do (as the service chooses).
+enum Lidar {
+    Observations(Sub<[Observation], ObservationsHeader>),
+    Scans(Sub<[f32], LaserScanHeader>),
+}
+
+impl Lidar {
+    /// Waits until the scan or the observation topic has a publisher and subscribes to it.
+    ///
+    /// # Errors
+    /// IPC failures, or a timeout when neither topic gets a publisher.
+    fn open(ipc: &Ipc) -> anyhow::Result<Self> {
+        let scans = ipc.publisher_probe::<[f32], LaserScanHeader>(&topics::SCAN)?;
+        let observations =
+            ipc.publisher_probe::<[Observation], ObservationsHeader>(&topics::OBSERVATIONS)?;
+        ipc.wait_until(
+            || "a publisher on scan or observations".into(),
+            || scans() + observations() > 0,
+        )?;
+        Ok(if scans() > 0 {
+            Self::Scans(ipc.slice_subscriber(&topics::SCAN)?)
+        } else {
+            Self::Observations(ipc.slice_subscriber(&topics::OBSERVATIONS)?)
+        })
+    }
+
+    /// The stream it carries.
+    fn stream(&self) -> StreamId {
+        match self {
+            Self::Observations(_) => StreamId::Observations,
+            Self::Scans(_) => StreamId::Scan,
+        }
+    }
+
+    /// The listener to wake on.
+    fn listener(&self) -> &iceoryx2::port::listener::Listener<fastslam_protocol::ipc::Service> {
+        match self {
+            Self::Observations(s) => s.listener(),
+            Self::Scans(s) => s.listener(),
+        }
+    }
+
+    /// Calls `each` with the header of every pending message.
+    ///
+    /// # Errors
+    /// IPC failures.
+    fn drain(&self, mut each: impl FnMut(fastslam_protocol::Header)) -> anyhow::Result<usize> {
+        Ok(match self {
+            Self::Observations(s) => s.drain(|m| each(m.user_header().header))?,
+            Self::Scans(s) => s.drain(|m| each(m.user_header().header))?,
+        })
+    }
+}
+
+/// Runs `keep` for a valid message; logs and skips an invalid one.
+fn accept(check: Result<(), validate::Rejection>, what: &str, keep: impl FnOnce()) {
+    match check {
+        Ok(()) => keep(),
+        Err(reason) => tracing::warn!(%reason, "{what} skipped"),
+    }
+}

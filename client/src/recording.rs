@@ -1,0 +1,119 @@
+//! Everything the client received, kept in stamp order.
+
+use crate::resources::ProcessUsage;
+use fastslam_protocol::{
+    GroundTruth, MapLandmark, OccupancyGridHeader, Odometry, PoseEstimate, ServiceStatus, status,
+};
+
+/// A planar pose at a stamp.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StampedPose {
+    /// Stamp (ns).
+    pub stamp_ns: u64,
+    /// x (m).
+    pub x: f64,
+    /// y (m).
+    pub y: f64,
+    /// Heading (rad).
+    pub theta: f64,
+}
+
+/// An estimated pose with its covariance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// The pose.
+    pub pose: StampedPose,
+    /// Covariance of (x, y, θ), row-major.
+    pub covariance: [f64; 9],
+}
+
+/// What the client recorded during a run.
+#[derive(Debug, Clone, Default)]
+pub struct Recording {
+    /// Ground truth, one per control period.
+    pub truth: Vec<StampedPose>,
+    /// Dead-reckoned poses from the odometry messages.
+    pub dead_reckoning: Vec<StampedPose>,
+    /// The service's estimates.
+    pub estimates: Vec<Estimate>,
+    /// The newest landmark map from the service.
+    pub map: Vec<MapLandmark>,
+    /// The true landmark map from the simulator.
+    pub true_map: Vec<MapLandmark>,
+    /// The newest occupancy grid from the service, with its cells.
+    pub grid: Option<(OccupancyGridHeader, Vec<i8>)>,
+    /// The service's status after each observation step.
+    pub status: Vec<StatusSample>,
+    /// End-to-end latency per pose: (pose stamp in ns, seconds), see [`crate::latency`].
+    pub latencies: Vec<(u64, f64)>,
+    /// CPU time and peak memory of the stack's processes, see [`crate::resources`].
+    pub processes: Vec<ProcessUsage>,
+}
+
+/// The filter-health part of one [`ServiceStatus`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StatusSample {
+    /// Stamp of the observation step (the stamp of the pose it produced) (ns).
+    pub stamp_ns: u64,
+    /// Effective sample size before resampling (1..particles).
+    pub n_eff: f64,
+    /// Number of particles.
+    pub particles: u32,
+    /// Distinct particles after the step.
+    pub distinct: u32,
+    /// Whether the step resampled.
+    pub resampled: bool,
+    /// Landmarks in the best particle's map.
+    pub landmarks: u64,
+    /// Wall-clock time of the filter update, as the service measured it (s).
+    pub step_time_s: f64,
+}
+
+impl Recording {
+    /// Adds a ground-truth sample.
+    pub fn add_truth(&mut self, m: &GroundTruth) {
+        self.truth.push(StampedPose {
+            stamp_ns: m.header.stamp_ns,
+            x: m.x,
+            y: m.y,
+            theta: m.theta,
+        });
+    }
+
+    /// Adds an odometry sample's dead-reckoned pose.
+    pub fn add_odometry(&mut self, m: &Odometry) {
+        self.dead_reckoning.push(StampedPose {
+            stamp_ns: m.header.stamp_ns,
+            x: m.x,
+            y: m.y,
+            theta: m.theta,
+        });
+    }
+
+    /// Adds a pose estimate.
+    pub fn add_estimate(&mut self, m: &PoseEstimate) {
+        let pose = StampedPose {
+            stamp_ns: m.header.stamp_ns,
+            x: m.x,
+            y: m.y,
+            theta: m.theta,
+        };
+        self.estimates.push(Estimate {
+            pose,
+            covariance: m.covariance,
+        });
+    }
+
+    /// Adds a status message.
+    pub fn add_status(&mut self, m: &ServiceStatus) {
+        self.status.push(StatusSample {
+            stamp_ns: m.header.stamp_ns,
+            n_eff: m.n_eff,
+            particles: m.particles,
+            distinct: m.distinct_particles,
+            resampled: m.flags & status::flags::RESAMPLED != 0,
+            landmarks: m.landmarks,
+            step_time_s: m.step_time_ns as f64 * 1e-9,
+        });
+    }
+}

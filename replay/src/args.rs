@@ -1,0 +1,67 @@
+//! Flags every replay process shares: which stack, which profile, how fast, whom to wait
+//! for.
+
+use crate::player::Pacing;
+use crate::profile::Profile;
+use fastslam_protocol::cli::StackArgs;
+use fastslam_protocol::ipc::Ipc;
+use std::time::Duration;
+
+/// Stack, profile, pacing and start-up flags of a replay process.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ReplayArgs {
+    /// Stack to join.
+    #[command(flatten)]
+    pub stack: StackArgs,
+    /// Profile: a built-in name (mrclam, victoria-park) or a TOML file. Default: the data
+    /// set's own.
+    #[arg(long)]
+    pub profile: Option<String>,
+    /// Publish at the data's own pace instead of as fast as the consumers go.
+    #[arg(long)]
+    pub realtime: bool,
+    /// Speed-up factor of `--realtime` (2 = twice as fast as recorded).
+    #[arg(long, default_value_t = 1.0)]
+    pub rate: f64,
+    /// Start once this many processes take the sensor streams (the service alone: 1; the
+    /// service and the client: 2), so a consumer that starts late loses nothing.
+    #[arg(long, default_value_t = 1)]
+    pub wait_subscribers: usize,
+    /// Give up waiting for subscribers after this many seconds.
+    #[arg(long, default_value_t = 60.0)]
+    pub wait_timeout_s: f64,
+}
+
+impl ReplayArgs {
+    /// The profile: `--profile`, else the built-in `default`.
+    ///
+    /// # Errors
+    /// When the profile cannot be loaded.
+    pub fn profile(&self, default: &str) -> anyhow::Result<Profile> {
+        Ok(Profile::load(self.profile.as_deref().unwrap_or(default))?)
+    }
+
+    /// The pacing the flags ask for.
+    ///
+    /// # Errors
+    /// When `--rate` is not a finite number > 0.
+    pub fn pacing(&self) -> anyhow::Result<Pacing> {
+        if !(self.rate.is_finite() && self.rate > 0.0) {
+            anyhow::bail!("--rate must be > 0, got {}", self.rate);
+        }
+        Ok(if self.realtime {
+            Pacing::RealTime { rate: self.rate }
+        } else {
+            Pacing::AsFastAsPossible
+        })
+    }
+
+    /// Joins the stack as node `name`.
+    ///
+    /// # Errors
+    /// IPC errors.
+    pub fn join(&self, name: &str) -> anyhow::Result<Ipc> {
+        let timeout = Duration::from_secs_f64(self.wait_timeout_s.max(0.0));
+        Ok(Ipc::open(&self.stack.stack(), name, timeout)?)
+    }
+}

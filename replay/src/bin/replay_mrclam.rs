@@ -1,0 +1,7 @@
+//! The `replay-mrclam` process on its own (the launcher starts the same code as `fastslam-stack replay-mrclam`).
+
+use fastslam_replay::processes::mrclam;
+
+fn main() -> anyhow::Result<()> {
+    fastslam_protocol::cli::main_of("replay-mrclam", mrclam::ABOUT, mrclam::run)
+}

@@ -1,0 +1,172 @@
+//! Publishes a [`DataSet`] the way the sensors that recorded it would have: every stream on
+//! its protocol topic, all of them merged into one stamp order, in real time (optionally
+//! sped up) or as fast as the consumers take it, then an end-of-stream per stream.
+//!
+//! One process plays all streams of a data set (like a bag player), so their order on
+//! one clock is the data set's and real-time pacing needs no clock shared between
+//! processes. The service still treats them as independent streams.
+
+use crate::dataset::DataSet;
+use fastslam_protocol::ipc::{Ipc, IpcError, Pub, shutdown};
+use fastslam_protocol::{
+    EndOfStream, GroundTruth, Header, LandmarkMapHeader, MapLandmark, Observation,
+    ObservationsHeader, Odometry, StreamId, topics,
+};
+use std::time::{Duration, Instant};
+
+/// How fast the data set is played.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Pacing {
+    /// As fast as the consumers take it (publishers wait when a buffer is full).
+    AsFastAsPossible,
+    /// At the data's own pace times `rate` (1 = real time, 2 = twice as fast).
+    RealTime {
+        /// Speed-up factor, > 0.
+        rate: f64,
+    },
+}
+
+/// The player's output ports.
+struct Outputs {
+    truth: Pub<GroundTruth, ()>,
+    landmarks: Pub<[MapLandmark], LandmarkMapHeader>,
+    odometry: Pub<Odometry, ()>,
+    observations: Pub<[Observation], ObservationsHeader>,
+    eos: Pub<EndOfStream, ()>,
+}
+
+/// One message to publish: which stream, and its index in that stream.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Next {
+    Truth(usize),
+    Odometry(usize),
+    Scan(usize),
+}
+
+/// Every message of `data` in stamp order; on equal stamps truth, then odometry (so the
+/// filter predicts up to a scan before it updates), then the scan.
+fn schedule(data: &DataSet) -> Vec<(u64, Next)> {
+    let mut order: Vec<(u64, Next)> = (data.truth.iter().enumerate())
+        .map(|(i, m)| (m.header.stamp_ns, Next::Truth(i)))
+        .chain(
+            (data.odometry.iter().enumerate()).map(|(i, m)| (m.header.stamp_ns, Next::Odometry(i))),
+        )
+        .chain(
+            (data.scans.iter().enumerate()).map(|(i, s)| (s.header.header.stamp_ns, Next::Scan(i))),
+        )
+        .collect();
+    // `Next` orders by variant first (truth < odometry < scan), then by index.
+    order.sort_unstable();
+    order
+}
+
+/// Opens the player's publishers, waits for its consumers, then plays `data`.
+///
+/// `consumers` counts the processes that take the sensor streams: 1 = the service alone,
+/// 2 = the service and the client. Play starts once odometry has that many subscribers,
+/// the observations at least one and, with a client, the ground truth at least one. Each
+/// consumer subscribes to end-of-stream first and to the topic its producer waits on
+/// last, so by then every subscription exists and nothing published is lost.
+///
+/// # Errors
+/// IPC failures, a timeout waiting for consumers, or a shutdown signal.
+pub fn play(ipc: &Ipc, data: &DataSet, pacing: Pacing, consumers: usize) -> Result<(), IpcError> {
+    let out = Outputs {
+        truth: ipc.publisher(&topics::GROUND_TRUTH)?,
+        landmarks: ipc.slice_publisher(&topics::TRUE_LANDMARKS)?,
+        odometry: ipc.publisher(&topics::ODOMETRY)?,
+        observations: ipc.slice_publisher(&topics::OBSERVATIONS)?,
+        eos: ipc.publisher(&topics::END_OF_STREAM)?,
+    };
+    out.odometry.wait_for_subscribers(ipc, consumers)?;
+    out.observations.wait_for_subscribers(ipc, 1)?;
+    out.truth
+        .wait_for_subscribers(ipc, usize::from(consumers > 1))?;
+    let order = schedule(data);
+    let first_ns = order.first().map_or(0, |(stamp, _)| *stamp);
+    let send_map = |stamp_ns: u64, seq: u64| {
+        let header = LandmarkMapHeader {
+            header: Header { stamp_ns, seq },
+            count: data.landmarks.len() as u32,
+            reserved: 0,
+        };
+        out.landmarks.send(header, &data.landmarks)
+    };
+    send_map(first_ns, 0)?;
+    tracing::info!(messages = order.len(), ?pacing, "playing");
+    let started = Instant::now();
+    for (stamp_ns, next) in &order {
+        match pacing {
+            Pacing::RealTime { rate } => {
+                let due = Duration::from_secs_f64((stamp_ns - first_ns) as f64 * 1e-9 / rate);
+                ipc.sleep(due.saturating_sub(started.elapsed()))?;
+            }
+            Pacing::AsFastAsPossible if shutdown::requested() => return Err(IpcError::Shutdown),
+            Pacing::AsFastAsPossible => {}
+        }
+        match *next {
+            Next::Truth(i) => out.truth.send(data.truth[i])?,
+            Next::Odometry(i) => out.odometry.send(data.odometry[i])?,
+            Next::Scan(i) => {
+                let scan = &data.scans[i];
+                out.observations.send(scan.header, &scan.observations)?;
+            }
+        }
+    }
+    let last_ns = order.last().map_or(0, |(stamp, _)| *stamp);
+    send_map(last_ns, 1)?;
+    for (stream, last) in [
+        (StreamId::GroundTruth, data.truth.last().map(|m| m.header)),
+        (StreamId::Odometry, data.odometry.last().map(|m| m.header)),
+        (
+            StreamId::Observations,
+            data.scans.last().map(|s| s.header.header),
+        ),
+    ] {
+        out.eos.send(EndOfStream::new(stream, last))?;
+    }
+    tracing::info!(
+        data_s = (last_ns - first_ns) as f64 * 1e-9,
+        wall_s = started.elapsed().as_secs_f64(),
+        "data set played"
+    );
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dataset::Scan;
+
+    #[test]
+    fn the_schedule_is_in_stamp_order_with_odometry_before_a_scan_of_the_same_stamp() {
+        let at = |stamp_ns| Header { stamp_ns, seq: 0 };
+        let data = DataSet {
+            odometry: [0, 10, 20]
+                .map(|t| Odometry {
+                    header: at(t),
+                    ..Default::default()
+                })
+                .to_vec(),
+            scans: [10, 15]
+                .map(|t| Scan {
+                    header: ObservationsHeader {
+                        header: at(t),
+                        ..Default::default()
+                    },
+                    observations: vec![],
+                })
+                .to_vec(),
+            truth: [5, 10]
+                .map(|t| GroundTruth {
+                    header: at(t),
+                    ..Default::default()
+                })
+                .to_vec(),
+            landmarks: vec![],
+        };
+        let order: Vec<Next> = schedule(&data).into_iter().map(|(_, n)| n).collect();
+        let (t, o, s) = (Next::Truth, Next::Odometry, Next::Scan);
+        assert_eq!(order, [o(0), t(0), t(1), o(1), s(0), s(1), o(2)]);
+    }
+}

@@ -1,0 +1,304 @@
+//! Reading the data sets' text files: plain or gzipped, numeric columns separated by
+//! commas or white space, `#` comment lines, an optional header line. Every problem —
+//! a missing file, a malformed line, a NaN, time going backwards — is an error naming the
+//! file and the line, never a panic.
+
+use flate2::read::GzDecoder;
+use std::fs::File;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+
+/// What can be wrong with a data set.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DataError {
+    /// Neither `name` nor `name.gz` exists in the folder.
+    #[error("{path}: no such file (nor {path}.gz)")]
+    Missing {
+        /// The file that was looked for.
+        path: PathBuf,
+    },
+    /// The file exists but cannot be read (permissions, broken gzip stream).
+    #[error("{path}: {reason}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The operating system's or decoder's message.
+        reason: String,
+    },
+    /// A line does not have the expected columns of finite numbers, or breaks the file's
+    /// order.
+    #[error("{path}:{line}: {reason}")]
+    Malformed {
+        /// The file.
+        path: PathBuf,
+        /// The line number, from 1.
+        line: usize,
+        /// What is wrong, with the offending text.
+        reason: String,
+    },
+    /// The files parse but do not make a usable data set (no odometry, unknown robot…).
+    #[error("{0}")]
+    Unusable(String),
+}
+
+/// Result alias of the data-set readers.
+pub type Result<T> = std::result::Result<T, DataError>;
+
+/// One data line: its line number (from 1) and its columns.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Row<const N: usize> {
+    /// Line number in the file, from 1, for error messages.
+    pub line: usize,
+    /// The columns, all finite.
+    pub values: [f64; N],
+}
+
+/// The data rows of one file, with the file's path for error messages.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table<const N: usize> {
+    /// The file that was read (the `.gz` one if that was used).
+    pub path: PathBuf,
+    /// Its data rows in file order.
+    pub rows: Vec<Row<N>>,
+}
+
+impl<const N: usize> Table<N> {
+    /// A [`DataError::Malformed`] about `row` of this file.
+    pub fn malformed(&self, row: &Row<N>, reason: impl Into<String>) -> DataError {
+        DataError::Malformed {
+            path: self.path.clone(),
+            line: row.line,
+            reason: reason.into(),
+        }
+    }
+
+    /// Column `col` (from 0) of `row` as a non-negative integer (an id, a count).
+    ///
+    /// # Errors
+    /// [`DataError::Malformed`] when the value is negative or has a fraction.
+    pub fn integer(&self, row: &Row<N>, col: usize) -> Result<u64> {
+        let v = row.values[col];
+        if v >= 0.0 && v.fract() == 0.0 && v < 2f64.powi(53) {
+            Ok(v as u64)
+        } else {
+            Err(self.malformed(
+                row,
+                format!("column {} must be a whole number ≥ 0, got {v}", col + 1),
+            ))
+        }
+    }
+
+    /// The first column of the first row (the file's first time), if any.
+    pub fn first_time(&self) -> Option<f64> {
+        self.rows.first().map(|r| r.values[0])
+    }
+}
+
+/// How a file is laid out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Layout {
+    /// The first non-comment line names the columns and is skipped.
+    pub header_line: bool,
+    /// The first column is a time that must not decrease from line to line.
+    pub time_ordered: bool,
+}
+
+/// A file with a column header line and a time in its first column (the CSV files).
+pub const CSV_BY_TIME: Layout = Layout {
+    header_line: true,
+    time_ordered: true,
+};
+/// `#` comments only and a time in the first column (MRCLAM's `.dat` logs).
+pub const DAT_BY_TIME: Layout = Layout {
+    header_line: false,
+    time_ordered: true,
+};
+/// `#` comments only, rows in any order (MRCLAM's tables).
+pub const DAT_TABLE: Layout = Layout {
+    header_line: false,
+    time_ordered: false,
+};
+
+/// The path of `name` in `dir`, or of `name.gz` when only the gzipped file exists.
+///
+/// # Errors
+/// [`DataError::Missing`] when neither exists.
+pub fn locate(dir: &Path, name: &str) -> Result<PathBuf> {
+    let plain = dir.join(name);
+    let gz = dir.join(format!("{name}.gz"));
+    [plain.clone(), gz]
+        .into_iter()
+        .find(|p| p.is_file())
+        .ok_or(DataError::Missing { path: plain })
+}
+
+/// Reads every data row of `name` (or `name.gz`) in `dir`, each with exactly `N` finite
+/// numbers.
+///
+/// # Errors
+/// [`DataError`] naming the file (and line) for a missing or unreadable file, a line
+/// with the wrong number of columns, a value that is not a finite number, or (for a
+/// time-ordered layout) a time earlier than the line before.
+pub fn read<const N: usize>(dir: &Path, name: &str, layout: Layout) -> Result<Table<N>> {
+    let path = locate(dir, name)?;
+    let io = |e: std::io::Error| DataError::Io {
+        path: path.clone(),
+        reason: e.to_string(),
+    };
+    let file = File::open(&path).map_err(io)?;
+    let reader: Box<dyn BufRead> = if path.extension().is_some_and(|e| e == "gz") {
+        Box::new(BufReader::new(GzDecoder::new(file)))
+    } else {
+        Box::new(BufReader::new(file))
+    };
+    let mut rows: Vec<Row<N>> = Vec::new();
+    let mut header_pending = layout.header_line;
+    for (index, text) in reader.lines().enumerate() {
+        let text = text.map_err(io)?;
+        let line = index + 1;
+        let trimmed = text.trim();
+        if trimmed.is_empty() || trimmed.starts_with('#') {
+            continue;
+        }
+        if std::mem::take(&mut header_pending) {
+            continue;
+        }
+        let row = parse_row::<N>(trimmed).map_err(|reason| DataError::Malformed {
+            path: path.clone(),
+            line,
+            reason,
+        })?;
+        if let Some(previous) = rows.last().filter(|_| layout.time_ordered)
+            && row[0] < previous.values[0]
+        {
+            return Err(DataError::Malformed {
+                path,
+                line,
+                reason: format!(
+                    "time {} goes back before {} (line {})",
+                    row[0], previous.values[0], previous.line
+                ),
+            });
+        }
+        rows.push(Row { line, values: row });
+    }
+    Ok(Table { path, rows })
+}
+
+/// The `N` finite numbers of one line, or what is wrong with it.
+fn parse_row<const N: usize>(text: &str) -> std::result::Result<[f64; N], String> {
+    let fields: Vec<&str> = text
+        .split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|f| !f.is_empty())
+        .collect();
+    if fields.len() != N {
+        return Err(format!(
+            "expected {N} columns, found {}: `{text}`",
+            fields.len()
+        ));
+    }
+    let mut values = [0.0; N];
+    for (k, (slot, field)) in values.iter_mut().zip(&fields).enumerate() {
+        *slot = field
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("column {} is not a finite number: `{field}`", k + 1))?;
+    }
+    Ok(values)
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use std::io::Write;
+
+    /// A fresh folder holding `files` (name, contents); names ending in `.gz` are gzipped.
+    pub(crate) fn folder_with(test: &str, files: &[(&str, &str)]) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("replay-{test}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        for (name, text) in files {
+            let file = File::create(dir.join(name)).unwrap();
+            if name.ends_with(".gz") {
+                let mut gz = flate2::write::GzEncoder::new(file, flate2::Compression::fast());
+                gz.write_all(text.as_bytes()).unwrap();
+                gz.finish().unwrap();
+            } else {
+                let mut file = file;
+                file.write_all(text.as_bytes()).unwrap();
+            }
+        }
+        dir
+    }
+
+    #[test]
+    fn reads_plain_and_gzipped_files_alike() {
+        let text = "# comment\n1.0 \t 2.0  3\n\n2.5,4,5\n";
+        let dir = folder_with("plain-gz", &[("a.dat", text), ("b.dat.gz", text)]);
+        let a = read::<3>(&dir, "a.dat", DAT_BY_TIME).unwrap().rows;
+        let b = read::<3>(&dir, "b.dat", DAT_BY_TIME).unwrap();
+        assert!(b.path.ends_with("b.dat.gz"));
+        assert_eq!(a, b.rows);
+        assert_eq!(a.len(), 2);
+        assert_eq!(a[1].line, 4);
+        assert_eq!(a[1].values, [2.5, 4.0, 5.0]);
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn the_header_line_is_skipped_once() {
+        let dir = folder_with("header", &[("a.csv", "t_s,v\n0.5,1\n0.75,2\n")]);
+        let rows = read::<2>(&dir, "a.csv", CSV_BY_TIME).unwrap().rows;
+        assert_eq!(rows.len(), 2);
+        assert_eq!(rows[0].line, 2);
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn bad_lines_are_reported_with_file_and_line() {
+        let cases = [
+            ("1 2 3\n4 5\n", "a.dat:2: expected 3 columns, found 2"),
+            (
+                "1 2 3\n4 NaN 6\n",
+                "a.dat:2: column 2 is not a finite number: `NaN`",
+            ),
+            ("1 2 x\n", "a.dat:1: column 3 is not a finite number: `x`"),
+            ("1 2 inf\n", "a.dat:1: column 3 is not a finite number"),
+            (
+                "5 2 3\n4 5 6\n",
+                "a.dat:2: time 4 goes back before 5 (line 1)",
+            ),
+        ];
+        for (text, expected) in cases {
+            let dir = folder_with("bad", &[("a.dat", text)]);
+            let err = read::<3>(&dir, "a.dat", DAT_BY_TIME)
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(expected), "{err} should contain {expected}");
+            std::fs::remove_dir_all(dir).unwrap();
+        }
+    }
+
+    #[test]
+    fn an_unordered_table_may_go_back_but_a_missing_file_is_named() {
+        let dir = folder_with("table", &[("t.dat", "5 1\n4 2\n")]);
+        let table = read::<2>(&dir, "t.dat", DAT_TABLE).unwrap();
+        assert_eq!(table.rows.len(), 2);
+        assert_eq!(table.integer(&table.rows[1], 0).unwrap(), 4);
+        let half = Row {
+            line: 9,
+            values: [0.5, 1.0],
+        };
+        let err = table.integer(&half, 0).unwrap_err().to_string();
+        assert!(
+            err.contains("t.dat:9: column 1 must be a whole number"),
+            "{err}"
+        );
+        let err = read::<2>(&dir, "none.dat", DAT_TABLE).unwrap_err();
+        assert!(matches!(err, DataError::Missing { .. }), "{err}");
+        assert!(err.to_string().contains("none.dat"), "{err}");
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+}

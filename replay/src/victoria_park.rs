@@ -1,0 +1,339 @@
+//! Victoria Park (ACFR; Guivant & Nebot, IEEE T-RA 2001): a car with a SICK laser driving
+//! among trees, with intermittent GPS.
+//!
+//! How the files map onto the stack's messages:
+//! - **Pose reference = the laser.** The filter's pose is the laser's position and
+//!   heading (the state of Guivant & Nebot's own model), so observations and raw scans
+//!   need no mounting offset. The laser sits at (a, b) = (3.78, 0.50) m from the rear
+//!   axle centre; on a car-like vehicle with wheelbase L that point moves *exactly* as
+//!   the service's bicycle model (Bailey's: `ẋ = v cos(θ+γ)`, `θ̇ = v sin γ / B`) with
+//!   wheelbase `B = a` and the *virtual* speed and steering
+//!   `v = v_c·√((1 − b·tanγ/L)² + (a·tanγ/L)²)`, `γ' = atan2(a·tanγ, L − b·tanγ)`, where
+//!   `v_c = v_e / (1 − tanγ·H/L)` is the centre-line speed from the encoder speed `v_e`
+//!   at the rear left wheel. (Check: the laser's velocity in the vehicle frame is
+//!   `(v_c − θ̇ b, θ̇ a)` with `θ̇ = v_c tanγ / L`; the bicycle gives `θ̇ = v sin γ' / a`.)
+//!   So `odometry.csv` becomes [`Odometry`] with `v` = that speed, `steering` = γ' and
+//!   `omega` = θ̇, and the profile runs the bicycle model with `wheelbase = 3.78`.
+//! - `tree_observations.csv`: each laser scan's tree detections. The bearing runs 0…π
+//!   across the scan from the laser's right, so the vehicle-frame bearing is `β − π/2`;
+//!   the diameter goes into [`Observation::diameter`]; ids are −1 (trees carry no
+//!   identity: unknown association only). Every scan of `scan_times.csv` is published,
+//!   also those without trees (they are negative evidence).
+//! - `gps.csv` → `ground_truth`, sparse (5 Hz, with gaps of up to a minute under the
+//!   trees), in the GPS's local frame. GPS measures no heading: `theta` is the course
+//!   over ground between the neighbouring fixes ([`course_over_ground`]), an approximation
+//!   of the heading. The estimate starts at the origin, so it must be aligned with the
+//!   GPS frame (SE(2)) before it is scored, and scored at the GPS times — the client's
+//!   job. Where the GPS antenna sits on the car is not documented: errors of the order of
+//!   a metre are the lever arm, not the filter.
+//! - There are no true tree positions: `truth/landmarks` is published empty.
+//!
+//! Raw scans (a second mode, not built yet): the protocol's `scan` topic and the service's
+//! pole extraction exist, so a replay of `laser_raw_361beams.txt.gz` (361 ranges over
+//! 0…180°; 81.91 m = no return, so `range_max` below it; its clock runs 20.967 s behind
+//! the CSV files') would publish `LaserScanHeader { angle_min: −π/2, angle_increment:
+//! π/360, … }` instead of the tree observations: with the pose at the laser the scan needs
+//! no mounting offset, and odometry and GPS stay as they are.
+
+use crate::dataset::{self, Clock, DataSet, ScanGroups, SensorSpec};
+use crate::text::{self, CSV_BY_TIME, DataError, Result, Table};
+use fastslam_estimation::Pose2;
+use fastslam_estimation::motion::{Bicycle, Control, MotionModel};
+use fastslam_protocol::Observation;
+use std::collections::HashMap;
+use std::f64::consts::FRAC_PI_2;
+use std::path::Path;
+
+/// Wheelbase L (m), from the data set's documentation.
+pub const WHEELBASE_M: f64 = 2.83;
+/// Distance H from the centre line to the encoder wheel (rear left) (m).
+pub const HALF_TRACK_M: f64 = 0.76;
+/// Laser position ahead of the rear axle, a (m): the wheelbase of the laser's bicycle.
+pub const LASER_AHEAD_M: f64 = 3.78;
+/// Laser position left of the centre line, b (m).
+pub const LASER_LEFT_M: f64 = 0.50;
+
+/// Fixes farther apart in time than this are not differenced for a course (s).
+pub const COURSE_MAX_GAP_S: f64 = 2.0;
+/// Fixes closer than this are not differenced for a course: GPS noise would dominate (m).
+pub const COURSE_MIN_BASELINE_M: f64 = 0.5;
+
+/// The controls of the service's bicycle model that move the laser as the car moves
+/// with encoder speed `v_e` (m/s) and steering `gamma` (rad): see the module doc.
+pub fn laser_controls(v_e: f64, gamma: f64) -> Control {
+    let tan = gamma.tan();
+    let v_c = v_e / (1.0 - tan * HALF_TRACK_M / WHEELBASE_M);
+    let forward = 1.0 - LASER_LEFT_M * tan / WHEELBASE_M;
+    let sideways = LASER_AHEAD_M * tan / WHEELBASE_M;
+    Control {
+        v: v_c * forward.hypot(sideways),
+        omega: v_c * tan / WHEELBASE_M,
+        steering: sideways.atan2(forward),
+    }
+}
+
+/// The service's motion model for this data set, noise-free (dead reckoning).
+pub fn laser_bicycle() -> MotionModel {
+    MotionModel::Bicycle(Bicycle {
+        wheelbase: LASER_AHEAD_M,
+        sigma_v: 0.0,
+        sigma_steering: 0.0,
+    })
+}
+
+/// Reads the Victoria Park folder `dir` (files plain or gzipped); observations beyond
+/// `sensor.max_range_m` are dropped.
+///
+/// # Errors
+/// [`DataError`] naming file and line for a missing or malformed file, a tree of a scan
+/// not in `scan_times.csv` (or at another time), or a data set without odometry.
+pub fn load(dir: &Path, sensor: &SensorSpec) -> Result<DataSet> {
+    sensor.validate()?;
+    let odometry = text::read::<3>(dir, "odometry.csv", CSV_BY_TIME)?;
+    let scan_times = text::read::<2>(dir, "scan_times.csv", CSV_BY_TIME)?;
+    let trees = text::read::<5>(dir, "tree_observations.csv", CSV_BY_TIME)?;
+    let gps = text::read::<3>(dir, "gps.csv", CSV_BY_TIME)?;
+    if odometry.rows.is_empty() {
+        return Err(DataError::Unusable(format!(
+            "{} has no odometry",
+            odometry.path.display()
+        )));
+    }
+    let first_scan = scan_times.rows.first().map(|r| r.values[1]);
+    let clock = Clock::starting_at(
+        [odometry.first_time(), gps.first_time(), first_scan]
+            .into_iter()
+            .flatten(),
+    )?;
+    let records: Vec<(f64, Control)> = (odometry.rows.iter())
+        .map(|row| {
+            let [t, v_e, gamma] = row.values;
+            (t, laser_controls(v_e, gamma))
+        })
+        .collect();
+    let (scans, beyond) = sensor.scans(scans(&scan_times, &trees, &clock)?);
+    let fixes: Vec<[f64; 3]> = gps.rows.iter().map(|r| r.values).collect();
+    let truth = dataset::truth_track(
+        (fixes.iter().zip(course_over_ground(&fixes)))
+            .map(|([t, x, y], theta)| (clock.stamp(*t), Pose2::new(*x, *y, theta))),
+    );
+    let data = DataSet {
+        odometry: dataset::odometry(&records, &laser_bicycle(), &clock),
+        scans,
+        truth,
+        landmarks: Vec::new(),
+    };
+    tracing::info!(
+        epoch_s = clock.epoch_s(),
+        odometry = data.odometry.len(),
+        scans = data.scans.len(),
+        gps = data.truth.len(),
+        beyond_range_dropped = beyond,
+        "Victoria Park data set read"
+    );
+    Ok(data)
+}
+
+/// Every scan of `scan_times` with its trees, in the vehicle (= laser) frame.
+fn scans(scan_times: &Table<2>, trees: &Table<5>, clock: &Clock) -> Result<ScanGroups> {
+    let mut index = HashMap::with_capacity(scan_times.rows.len());
+    let mut out: Vec<(f64, Vec<Observation>)> = Vec::with_capacity(scan_times.rows.len());
+    for row in &scan_times.rows {
+        let t = row.values[1];
+        if out.last().is_some_and(|(previous, _)| t < *previous) {
+            return Err(scan_times.malformed(row, format!("scan time {t} goes backwards")));
+        }
+        index.insert(scan_times.integer(row, 0)?, out.len());
+        out.push((t, Vec::new()));
+    }
+    for row in &trees.rows {
+        let [t, _, range, bearing, diameter] = row.values;
+        let scan = trees.integer(row, 1)?;
+        let Some(&k) = index.get(&scan) else {
+            return Err(trees.malformed(row, format!("scan {scan} is not in scan_times")));
+        };
+        if (out[k].0 - t).abs() > 1e-3 {
+            return Err(trees.malformed(
+                row,
+                format!("time {t} differs from scan {scan}'s time {}", out[k].0),
+            ));
+        }
+        if range <= 0.0 || diameter < 0.0 {
+            return Err(trees.malformed(row, "range must be > 0 and diameter ≥ 0"));
+        }
+        out[k].1.push(Observation {
+            range,
+            bearing: bearing - FRAC_PI_2,
+            diameter,
+            id: -1,
+        });
+    }
+    Ok(out
+        .into_iter()
+        .map(|(t, observations)| (clock.stamp(t), observations))
+        .collect())
+}
+
+/// The direction of travel at each fix `[t, x, y]`: from the fix before to the fix
+/// after (each at most [`COURSE_MAX_GAP_S`] away, at least [`COURSE_MIN_BASELINE_M`]
+/// apart), else the nearest course known before (or, at the start, after); 0 when the
+/// vehicle never moves.
+pub fn course_over_ground(fixes: &[[f64; 3]]) -> Vec<f64> {
+    let near = |i: usize, j: usize| (fixes[i][0] - fixes[j][0]).abs() <= COURSE_MAX_GAP_S;
+    let measured: Vec<Option<f64>> = (0..fixes.len())
+        .map(|i| {
+            let before = if i > 0 && near(i, i - 1) { i - 1 } else { i };
+            let after = if i + 1 < fixes.len() && near(i, i + 1) {
+                i + 1
+            } else {
+                i
+            };
+            let (dx, dy) = (
+                fixes[after][1] - fixes[before][1],
+                fixes[after][2] - fixes[before][2],
+            );
+            (dx.hypot(dy) >= COURSE_MIN_BASELINE_M).then(|| dy.atan2(dx))
+        })
+        .collect();
+    let first = measured.iter().flatten().next().copied().unwrap_or(0.0);
+    let mut last = first;
+    measured
+        .into_iter()
+        .map(|c| {
+            last = c.unwrap_or(last);
+            last
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::text::tests::folder_with;
+
+    #[test]
+    fn driving_straight_the_laser_moves_at_the_centre_line_speed() {
+        let u = laser_controls(5.0, 0.0);
+        assert!((u.v - 5.0).abs() < 1e-12 && u.steering == 0.0 && u.omega == 0.0);
+    }
+
+    #[test]
+    fn the_laser_bicycle_moves_the_laser_like_the_car_does() {
+        // Integrate the car (rear axle centre, centre-line speed) and the laser's bicycle
+        // for 4 s of a left turn; the laser must stay at (a, b) in the car's frame.
+        let (v_e, gamma, dt) = (4.0, 0.3_f64, 1e-4);
+        let v_c = v_e / (1.0 - gamma.tan() * HALF_TRACK_M / WHEELBASE_M);
+        let (mut x, mut y, mut th) = (0.0_f64, 0.0_f64, 0.0_f64);
+        let model = laser_bicycle();
+        let u = laser_controls(v_e, gamma);
+        let mut laser = Pose2::new(LASER_AHEAD_M, LASER_LEFT_M, 0.0);
+        for _ in 0..40_000 {
+            x += v_c * dt * th.cos();
+            y += v_c * dt * th.sin();
+            th += v_c * dt * gamma.tan() / WHEELBASE_M;
+            laser = model.propagate(&laser, &u, dt);
+        }
+        let (s, c) = th.sin_cos();
+        let expected = (
+            x + c * LASER_AHEAD_M - s * LASER_LEFT_M,
+            y + s * LASER_AHEAD_M + c * LASER_LEFT_M,
+        );
+        let miss = (laser.x - expected.0).hypot(laser.y - expected.1);
+        assert!(miss < 1e-2, "laser {laser:?} vs {expected:?}: {miss} m");
+        assert!(fastslam_estimation::wrap_angle(laser.theta - th).abs() < 1e-3);
+        assert!((u.omega - v_c * gamma.tan() / WHEELBASE_M).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_course_follows_the_track_and_holds_when_standing() {
+        let fixes = [
+            [0.0, 0.0, 0.0],
+            [0.2, 0.0, 0.1],
+            [0.4, 0.0, 1.0],
+            [0.6, 1.0, 1.0],
+            [0.8, 1.0, 1.1],
+            [9.0, 1.0, 1.1],
+        ];
+        let c = course_over_ground(&fixes);
+        assert!((c[0] - FRAC_PI_2).abs() < 1e-12, "backfilled: {c:?}");
+        assert!((c[2] - 0.9_f64.atan2(1.0)).abs() < 1e-12, "{c:?}");
+        assert!(
+            (c[5] - c[4]).abs() < 1e-12,
+            "a lone fix keeps the course: {c:?}"
+        );
+        assert_eq!(course_over_ground(&[[0.0, 1.0, 1.0]]), vec![0.0]);
+    }
+
+    const ODOMETRY: &str = "t_s,speed_mps,steering_rad\n1.0,0,0\n1.5,2.0,0\n2.0,2.0,0\n";
+    const SCANS: &str = "scan_idx,t_s\n0,1.2\n1,1.8\n";
+    const GPS: &str = "t_s,x_m,y_m\n0.9,5,5\n1.9,6,5\n";
+
+    fn folder(test: &str, trees: &str) -> std::path::PathBuf {
+        folder_with(
+            test,
+            &[
+                ("odometry.csv.gz", ODOMETRY),
+                ("scan_times.csv", SCANS),
+                ("tree_observations.csv", trees),
+                ("gps.csv", GPS),
+            ],
+        )
+    }
+
+    #[test]
+    fn trees_are_published_per_scan_in_the_vehicle_frame() {
+        let trees = "t_s,scan_idx,range_m,bearing_rad_0_to_pi,diameter_m\n1.2,0,10,1.5707963267948966,0.3\n1.2,0,50,0.5,0.2\n";
+        let dir = folder("vp-trees", trees);
+        let sensor = SensorSpec {
+            max_range_m: 30.0,
+            field_of_view_deg: 180.0,
+        };
+        let data = load(&dir, &sensor).unwrap();
+        assert_eq!(
+            data.scans.len(),
+            2,
+            "the scan without trees is published too"
+        );
+        let s = &data.scans[0];
+        assert_eq!(s.observations.len(), 1, "the tree at 50 m is beyond range");
+        assert!(
+            s.observations[0].bearing.abs() < 1e-12,
+            "π/2 = straight ahead"
+        );
+        assert_eq!(
+            (s.observations[0].diameter, s.observations[0].id),
+            (0.3, -1)
+        );
+        assert_eq!(
+            s.header.header.stamp_ns, 300_000_000,
+            "epoch = first GPS fix"
+        );
+        assert_eq!((data.truth.len(), data.landmarks.len()), (2, 0));
+        assert!(data.truth[0].theta.abs() < 1e-12, "course +x");
+        let last = data.odometry.last().unwrap();
+        assert!((last.x - 1.0).abs() < 1e-12, "2 m/s over 0.5 s: {last:?}");
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn trees_of_unknown_scans_or_bad_values_name_file_and_line() {
+        let head = "t_s,scan_idx,range_m,bearing_rad_0_to_pi,diameter_m\n";
+        let sensor = SensorSpec {
+            max_range_m: 30.0,
+            field_of_view_deg: 180.0,
+        };
+        for (rows, expected) in [
+            (
+                "1.2,7,10,1,0.3\n",
+                "tree_observations.csv:2: scan 7 is not in scan_times",
+            ),
+            ("1.2,0,10,1,0.3\n1.3,1,10,1,0.3\n", ":3: time 1.3 differs"),
+            ("1.2,0,10,nan,0.3\n", ":2: column 4 is not a finite number"),
+        ] {
+            let dir = folder("vp-bad", &format!("{head}{rows}"));
+            let err = load(&dir, &sensor).unwrap_err().to_string();
+            assert!(err.contains(expected), "{err}");
+            std::fs::remove_dir_all(dir).unwrap();
+        }
+    }
+}

@@ -1,0 +1,7 @@
+//! The `truth-sim` process on its own (the launcher starts the same code as `fastslam-stack truth-sim`).
+
+use fastslam_sensors_sim::processes::truth;
+
+fn main() -> anyhow::Result<()> {
+    fastslam_protocol::cli::main_of("truth-sim", truth::ABOUT, truth::run)
+}

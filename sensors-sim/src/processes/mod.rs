@@ -1,0 +1,6 @@
+//! The simulator processes. Each is `Args` (its flags) plus `run(args)`, called by its
+//! own binary and by the launcher's hidden subcommand of the same name.
+
+pub mod lidar;
+pub mod odometry;
+pub mod truth;

@@ -1,0 +1,269 @@
+//! A particle's landmark map: persistent (structurally shared) storage with a spatial
+//! index, so resampled copies share everything and a write copies only the path to the
+//! landmark it changes (ALGORITHMS.md §1 step 6, DESIGN.md "Fast").
+//!
+//! Storage is two persistent B+ trees from `imbl` (16 entries per node):
+//! - `by_cell`: key `(cell_x, cell_y, id)` → [`Landmark`]. Cells are squares of side
+//!   `cell_size` (m); landmarks of one cell column form contiguous key ranges, so a
+//!   window query is one range scan per column. This *is* the spatial index — there is
+//!   no second copy of the landmarks to keep in step.
+//! - `cell_of`: `id` → cell, for lookups by id (known association) and removal.
+//!
+//! Cloning a map is O(1) (two reference-count increments); an update, insertion or
+//! removal costs O(log M) and copies O(log M) nodes of the writing particle only.
+
+use crate::observation;
+use crate::pose::Pose2;
+use imbl::OrdMap;
+use nalgebra::{Matrix2, Vector2};
+
+/// One landmark's Gaussian and its detection counts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Landmark {
+    /// Stable identity: the observation's id under known association, otherwise a
+    /// per-particle counter.
+    pub id: u64,
+    /// Position estimate `μ` (m), world frame.
+    pub mean: Vector2<f64>,
+    /// Position covariance `Σ` (m²), symmetric positive definite.
+    pub covariance: Matrix2<f64>,
+    /// Scans in which an observation was assigned to this landmark (including the one
+    /// that created it).
+    pub hits: u32,
+    /// Scans in which the landmark was inside the sensor footprint while still tentative
+    /// (`hits < min_hits`); counting stops once it is confirmed, since a confirmed
+    /// landmark is never removed (see `evidence`).
+    pub chances: u32,
+}
+
+/// Grid cell coordinates (cell_x, cell_y).
+type Cell = (i64, i64);
+
+/// A particle's landmark map; see the module documentation for the layout and costs.
+#[derive(Debug, Clone)]
+pub struct LandmarkMap {
+    by_cell: OrdMap<(i64, i64, u64), Landmark>,
+    cell_of: OrdMap<u64, Cell>,
+    next_id: u64,
+    cell_size: f64,
+}
+
+impl LandmarkMap {
+    /// An empty map whose spatial index uses square cells of `cell_size` metres
+    /// (finite, > 0; the filter's config checks it).
+    pub fn new(cell_size: f64) -> Self {
+        Self {
+            by_cell: OrdMap::new(),
+            cell_of: OrdMap::new(),
+            next_id: 0,
+            cell_size,
+        }
+    }
+
+    /// Number of landmarks.
+    pub fn len(&self) -> usize {
+        self.cell_of.len()
+    }
+
+    /// True when the map holds no landmark.
+    pub fn is_empty(&self) -> bool {
+        self.cell_of.is_empty()
+    }
+
+    /// True when both maps are the very same storage (a resampled copy nobody has
+    /// written to yet): sharing costs no memory.
+    pub fn shares_storage_with(&self, other: &Self) -> bool {
+        self.by_cell.ptr_eq(&other.by_cell) && self.cell_of.ptr_eq(&other.cell_of)
+    }
+
+    fn cell(&self, p: &Vector2<f64>) -> Cell {
+        // Float-to-int `as` saturates, so far-away points land in the border cells.
+        (
+            (p[0] / self.cell_size).floor() as i64,
+            (p[1] / self.cell_size).floor() as i64,
+        )
+    }
+
+    /// The landmark with `id`.
+    ///
+    /// # Performance
+    /// O(log M), two tree lookups.
+    pub fn get(&self, id: u64) -> Option<&Landmark> {
+        let (cx, cy) = *self.cell_of.get(&id)?;
+        self.by_cell.get(&(cx, cy, id))
+    }
+
+    /// Every landmark, in spatial-index order (cell column, cell row, id).
+    pub fn iter(&self) -> impl Iterator<Item = &Landmark> + '_ {
+        self.by_cell.values()
+    }
+
+    /// Landmarks whose mean lies within `radius` metres of `centre`.
+    ///
+    /// # Performance
+    /// One range scan per cell column crossed by the disc's bounding box (columns are
+    /// clipped to the map's extent): O(columns · log M + k) for k landmarks in the box,
+    /// independent of M for a fixed landmark density.
+    pub fn within(
+        &self,
+        centre: Vector2<f64>,
+        radius: f64,
+    ) -> impl Iterator<Item = &Landmark> + '_ {
+        let (lo_x, lo_y) = self.cell(&(centre - Vector2::repeat(radius)));
+        let (hi_x, hi_y) = self.cell(&(centre + Vector2::repeat(radius)));
+        let first_column = self.by_cell.get_min().map_or(0, |((cx, _, _), _)| *cx);
+        let last_column = self.by_cell.get_max().map_or(-1, |((cx, _, _), _)| *cx);
+        let radius_squared = radius * radius;
+        (lo_x.max(first_column)..=hi_x.min(last_column))
+            .flat_map(move |cx| self.by_cell.range((cx, lo_y, 0)..=(cx, hi_y, u64::MAX)))
+            .map(|(_, landmark)| landmark)
+            .filter(move |landmark| (landmark.mean - centre).norm_squared() <= radius_squared)
+    }
+
+    /// Reserves a fresh id for a new landmark (per-particle counter, never reused; it
+    /// saturates at `u64::MAX` instead of wrapping).
+    pub fn allocate_id(&mut self) -> u64 {
+        let id = self.next_id;
+        self.next_id = self.next_id.saturating_add(1);
+        id
+    }
+
+    /// Inserts `landmark`, replacing any landmark with the same id. Later
+    /// [`allocate_id`](Self::allocate_id) calls return ids above it.
+    ///
+    /// # Performance
+    /// O(log M); copies the touched tree paths if they are shared.
+    pub fn insert(&mut self, landmark: Landmark) {
+        self.remove(landmark.id);
+        let (cx, cy) = self.cell(&landmark.mean);
+        self.next_id = self.next_id.max(landmark.id.saturating_add(1));
+        self.cell_of.insert(landmark.id, (cx, cy));
+        self.by_cell.insert((cx, cy, landmark.id), landmark);
+    }
+
+    /// Applies `change` to the landmark with `id`, moving it in the spatial index if its
+    /// mean left its cell. Returns false (and does nothing) when there is no such id.
+    ///
+    /// # Performance
+    /// O(log M); copies only the tree path to this landmark if it is shared.
+    pub fn update(&mut self, id: u64, change: impl FnOnce(&mut Landmark)) -> bool {
+        let Some(&(cx, cy)) = self.cell_of.get(&id) else {
+            return false;
+        };
+        let Some(landmark) = self.by_cell.get_mut(&(cx, cy, id)) else {
+            return false;
+        };
+        change(landmark);
+        let mean = landmark.mean;
+        let moved_to = self.cell(&mean);
+        if moved_to != (cx, cy)
+            && let Some(landmark) = self.by_cell.remove(&(cx, cy, id))
+        {
+            self.by_cell.insert((moved_to.0, moved_to.1, id), landmark);
+            self.cell_of.insert(id, moved_to);
+        }
+        true
+    }
+
+    /// Removes and returns the landmark with `id`.
+    pub fn remove(&mut self, id: u64) -> Option<Landmark> {
+        let (cx, cy) = self.cell_of.remove(&id)?;
+        self.by_cell.remove(&(cx, cy, id))
+    }
+
+    /// A landmark built from one observation `z` seen from `pose` ([`observation::initialise`]).
+    pub fn landmark_from(
+        id: u64,
+        pose: &Pose2,
+        z: &Vector2<f64>,
+        noise: &Matrix2<f64>,
+    ) -> Landmark {
+        let (mean, covariance) = observation::initialise(pose, z, noise);
+        Landmark {
+            id,
+            mean,
+            covariance,
+            hits: 1,
+            chances: 0,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn landmark(id: u64, x: f64, y: f64) -> Landmark {
+        Landmark {
+            id,
+            mean: Vector2::new(x, y),
+            covariance: Matrix2::identity(),
+            hits: 1,
+            chances: 0,
+        }
+    }
+
+    #[test]
+    fn window_query_finds_exactly_the_landmarks_in_the_disc() {
+        let mut map = LandmarkMap::new(5.0);
+        let mut id = 0;
+        for i in -20..20 {
+            for j in -20..20 {
+                map.insert(landmark(id, i as f64 * 2.5 + 0.3, j as f64 * 2.5 - 0.7));
+                id += 1;
+            }
+        }
+        let centre = Vector2::new(3.3, -4.1);
+        let mut found: Vec<u64> = map.within(centre, 7.0).map(|l| l.id).collect();
+        found.sort_unstable();
+        let mut expected: Vec<u64> = map
+            .iter()
+            .filter(|l| (l.mean - centre).norm() <= 7.0)
+            .map(|l| l.id)
+            .collect();
+        expected.sort_unstable();
+        assert!(!expected.is_empty());
+        assert_eq!(found, expected);
+        assert_eq!(map.within(Vector2::new(1e6, 1e6), 10.0).count(), 0);
+        assert_eq!(map.within(Vector2::zeros(), 1e300).count(), map.len());
+    }
+
+    #[test]
+    fn update_moves_a_landmark_between_cells() {
+        let mut map = LandmarkMap::new(5.0);
+        map.insert(landmark(7, 1.0, 1.0));
+        assert!(map.update(7, |l| l.mean = Vector2::new(12.0, -3.0)));
+        assert_eq!(map.get(7).unwrap().mean, Vector2::new(12.0, -3.0));
+        assert_eq!(map.within(Vector2::new(12.0, -3.0), 0.5).count(), 1);
+        assert_eq!(map.within(Vector2::new(1.0, 1.0), 0.5).count(), 0);
+        assert_eq!(map.len(), 1);
+        assert!(!map.update(8, |_| ()));
+        assert_eq!(map.remove(7).map(|l| l.id), Some(7));
+        assert!(map.is_empty());
+    }
+
+    #[test]
+    fn copies_share_storage_until_one_writes() {
+        let mut parent = LandmarkMap::new(5.0);
+        (0..1000).for_each(|i| parent.insert(landmark(i, i as f64, 0.0)));
+        let mut child = parent.clone();
+        assert!(child.shares_storage_with(&parent));
+        child.update(3, |l| l.hits += 1);
+        assert!(!child.shares_storage_with(&parent));
+        assert_eq!(
+            parent.get(3).unwrap().hits,
+            1,
+            "the parent never sees the child's write"
+        );
+        assert_eq!(child.get(3).unwrap().hits, 2);
+        assert_eq!(child.get(4), parent.get(4));
+    }
+
+    #[test]
+    fn allocated_ids_skip_inserted_ones() {
+        let mut map = LandmarkMap::new(1.0);
+        map.insert(landmark(41, 0.0, 0.0));
+        assert_eq!(map.allocate_id(), 42);
+        assert_eq!(map.allocate_id(), 43);
+    }
+}

@@ -1,0 +1,467 @@
+//! FastSLAM 1.0 and 2.0 with per-particle landmark EKFs (ALGORITHMS.md §1).
+//!
+//! The filter reads top to bottom in [`FastSlam::predict`] and [`FastSlam::update_with`],
+//! one comment per stage of §1. Parts:
+//! - [`landmarks`]: the per-particle map, persistent and spatially indexed, shared
+//!   between resampled copies and copied only where written;
+//! - [`association`]: association and weighting of a scan against one particle's map;
+//! - [`ekf`]: the per-landmark EKF (Joseph form);
+//! - [`evidence`]: negative evidence against spurious landmarks;
+//! - [`trail`]: each particle's pose history at keyframes, shared between resampled
+//!   copies, for the occupancy grid of the best particle;
+//! - [`proposal`]: FastSLAM 2.0's proposal, drawn after step 1 when configured;
+//! - [`PoseRefiner`]: the seam for step 2 (an optimiser moving predicted poses), with
+//!   [`refine::OptimiserRefiner`] the optimisers of ALGORITHMS.md §4 behind it.
+//!
+//! Per-particle work runs on rayon; every random draw comes from a stream labelled
+//! `[step, particle, purpose]` ([`crate::rng::stream`]) and every reduction runs in
+//! particle order, so results are bit-identical whatever the number of threads.
+
+pub mod association;
+mod config;
+pub mod ekf;
+mod estimate;
+pub mod evidence;
+pub mod landmarks;
+mod particle;
+pub mod proposal;
+pub mod refine;
+pub mod trail;
+
+pub use crate::moves::WeightBasis;
+pub use crate::resample::{ResamplingConfig, ResamplingScheme};
+pub use association::{AssociationConfig, AssociationMode, Scan};
+pub use config::{FastSlamConfig, PriorFloor};
+pub use estimate::{MapLandmark, PoseEstimate};
+pub use evidence::NegativeEvidence;
+pub use landmarks::{Landmark, LandmarkMap};
+pub use particle::{MotionPrior, Particle};
+pub use proposal::Proposal;
+pub use refine::OptimiserRefiner;
+pub use trail::Trail;
+
+use crate::motion::Control;
+use crate::observation::{Observation, Sensor};
+use crate::pose::Pose2;
+use crate::rng::stream;
+use crate::weights::Weights;
+use crate::{Error, Result};
+use association::ScanAssociation;
+use particle::MapChanges;
+use rayon::prelude::*;
+
+/// Stream label for the motion noise of one particle in one step.
+const PURPOSE_PREDICT: u64 = 0;
+/// Stream label for the resampling draw of one step.
+const PURPOSE_RESAMPLE: u64 = 1;
+/// Stream label for FastSLAM 2.0's draw of one particle in one step.
+const PURPOSE_PROPOSAL: u64 = 2;
+/// Stream label for the optimiser's draws of one step ([`refine`]).
+pub(crate) const PURPOSE_OPTIMISE: u64 = 3;
+/// Stream label for seeding ICOA's persistent chaotic sequence, once per filter.
+pub(crate) const PURPOSE_CHAOS: u64 = 4;
+
+/// Step 2 of ALGORITHMS.md §1: an optimiser that moves the predicted poses before they are
+/// weighed. `None` in [`FastSlam::update_with`] runs no optimiser (plain FastSLAM 1.0 with
+/// the motion proposal, FastSLAM 2.0 with `fastslam2`).
+pub trait PoseRefiner {
+    /// Moves particles (through [`Particle::set_pose`]) for this scan, and says in `basis`
+    /// (one entry per particle) how each particle's weight of this step is then obtained:
+    /// [`WeightBasis::FinalPosition`] weighs it at its pose after the move,
+    /// [`WeightBasis::Given`] sets the log-likelihood increment (a corrected move keeps the
+    /// weight from before the move). `basis` arrives filled by the proposal
+    /// (`FinalPosition`, or FastSLAM 2.0's marginal likelihood).
+    ///
+    /// [`Scan::log_likelihood`] gives the observation log-likelihood of a candidate pose
+    /// under a particle's own map, [`Particle::prior`] the motion prior, and [`Scan::step`]
+    /// labels the step for seeded streams.
+    ///
+    /// # Errors
+    /// Whatever the optimiser reports; [`FastSlam::update_with`] returns it unchanged and
+    /// does not weigh or update the maps.
+    fn refine(
+        &mut self,
+        scan: &Scan<'_>,
+        particles: &mut [Particle],
+        basis: &mut [WeightBasis],
+    ) -> Result<()>;
+}
+
+/// What one [`FastSlam::update`] did, for filter-health metrics.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepReport {
+    /// Effective sample size after weighing, before resampling (1..=N).
+    pub neff: f64,
+    /// Whether the particles were resampled.
+    pub resampled: bool,
+    /// Distinct particles after this step (N when not resampled).
+    pub distinct: usize,
+    /// Observations that updated a landmark, summed over particles.
+    pub matched: usize,
+    /// Landmarks created, summed over particles.
+    pub new_landmarks: usize,
+    /// Observations ignored (between the gates, or a duplicate id), summed over particles.
+    pub ignored: usize,
+    /// Landmarks removed by negative evidence, summed over particles.
+    pub removed: usize,
+    /// Observations of the scan rejected before association (not finite, a range outside
+    /// (0, max_range + 5 σ_r], or no id under known association).
+    pub rejected: usize,
+}
+
+/// The FastSLAM filter: particles with poses, weights and landmark maps.
+///
+/// # Example
+/// ```
+/// use fastslam_estimation::fastslam::{FastSlam, FastSlamConfig};
+/// use fastslam_estimation::motion::Control;
+/// use fastslam_estimation::observation::Observation;
+/// use fastslam_estimation::Pose2;
+///
+/// let mut slam = FastSlam::new(FastSlamConfig::default(), Pose2::default()).unwrap();
+/// slam.predict(&Control { v: 3.0, omega: 0.0, steering: 0.0 }, 0.025).unwrap();
+/// let report = slam.update(&[Observation { range: 10.0, bearing: 0.2, id: None }]).unwrap();
+/// assert_eq!(report.new_landmarks, 100);
+/// assert_eq!(slam.best_map().len(), 1);
+/// ```
+#[derive(Debug, Clone)]
+pub struct FastSlam {
+    config: FastSlamConfig,
+    particles: Vec<Particle>,
+    weights: Weights,
+    step: u64,
+}
+
+impl FastSlam {
+    /// A filter with every particle at `initial` (zero spread: the map frame is the start
+    /// pose), equal weights and empty maps.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] for a bad config, [`Error::InvalidInput`] for a
+    /// non-finite initial pose.
+    pub fn new(config: FastSlamConfig, initial: Pose2) -> Result<Self> {
+        Self::with_prior_map(config, initial, &[])
+    }
+
+    /// Like [`new`](Self::new), with every particle's map starting as `landmarks` (a map
+    /// from an earlier run, or surveyed landmarks). All particles share the one map.
+    ///
+    /// # Errors
+    /// As [`new`](Self::new), and [`Error::InvalidInput`] for a landmark with a
+    /// non-finite mean, a covariance that is not symmetric positive definite, or a
+    /// repeated id.
+    pub fn with_prior_map(
+        config: FastSlamConfig,
+        initial: Pose2,
+        landmarks: &[MapLandmark],
+    ) -> Result<Self> {
+        config.validate()?;
+        if !initial.is_finite() {
+            return Err(Error::InvalidInput {
+                what: "initial pose",
+                reason: format!("not finite: {initial:?}"),
+            });
+        }
+        let mut map = LandmarkMap::new(config.association.cell_size);
+        for landmark in landmarks {
+            let c = &landmark.covariance;
+            let spd = c[(0, 1)] == c[(1, 0)] && c[(0, 0)] > 0.0 && c.determinant() > 0.0;
+            let problem = if !landmark.mean.iter().all(|v| v.is_finite()) {
+                Some("mean not finite")
+            } else if !(spd && c.iter().all(|v| v.is_finite())) {
+                Some("covariance not symmetric positive definite")
+            } else if map.get(landmark.id).is_some() {
+                Some("repeated id")
+            } else {
+                None
+            };
+            if let Some(problem) = problem {
+                return Err(Error::InvalidInput {
+                    what: "prior landmark",
+                    reason: format!("landmark {}: {problem}", landmark.id),
+                });
+            }
+            map.insert(Landmark {
+                id: landmark.id,
+                mean: landmark.mean,
+                covariance: landmark.covariance,
+                hits: landmark.hits,
+                chances: 0,
+            });
+        }
+        let n = config.particles;
+        let log_weight = -(n as f64).ln();
+        let pose = Pose2::new(initial.x, initial.y, initial.theta);
+        let particle = Particle {
+            pose,
+            log_weight,
+            map,
+            trail: Trail::default(),
+            prior: MotionPrior::settled(pose, &config.prior_floor.covariance()),
+        };
+        Ok(Self {
+            particles: vec![particle; n],
+            weights: Weights::from_log(&vec![log_weight; n])?,
+            config,
+            step: 0,
+        })
+    }
+
+    /// The configuration the filter runs with.
+    pub fn config(&self) -> &FastSlamConfig {
+        &self.config
+    }
+
+    /// Read access to the particles (metrics, optimisers).
+    pub fn particles(&self) -> &[Particle] {
+        &self.particles
+    }
+
+    /// The particles' current normalised weights and `N_eff`.
+    pub fn weights(&self) -> &Weights {
+        &self.weights
+    }
+
+    /// Step 1: samples every particle's pose from the motion model for `control` held
+    /// over `dt` seconds, and propagates its [`MotionPrior`].
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] for a non-finite control, a negative or non-finite `dt`,
+    /// or a control so large that a pose would overflow; the filter is then unchanged.
+    ///
+    /// # Performance
+    /// O(N), parallel over particles.
+    pub fn predict(&mut self, control: &Control, dt: f64) -> Result<()> {
+        control.validate()?;
+        if !(dt.is_finite() && dt >= 0.0) {
+            return Err(Error::InvalidInput {
+                what: "dt",
+                reason: format!("must be finite and >= 0, got {dt}"),
+            });
+        }
+        let step = self.step + 1;
+        let (seed, motion) = (self.config.seed, &self.config.motion);
+        let predicted: Vec<(Pose2, MotionPrior)> = self
+            .particles
+            .par_iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let mut rng = stream(seed, &[step, i as u64, PURPOSE_PREDICT]);
+                let pose = motion.sample(&p.pose, control, dt, &mut rng);
+                (pose, p.prior.predict(motion, control, dt))
+            })
+            .collect();
+        let broken = predicted.iter().position(|(pose, prior)| {
+            !(pose.is_finite() && prior.mean.is_finite())
+                || prior.covariance.iter().any(|v| !v.is_finite())
+        });
+        if let Some(i) = broken {
+            return Err(Error::InvalidInput {
+                what: "control",
+                reason: format!(
+                    "particle {i}'s pose would become non-finite: {:?}",
+                    predicted[i]
+                ),
+            });
+        }
+        for (particle, (pose, prior)) in self.particles.iter_mut().zip(predicted) {
+            particle.pose = pose;
+            particle.prior = prior;
+        }
+        self.step = step;
+        Ok(())
+    }
+
+    /// Steps 3–6 for one scan from the configured sensor, without pose refinement
+    /// (FastSLAM 1.0, or 2.0 when configured); see [`update_with`](Self::update_with).
+    ///
+    /// # Errors
+    /// As [`update_with`](Self::update_with).
+    pub fn update(&mut self, observations: &[Observation]) -> Result<StepReport> {
+        let sensor = self.config.sensor.clone();
+        self.update_with(observations, &sensor, None)
+    }
+
+    /// One scan taken by `sensor` (a scan may carry its own noise, range and field of
+    /// view): FastSLAM 2.0's proposal when configured, optional pose refinement (step 2),
+    /// association and weighing (3), map updates and negative evidence (4),
+    /// normalisation (5), resampling (6).
+    ///
+    /// A particle's weight increment is the scan's likelihood at its final pose, unless
+    /// the proposal or the refiner gave it another ([`WeightBasis`]).
+    ///
+    /// Observations that are not finite, have a range the sensor cannot report
+    /// ([`Sensor::can_report`]), or lack an id under known association are skipped and
+    /// counted in [`StepReport::rejected`].
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] for a bad `sensor`, the refiner's error, or
+    /// [`Error::DegenerateWeights`] when no particle keeps a usable weight. On these errors
+    /// weights and maps are unchanged (the proposal or a refiner may already have moved
+    /// poses).
+    ///
+    /// # Performance
+    /// O(N · n · (log M + k)) for n observations and k landmarks per search window:
+    /// independent of the map size M but for the logarithm. Resampling copies no map.
+    pub fn update_with(
+        &mut self,
+        observations: &[Observation],
+        sensor: &Sensor,
+        refiner: Option<&mut dyn PoseRefiner>,
+    ) -> Result<StepReport> {
+        sensor.validate()?;
+        let step = self.step + 1;
+        let association = &self.config.association;
+        let accepted: Vec<Observation> = observations
+            .iter()
+            .filter(|obs| {
+                obs.validate().is_ok() && sensor.can_report(obs) && association.accepts(obs)
+            })
+            .copied()
+            .collect();
+        let scan = Scan::new(&accepted, sensor, association, step);
+        let mut basis = vec![WeightBasis::FinalPosition; self.particles.len()];
+
+        // 1b. FastSLAM 2.0: draw each pose from the proposal that uses this scan.
+        if self.config.proposal == Proposal::FastSlam2 {
+            let seed = self.config.seed;
+            let drawn: Vec<Option<proposal::Drawn>> = self
+                .particles
+                .par_iter()
+                .enumerate()
+                .map(|(i, p)| {
+                    let mut rng = stream(seed, &[step, i as u64, PURPOSE_PROPOSAL]);
+                    proposal::fastslam2(&scan, p, &mut rng)
+                })
+                .collect();
+            for ((p, b), d) in self.particles.iter_mut().zip(&mut basis).zip(drawn) {
+                if let Some(d) = d {
+                    p.pose = d.pose;
+                    *b = WeightBasis::Given(d.log_likelihood);
+                }
+            }
+        }
+
+        // 2. Optimise (optional): move the poses.
+        if let Some(refiner) = refiner {
+            refiner.refine(&scan, &mut self.particles, &mut basis)?;
+        }
+
+        // 3. Associate and weigh, read-only, so nothing changes if normalising fails.
+        let associations: Vec<ScanAssociation> = self
+            .particles
+            .par_iter()
+            .map(|p| scan.associate(&p.map, &p.pose))
+            .collect();
+        let log_weights: Vec<f64> = self
+            .particles
+            .iter()
+            .zip(&associations)
+            .zip(&basis)
+            .map(|((p, a), b)| match *b {
+                WeightBasis::FinalPosition => p.log_weight + a.log_likelihood,
+                WeightBasis::Given(increment) => p.log_weight + increment,
+            })
+            .collect();
+
+        // 5. Normalise (log-sum-exp) and N_eff.
+        let weights = Weights::from_log(&log_weights)?;
+
+        // 4. Update the maps: EKF updates, new landmarks, negative evidence. The pose is
+        // settled: the next step's motion prior starts from it.
+        let evidence = &self.config.negative_evidence;
+        let floor = self.config.prior_floor.covariance();
+        let changes: Vec<MapChanges> = self
+            .particles
+            .par_iter_mut()
+            .zip(&associations)
+            .map(|(p, a)| {
+                p.prior = MotionPrior::settled(p.pose, &floor);
+                p.apply(&scan, a, evidence)
+            })
+            .collect();
+
+        // 6. Resample when N_eff < neff_ratio · N.
+        let n = self.particles.len();
+        let neff = weights.ess();
+        let resampled = self.config.resampling.due(&weights);
+        let distinct = if resampled {
+            self.resample(&weights, step)?
+        } else {
+            for (p, &lw) in self.particles.iter_mut().zip(weights.log_weights()) {
+                p.log_weight = lw;
+            }
+            self.weights = weights;
+            n
+        };
+        self.step = step;
+
+        let total = |f: fn(&MapChanges) -> usize| -> usize { changes.iter().map(f).sum() };
+        Ok(StepReport {
+            neff,
+            resampled,
+            distinct,
+            matched: total(|c| c.matched),
+            new_landmarks: total(|c| c.created),
+            ignored: total(|c| c.ignored),
+            removed: total(|c| c.removed),
+            rejected: observations.len() - accepted.len(),
+        })
+    }
+
+    /// Replaces the particles by resampled copies (O(1) each: maps are shared) and
+    /// returns the number of distinct ancestors.
+    fn resample(&mut self, weights: &Weights, step: u64) -> Result<usize> {
+        let mut rng = stream(self.config.seed, &[step, 0, PURPOSE_RESAMPLE]);
+        let resampled = self.config.resampling.draw(weights, &mut rng);
+        self.weights = Weights::from_log(&resampled.log_weights)?;
+        self.particles = resampled
+            .ancestors
+            .iter()
+            .zip(&resampled.log_weights)
+            .map(|(&a, &log_weight)| Particle {
+                log_weight,
+                ..self.particles[a].clone()
+            })
+            .collect();
+        Ok(resampled.distinct())
+    }
+
+    /// Records every particle's current pose under `keyframe` in its [`Trail`] (for
+    /// grid mapping from the best particle's own trajectory).
+    ///
+    /// # Performance
+    /// O(N): one small allocation per particle; histories stay shared under resampling.
+    pub fn record_poses(&mut self, keyframe: u64) {
+        for p in &mut self.particles {
+            p.trail.push(keyframe, p.pose);
+        }
+    }
+
+    /// The highest-weight particle.
+    pub fn best(&self) -> &Particle {
+        &self.particles[self.weights.argmax()]
+    }
+
+    /// Step 7: weighted mean pose (circular mean heading) and weighted covariance.
+    ///
+    /// # Performance
+    /// O(N).
+    pub fn estimate(&self) -> PoseEstimate {
+        PoseEstimate::from_weighted(
+            self.particles.iter().map(|p| p.pose),
+            self.weights.as_slice(),
+        )
+    }
+
+    /// Step 7: the highest-weight particle's map, ordered by id.
+    ///
+    /// # Performance
+    /// O(M log M) (collect and sort).
+    pub fn best_map(&self) -> Vec<MapLandmark> {
+        let best = &self.particles[self.weights.argmax()];
+        let mut landmarks: Vec<MapLandmark> = best.map.iter().map(MapLandmark::from).collect();
+        landmarks.sort_unstable_by_key(|l| l.id);
+        landmarks
+    }
+}

@@ -1,0 +1,52 @@
+//! Planar poses and angle arithmetic (REP-103: x forward, y left, θ counter-clockwise).
+
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// Wraps an angle to (−π, π].
+pub fn wrap_angle(a: f64) -> f64 {
+    let w = (a + PI).rem_euclid(2.0 * PI) - PI;
+    if w <= -PI { w + 2.0 * PI } else { w }
+}
+
+/// A planar pose: position in metres, heading in radians wrapped to (−π, π].
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Pose2 {
+    /// x position (m).
+    pub x: f64,
+    /// y position (m).
+    pub y: f64,
+    /// Heading (rad), counter-clockwise from +x.
+    pub theta: f64,
+}
+
+impl Pose2 {
+    /// A pose from its parts; the heading is wrapped.
+    pub fn new(x: f64, y: f64, theta: f64) -> Self {
+        Self {
+            x,
+            y,
+            theta: wrap_angle(theta),
+        }
+    }
+
+    /// True when every component is finite.
+    pub fn is_finite(&self) -> bool {
+        self.x.is_finite() && self.y.is_finite() && self.theta.is_finite()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wrap_angle_maps_into_half_open_interval() {
+        assert_eq!(wrap_angle(PI), PI);
+        assert_eq!(wrap_angle(-PI), PI);
+        assert!((wrap_angle(3.0 * PI) - PI).abs() < 1e-12);
+        assert!((wrap_angle(2.0 * PI + 0.5) - 0.5).abs() < 1e-12);
+        assert!((wrap_angle(-2.0 * PI - 0.5) + 0.5).abs() < 1e-12);
+        assert!(wrap_angle(f64::NAN).is_nan());
+    }
+}

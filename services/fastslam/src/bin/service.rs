@@ -1,0 +1,7 @@
+//! The FastSLAM service on its own (the launcher starts the same code as `fastslam-stack service`).
+
+use fastslam_service::process;
+
+fn main() -> anyhow::Result<()> {
+    fastslam_protocol::cli::main_of("service", process::ABOUT, process::run)
+}

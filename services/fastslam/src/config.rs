@@ -1,0 +1,414 @@
+//! The service's configuration file (TOML). Every section has defaults that run; unknown
+//! keys are errors, so a typo is reported instead of silently ignored.
+//!
+//! ```toml
+//! [filter]            # fastslam_estimation::fastslam::FastSlamConfig
+//! particles = 100
+//! proposal = "fastslam2"   # or "motion" (FastSLAM 1.0)
+//! [filter.association]
+//! mode = "known"
+//! [features]        # fastslam_estimation::features::ExtractorConfig (raw scans)
+//! max_range = 20.0
+//! [grid]            # fastslam_estimation::grid::GridConfig (raw scans)
+//! resolution = 0.1
+//! [input]
+//! lidar = "auto"
+//! [optimizer]         # fastslam_estimation::optimise::OptimiserConfig
+//! kind = "icoa"       # none | coa | icoa | ba | iba | gwo | qpso | pso
+//! iterations = 10
+//! [optimizer.icoa]
+//! omega_max = 0.9
+//! [moves]             # fastslam_estimation::moves::MoveConfig
+//! bound_sigmas = 3.0
+//! prior_weight = 1.0
+//! correction = "mh"   # or "none" (the papers)
+//! [output]
+//! map_every = 1
+//! grid_every = 50
+//! ```
+//!
+//! IBA comes with its partial resampling (ALGORITHMS.md §4.4): with `kind = "iba"` and
+//! `[optimizer.iba] partial_resampling = true` (the default) the filter resamples with the
+//! partial EWA scheme whatever `[filter.resampling] scheme` says
+//! ([`ServiceConfig::filter_config`]).
+
+use fastslam_estimation::fastslam::{FastSlamConfig, Proposal, ResamplingScheme};
+use fastslam_estimation::features::ExtractorConfig;
+use fastslam_estimation::grid::GridConfig;
+use fastslam_estimation::moves::{MoveConfig, MoveCorrection};
+use fastslam_estimation::optimise::{OptimiserConfig, OptimiserKind};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// What can be wrong with the configuration.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ConfigError {
+    /// The file cannot be read.
+    #[error("cannot read config {path}: {reason}")]
+    Read {
+        /// The file.
+        path: String,
+        /// Why.
+        reason: String,
+    },
+    /// The file is not valid TOML for this schema.
+    #[error("config {path}: {reason}")]
+    Parse {
+        /// The file.
+        path: String,
+        /// The parser's message.
+        reason: String,
+    },
+    /// A value is out of range, or a name is not one of the choices.
+    #[error("invalid config: {0}")]
+    Invalid(fastslam_estimation::Error),
+}
+
+impl From<fastslam_estimation::Error> for ConfigError {
+    /// The estimator's reason, said once (not repeated as a `source` in error chains).
+    fn from(e: fastslam_estimation::Error) -> Self {
+        Self::Invalid(e)
+    }
+}
+
+/// Everything the service needs to run.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ServiceConfig {
+    /// The FastSLAM filter, its proposal included.
+    pub filter: FastSlamConfig,
+    /// The particle optimiser of step 2 (`kind = "none"` = no optimiser) and its constants.
+    pub optimizer: OptimiserConfig,
+    /// How the optimiser's moves are bounded, scored and corrected.
+    pub moves: MoveConfig,
+    /// What is published and how often.
+    pub output: OutputConfig,
+    /// Which lidar input the service takes.
+    pub input: InputConfig,
+    /// Pole extraction from raw scans.
+    pub features: ExtractorConfig,
+    /// The occupancy grid built from raw scans.
+    pub grid: GridConfig,
+}
+
+/// Which lidar input the service takes.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct InputConfig {
+    /// `auto`: whichever of `scan` and `observations` gets a publisher first (a lidar
+    /// process publishes one of them); or one of them by name.
+    pub lidar: LidarInput,
+}
+
+/// The lidar topic the service subscribes to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum LidarInput {
+    /// Whichever topic gets a publisher first (`scan` if both already have one).
+    #[default]
+    Auto,
+    /// Raw scans on `scan`: poles are extracted, and the occupancy grid is built.
+    Scan,
+    /// Landmark observations on `observations` (a feature-level sensor).
+    Observations,
+}
+
+/// What is published and how often.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OutputConfig {
+    /// Publish the landmark map after every `map_every` observation steps (and always at
+    /// the end); 0 publishes it only at the end.
+    pub map_every: u64,
+    /// Publish the occupancy grid after every `grid_every` observation steps from raw
+    /// scans (and always at the end); 0 publishes it only at the end. Building it stops
+    /// the filter for a moment (see `fastslam_estimation::grid`), so keep this low-rate.
+    pub grid_every: u64,
+}
+
+impl Default for OutputConfig {
+    fn default() -> Self {
+        Self {
+            map_every: 1,
+            grid_every: 50,
+        }
+    }
+}
+
+/// The estimator's choices by name: flags of the service process and of the launcher's
+/// `run`, each replacing the config file's value when given.
+#[derive(Debug, Clone, Default, PartialEq, Eq, clap::Args)]
+pub struct EstimatorChoice {
+    /// Particle optimiser of step 2: none, coa, icoa, ba, iba, gwo, qpso, pso (iba also
+    /// switches to partial resampling; default: the config's, else none).
+    #[arg(long)]
+    pub optimizer: Option<String>,
+    /// Proposal of the new poses: motion (FastSLAM 1.0) or fastslam2 (default: the
+    /// config's, else motion).
+    #[arg(long)]
+    pub proposal: Option<String>,
+    /// What an optimiser's move does to the weights: none (the papers: weigh at the moved
+    /// pose) or mh (Metropolis–Hastings accept/reject, weights from before the move;
+    /// default: the config's, else none).
+    #[arg(long)]
+    pub move_correction: Option<String>,
+}
+
+/// Command-line values that replace the file's (flags win). Names are checked against the
+/// choices, and an unknown one is an error listing them.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Overrides {
+    /// `filter.particles`.
+    pub particles: Option<usize>,
+    /// `filter.seed`.
+    pub seed: Option<u64>,
+    /// `optimizer.kind`, `filter.proposal` and `moves.correction`, by name.
+    pub choice: EstimatorChoice,
+}
+
+impl Overrides {
+    /// The service process's flags that carry the given values (`--particles 30`, …), to
+    /// start it with exactly these settings.
+    pub fn flags(&self) -> Vec<String> {
+        let numbers = [
+            ("--particles", self.particles.map(|n| n.to_string())),
+            ("--seed", self.seed.map(|s| s.to_string())),
+        ];
+        let c = &self.choice;
+        let names = [
+            ("--optimizer", c.optimizer.clone()),
+            ("--proposal", c.proposal.clone()),
+            ("--move-correction", c.move_correction.clone()),
+        ];
+        numbers
+            .into_iter()
+            .chain(names)
+            .filter_map(|(flag, value)| value.map(|v| [flag.to_string(), v]))
+            .flatten()
+            .collect()
+    }
+
+    /// Writes the given values into `config`.
+    ///
+    /// # Errors
+    /// [`ConfigError::Invalid`] for a name that is not one of the choices.
+    pub fn apply(&self, config: &mut ServiceConfig) -> Result<(), ConfigError> {
+        if let Some(n) = self.particles {
+            config.filter.particles = n;
+        }
+        if let Some(seed) = self.seed {
+            config.filter.seed = seed;
+        }
+        let c = &self.choice;
+        if let Some(name) = &c.optimizer {
+            config.optimizer.kind = name.parse::<OptimiserKind>()?;
+        }
+        if let Some(name) = &c.proposal {
+            config.filter.proposal = name.parse::<Proposal>()?;
+        }
+        if let Some(name) = &c.move_correction {
+            config.moves.correction = name.parse::<MoveCorrection>()?;
+        }
+        Ok(())
+    }
+}
+
+impl ServiceConfig {
+    /// Reads `path`, or the defaults when `None`.
+    ///
+    /// # Errors
+    /// [`ConfigError`] when the file cannot be read or parsed.
+    pub fn load(path: Option<&Path>) -> Result<Self, ConfigError> {
+        let Some(path) = path else {
+            return Ok(Self::default());
+        };
+        let shown = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Read {
+            path: shown.clone(),
+            reason: e.to_string(),
+        })?;
+        Self::parse(&shown, &text)
+    }
+
+    /// Parses config text; `origin` names it in errors.
+    ///
+    /// # Errors
+    /// [`ConfigError::Parse`] for invalid TOML, unknown keys or values of the wrong type.
+    pub fn parse(origin: &str, text: &str) -> Result<Self, ConfigError> {
+        toml::from_str(text).map_err(|e| ConfigError::Parse {
+            path: origin.to_string(),
+            reason: e.to_string(),
+        })
+    }
+
+    /// This config with the flags' values written in ([`Overrides::apply`]), validated.
+    ///
+    /// # Errors
+    /// [`ConfigError::Invalid`] for an unknown name or a bad value.
+    pub fn with_overrides(mut self, overrides: &Overrides) -> Result<Self, ConfigError> {
+        overrides.apply(&mut self)?;
+        self.validate()?;
+        Ok(self)
+    }
+
+    /// Checks every value.
+    ///
+    /// # Errors
+    /// [`ConfigError::Invalid`] naming the first bad value.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.filter.validate()?;
+        self.features.validate()?;
+        self.grid.validate()?;
+        self.optimizer.validate()?;
+        self.moves.validate()?;
+        Ok(())
+    }
+
+    /// A short name of the estimator: the optimiser, then `+fastslam2` for FastSLAM 2.0's
+    /// proposal and `+mh` for corrected moves (`none`, `coa+mh`, `none+fastslam2`).
+    pub fn method(&self) -> String {
+        let mut name = self.optimizer.kind.to_string();
+        if self.filter.proposal == Proposal::FastSlam2 {
+            name.push_str("+fastslam2");
+        }
+        if self.optimizer.kind != OptimiserKind::None && self.moves.correction == MoveCorrection::Mh
+        {
+            name.push_str("+mh");
+        }
+        name
+    }
+
+    /// The filter's configuration as it runs: `[filter]`, with the resampling scheme
+    /// switched to partial EWA when the optimiser asks for it (IBA, §4.4).
+    pub fn filter_config(&self) -> FastSlamConfig {
+        let mut filter = self.filter.clone();
+        if self.optimizer.partial_resampling() {
+            filter.resampling.scheme = ResamplingScheme::PartialEwa;
+        }
+        filter
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid_and_round_trip() {
+        let c = ServiceConfig::default();
+        c.validate().unwrap();
+        let back: ServiceConfig = toml::from_str(&toml::to_string(&c).unwrap()).unwrap();
+        assert_eq!(back, c);
+    }
+
+    #[test]
+    fn typos_and_unknown_names_are_reported_with_the_choices() {
+        assert!(toml::from_str::<ServiceConfig>("[output]\nmap_evry = 2").is_err());
+        assert!(toml::from_str::<ServiceConfig>("[input]\nlidar = \"radar\"").is_err());
+        let c: ServiceConfig = toml::from_str("[grid]\nresolution = -1.0").unwrap();
+        assert!(
+            c.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("grid.resolution")
+        );
+        assert!(toml::from_str::<ServiceConfig>("[optimizer]\nkind = \"magic\"").is_err());
+        let mut c = ServiceConfig::default();
+        for (choice, expected) in [
+            (
+                EstimatorChoice {
+                    optimizer: Some("magic".into()),
+                    ..EstimatorChoice::default()
+                },
+                "none, coa, icoa, ba, iba, gwo, qpso, pso",
+            ),
+            (
+                EstimatorChoice {
+                    proposal: Some("fastslam3".into()),
+                    ..EstimatorChoice::default()
+                },
+                "motion, fastslam2",
+            ),
+            (
+                EstimatorChoice {
+                    move_correction: Some("metropolis".into()),
+                    ..EstimatorChoice::default()
+                },
+                "none, mh",
+            ),
+        ] {
+            let overrides = Overrides {
+                choice,
+                ..Overrides::default()
+            };
+            let err = overrides.apply(&mut c).unwrap_err().to_string();
+            assert!(err.contains(expected), "{err}");
+        }
+    }
+
+    #[test]
+    fn flags_override_the_file() {
+        let mut c = ServiceConfig::parse(
+            "test",
+            "[filter]\nparticles = 10\nproposal = \"fastslam2\"\n[optimizer]\nkind = \"coa\"\n",
+        )
+        .unwrap();
+        let overrides = Overrides {
+            particles: Some(30),
+            seed: Some(4),
+            choice: EstimatorChoice {
+                optimizer: Some("gwo".into()),
+                proposal: Some("motion".into()),
+                move_correction: Some("mh".into()),
+            },
+        };
+        overrides.apply(&mut c).unwrap();
+        let flags = overrides.flags().join(" ");
+        assert_eq!(
+            flags,
+            "--particles 30 --seed 4 --optimizer gwo --proposal motion --move-correction mh"
+        );
+        assert_eq!((c.filter.particles, c.filter.seed), (30, 4));
+        assert_eq!(c.optimizer.kind, OptimiserKind::Gwo);
+        assert_eq!(c.filter.proposal, Proposal::Motion);
+        assert_eq!(c.moves.correction, MoveCorrection::Mh);
+        c.validate().unwrap();
+        assert_eq!(c.method(), "gwo+mh");
+        c.optimizer.kind = OptimiserKind::None;
+        c.filter.proposal = Proposal::FastSlam2;
+        assert_eq!(
+            c.method(),
+            "none+fastslam2",
+            "no optimiser, nothing to correct"
+        );
+    }
+
+    #[test]
+    fn iba_brings_partial_resampling_unless_switched_off() {
+        let mut c = ServiceConfig::default();
+        c.optimizer.kind = OptimiserKind::Iba;
+        assert_eq!(
+            c.filter_config().resampling.scheme,
+            ResamplingScheme::PartialEwa
+        );
+        c.optimizer.iba.partial_resampling = false;
+        assert_eq!(
+            c.filter_config().resampling.scheme,
+            ResamplingScheme::Systematic
+        );
+        c.optimizer.kind = OptimiserKind::Coa;
+        c.optimizer.iba.partial_resampling = true;
+        assert_eq!(
+            c.filter_config().resampling.scheme,
+            ResamplingScheme::Systematic
+        );
+    }
+
+    #[test]
+    fn bad_values_name_their_field() {
+        let c = ServiceConfig::parse("test", "[moves]\nbound_sigmas = -1.0\n").unwrap();
+        let err = c.validate().unwrap_err().to_string();
+        assert!(err.contains("moves.bound_sigmas"), "{err}");
+    }
+}

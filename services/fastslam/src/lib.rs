@@ -1,0 +1,12 @@
+//! The FastSLAM service: subscribes to odometry and landmark observations, runs the
+//! estimator of `fastslam-estimation` on them in stamp order, and publishes the pose
+//! estimate after every observation step and the best particle's landmark map.
+//!
+//! The pieces read top to bottom: [`config`] (what to run), [`sequencer`] (inputs of
+//! two streams in stamp order, deterministic whatever the scheduling), [`slam`] (inputs
+//! to filter calls, filter results to messages), [`process`] (the IPC wiring).
+
+pub mod config;
+pub mod process;
+pub mod sequencer;
+pub mod slam;

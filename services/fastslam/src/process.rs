@@ -1,0 +1,396 @@
+//! The service process: odometry and the lidar (landmark observations or raw scans) in;
+//! pose estimates, landmark maps, occupancy grids and status out.
+
+use crate::config::{EstimatorChoice, LidarInput, Overrides, ServiceConfig};
+use crate::sequencer::{RawScan, Scan, Sequencer};
+use crate::slam::{Slam, Step};
+use anyhow::Context;
+use fastslam_protocol::ipc::{Flow, Ipc, Pub, Sub};
+use fastslam_protocol::status::{RejectionKind, ServiceStatus, flags};
+use fastslam_protocol::stream::StreamEnd;
+use fastslam_protocol::validate::{self, Rejection, StampOrder};
+use fastslam_protocol::{
+    EndOfStream, Header, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation,
+    ObservationsHeader, OccupancyGridHeader, Odometry, PoseEstimate, StreamId, cli, topics,
+};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// What `--help` says about this process.
+pub const ABOUT: &str = "FastSLAM service: subscribes to odometry and to landmark observations or \
+raw lidar scans (poles are extracted from them), runs FastSLAM in stamp order, and publishes the \
+pose estimate after every observation, the best particle's landmark map and occupancy grid, and \
+the filter's status.";
+
+/// Flags of the service (they override the config file).
+#[derive(Debug, Clone, clap::Args)]
+pub struct Args {
+    /// Stack to join.
+    #[command(flatten)]
+    pub stack: cli::StackArgs,
+    /// Config file (TOML): [filter], [optimizer], [moves], [output]. Default: built-in
+    /// defaults.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Number of particles.
+    #[arg(long)]
+    pub particles: Option<usize>,
+    /// Seed of the filter's random draws.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Optimiser, proposal and move correction.
+    #[command(flatten)]
+    pub choice: EstimatorChoice,
+    /// Lidar input: auto (whichever of `scan` and `observations` is published), scan or
+    /// observations.
+    #[arg(long, value_enum)]
+    pub lidar: Option<LidarInput>,
+    /// Wait for this many subscribers of the pose before starting, so a client that
+    /// starts late loses nothing.
+    #[arg(long, default_value_t = 0)]
+    pub wait_subscribers: usize,
+    /// Give up waiting for publishers of the inputs, or for subscribers, after this many
+    /// seconds.
+    #[arg(long, default_value_t = 60.0)]
+    pub wait_timeout_s: f64,
+}
+
+impl Args {
+    /// The configuration: file (or defaults), then flags on top, validated.
+    ///
+    /// # Errors
+    /// When the file cannot be read or a value is invalid.
+    pub fn config(&self) -> anyhow::Result<ServiceConfig> {
+        let mut config =
+            ServiceConfig::load(self.config.as_deref())?.with_overrides(&self.overrides())?;
+        if let Some(lidar) = self.lidar {
+            config.input.lidar = lidar;
+        }
+        Ok(config)
+    }
+
+    /// The flags that replace values of the config file.
+    pub fn overrides(&self) -> Overrides {
+        Overrides {
+            particles: self.particles,
+            seed: self.seed,
+            choice: self.choice.clone(),
+        }
+    }
+}
+
+/// The service's output ports and the last header sent on each.
+struct Outputs {
+    pose: Pub<PoseEstimate, ()>,
+    map: Pub<[MapLandmark], LandmarkMapHeader>,
+    grid: Pub<[i8], OccupancyGridHeader>,
+    status: Pub<ServiceStatus, ()>,
+    eos: Pub<EndOfStream, ()>,
+    last_pose: Option<Header>,
+    last_map: Option<Header>,
+    last_grid: Option<Header>,
+    last_status: Option<Header>,
+}
+
+/// Next header of a stream whose last header was `last`.
+fn next_header(last: Option<Header>, stamp_ns: u64) -> Header {
+    Header {
+        stamp_ns,
+        seq: last.map_or(0, |h| h.seq + 1),
+    }
+}
+
+impl Outputs {
+    fn open(ipc: &Ipc) -> anyhow::Result<Self> {
+        Ok(Self {
+            pose: ipc.publisher(&topics::POSE)?,
+            map: ipc.slice_publisher(&topics::MAP)?,
+            grid: ipc.slice_publisher(&topics::GRID)?,
+            status: ipc.publisher(&topics::STATUS)?,
+            eos: ipc.publisher(&topics::END_OF_STREAM)?,
+            last_pose: None,
+            last_map: None,
+            last_grid: None,
+            last_status: None,
+        })
+    }
+
+    fn pose(&mut self, mut pose: PoseEstimate) -> anyhow::Result<()> {
+        pose.header = next_header(self.last_pose, pose.header.stamp_ns);
+        self.pose.send(pose)?;
+        self.last_pose = Some(pose.header);
+        Ok(())
+    }
+
+    fn map(&mut self, slam: &Slam, stamp_ns: u64) -> anyhow::Result<()> {
+        let header = next_header(self.last_map, stamp_ns);
+        let (h, map) = slam.map(header);
+        self.map.send(h, &map)?;
+        self.last_map = Some(header);
+        Ok(())
+    }
+
+    /// Publishes the best particle's grid, if raw scans have given one.
+    fn grid(&mut self, slam: &mut Slam, stamp_ns: u64) -> anyhow::Result<()> {
+        let header = next_header(self.last_grid, stamp_ns);
+        let Some((h, cells)) = slam.grid(header) else {
+            return Ok(());
+        };
+        if let Err(reason) = validate::occupancy_grid(&h, &cells) {
+            tracing::warn!(%reason, "occupancy grid not published");
+            return Ok(());
+        }
+        self.grid.send(h, &cells)?;
+        self.last_grid = Some(header);
+        Ok(())
+    }
+
+    fn status(&mut self, mut status: ServiceStatus) -> anyhow::Result<()> {
+        status.header = next_header(self.last_status, status.header.stamp_ns);
+        self.status.send(status)?;
+        self.last_status = Some(status.header);
+        Ok(())
+    }
+
+    fn finish(&self, ipc: &Ipc) -> anyhow::Result<()> {
+        for (stream, last) in [
+            (StreamId::Pose, self.last_pose),
+            (StreamId::Map, self.last_map),
+            (StreamId::Grid, self.last_grid),
+            (StreamId::Status, self.last_status),
+        ] {
+            self.eos.send(EndOfStream::new(stream, last))?;
+        }
+        // The map and grid live in growable segments: stay until their readers have them.
+        self.map.wait_until_unsubscribed(ipc)?;
+        self.grid.wait_until_unsubscribed(ipc)?;
+        Ok(())
+    }
+}
+
+/// Counters behind the status message.
+#[derive(Debug, Default)]
+struct Health {
+    steps: u64,
+    resamplings: u64,
+    rejections: [u64; fastslam_protocol::status::REJECTION_KINDS],
+}
+
+impl Health {
+    /// Counts a rejected input and says why, once per input (the reason names the field).
+    fn reject(
+        &mut self,
+        what: &str,
+        seq: u64,
+        kind: RejectionKind,
+        reason: &dyn std::fmt::Display,
+    ) {
+        self.rejections[kind as usize] += 1;
+        tracing::warn!(seq, %reason, "{what} skipped");
+    }
+
+    /// The status after observation step `step`, which took `took`.
+    fn status(
+        &mut self,
+        step: &Step,
+        took: Duration,
+        slam: &Slam,
+        seq: &Sequencer,
+    ) -> ServiceStatus {
+        self.steps += 1;
+        self.resamplings += u64::from(step.report.resampled);
+        ServiceStatus {
+            header: step.pose.header,
+            steps: self.steps,
+            resamplings: self.resamplings,
+            n_eff: step.report.neff,
+            particles: slam.particles() as u32,
+            distinct_particles: step.report.distinct as u32,
+            landmarks: slam.landmarks() as u64,
+            step_time_ns: took.as_nanos() as u64,
+            queued: seq.queued(),
+            last_input_ns: seq.watermarks(),
+            flags: if step.report.resampled {
+                flags::RESAMPLED
+            } else {
+                0
+            },
+            reserved: 0,
+            rejections: self.rejections,
+        }
+    }
+}
+
+/// The lidar topic the service listens to: landmark observations or raw scans.
+enum Lidar {
+    Observations(Sub<[Observation], ObservationsHeader>),
+    Scans(Sub<[f32], LaserScanHeader>),
+}
+
+impl Lidar {
+    /// Subscribes to the configured lidar topic; `auto` waits until one of the two has a
+    /// publisher (and takes `scan` if both have).
+    fn open(ipc: &Ipc, choice: LidarInput) -> anyhow::Result<Self> {
+        let choice = match choice {
+            LidarInput::Auto => {
+                let scans = ipc.publisher_probe::<[f32], LaserScanHeader>(&topics::SCAN)?;
+                let observations = ipc
+                    .publisher_probe::<[Observation], ObservationsHeader>(&topics::OBSERVATIONS)?;
+                ipc.wait_until(
+                    || "a publisher on scan or observations".into(),
+                    || scans() + observations() > 0,
+                )?;
+                if scans() > 0 {
+                    LidarInput::Scan
+                } else {
+                    LidarInput::Observations
+                }
+            }
+            chosen => chosen,
+        };
+        Ok(match choice {
+            LidarInput::Scan => Self::Scans(ipc.slice_subscriber(&topics::SCAN)?),
+            LidarInput::Auto | LidarInput::Observations => {
+                Self::Observations(ipc.slice_subscriber(&topics::OBSERVATIONS)?)
+            }
+        })
+    }
+
+    /// The stream whose end-of-stream closes the lidar input.
+    fn stream(&self) -> StreamId {
+        match self {
+            Self::Observations(_) => StreamId::Observations,
+            Self::Scans(_) => StreamId::Scan,
+        }
+    }
+}
+
+/// Validates an input and its stamp order; the rejection's reason otherwise.
+fn admit(
+    check: Result<(), Rejection>,
+    order: &mut StampOrder,
+    stamp_ns: u64,
+) -> Result<(), Rejection> {
+    check.and_then(|()| order.accept(stamp_ns))
+}
+
+/// Runs the service until both input streams have ended (or a signal arrives).
+///
+/// # Errors
+/// Configuration or IPC errors, with their reason.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let config = args.config()?;
+    let mut slam = Slam::new(&config).context("building the filter")?;
+    let timeout = Duration::from_secs_f64(args.wait_timeout_s.max(0.0));
+    let ipc = Ipc::open(&args.stack.stack(), "fastslam-service", timeout)?;
+    // Publishers first, then subscribers (which wait for publishers): no wait cycles.
+    let mut out = Outputs::open(&ipc)?;
+    // End-of-stream before the inputs: a sensor starts once its subscribers are there, and
+    // a short stream may end before a later subscription exists.
+    let eos_in = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
+    let odometry = ipc.subscriber::<Odometry>(&topics::ODOMETRY)?;
+    let lidar = Lidar::open(&ipc, config.input.lidar)?;
+    out.pose.wait_for_subscribers(&ipc, args.wait_subscribers)?;
+    tracing::info!(
+        particles = config.filter.particles, optimizer = %config.optimizer.kind,
+        proposal = %config.filter.proposal, moves = %config.moves.correction,
+        resampling = ?config.filter_config().resampling.scheme, seed = config.filter.seed,
+        lidar = ?lidar.stream(), "running"
+    );
+
+    let mut sequencer = Sequencer::default();
+    let mut health = Health::default();
+    let (mut odo_order, mut scan_order) = (StampOrder::default(), StampOrder::default());
+    let (mut odo_end, mut scan_end) = (StreamEnd::default(), StreamEnd::default());
+    let lidar_listener = match &lidar {
+        Lidar::Observations(sub) => sub.listener(),
+        Lidar::Scans(sub) => sub.listener(),
+    };
+    let listeners = [odometry.listener(), lidar_listener, eos_in.listener()];
+    ipc.wake_loop::<anyhow::Error>(&listeners, None, || {
+        odometry.drain(|s| {
+            let m = *s.payload();
+            odo_end.saw(m.header.seq);
+            match admit(validate::odometry(&m), &mut odo_order, m.header.stamp_ns) {
+                Ok(()) => sequencer.push_odometry(m),
+                Err(r) => health.reject("odometry", m.header.seq, r.kind(), &r),
+            }
+        })?;
+        match &lidar {
+            Lidar::Observations(sub) => sub.drain(|s| {
+                let header = *s.user_header();
+                scan_end.saw(header.header.seq);
+                let check = validate::observations(&header, s.payload());
+                match admit(check, &mut scan_order, header.header.stamp_ns) {
+                    Ok(()) => sequencer.push_scan(Scan {
+                        header,
+                        observations: s.payload().to_vec(),
+                    }),
+                    Err(r) => health.reject("observations", header.header.seq, r.kind(), &r),
+                }
+            })?,
+            Lidar::Scans(sub) => sub.drain(|s| {
+                let header = *s.user_header();
+                scan_end.saw(header.header.seq);
+                let check = validate::laser_scan(&header, s.payload());
+                match admit(check, &mut scan_order, header.header.stamp_ns) {
+                    Ok(()) => sequencer.push_raw_scan(RawScan {
+                        header,
+                        ranges: header.ranges_of(s.payload()).to_vec(),
+                    }),
+                    Err(r) => health.reject("scan", header.header.seq, r.kind(), &r),
+                }
+            })?,
+        };
+        eos_in.drain(|s| match StreamId::from_u32(s.payload().stream) {
+            Some(StreamId::Odometry) => odo_end.announce(s.payload()),
+            Some(id) if id == lidar.stream() => scan_end.announce(s.payload()),
+            _ => {}
+        })?;
+        if odo_end.finished() {
+            sequencer.end_odometry();
+        }
+        if scan_end.finished() {
+            sequencer.end_scans();
+        }
+        while let Some(input) = sequencer.release() {
+            let started = Instant::now();
+            match slam.apply(input) {
+                Ok(Some(step)) => {
+                    let status = health.status(&step, started.elapsed(), &slam, &sequencer);
+                    out.pose(step.pose)?;
+                    let stamp_ns = step.pose.header.stamp_ns;
+                    let due = |every: u64| every > 0 && health.steps.is_multiple_of(every);
+                    if due(config.output.map_every) {
+                        out.map(&slam, stamp_ns)?;
+                    }
+                    if due(config.output.grid_every) {
+                        out.grid(&mut slam, stamp_ns)?;
+                    }
+                    out.status(status)?;
+                }
+                Ok(None) => {}
+                Err(e) => health.reject("input", 0, RejectionKind::Filter, &e),
+            }
+        }
+        Ok(if sequencer.finished() {
+            Flow::Stop
+        } else {
+            Flow::Continue
+        })
+    })?;
+
+    let last_ns = out.last_pose.map_or(0, |h| h.stamp_ns);
+    out.map(&slam, last_ns)?;
+    out.grid(&mut slam, last_ns)?;
+    out.finish(&ipc)?;
+    let moves = slam.move_stats().unwrap_or_default();
+    tracing::info!(
+        steps = health.steps,
+        resamplings = health.resamplings,
+        moves_proposed = moves.proposed,
+        moves_accepted = moves.accepted,
+        "inputs finished"
+    );
+    Ok(())
+}

@@ -1,0 +1,294 @@
+//! Puts the inputs of two streams — odometry and the lidar (landmark observations or raw
+//! scans) — into one stamp order, so a run is deterministic whatever the process
+//! scheduling.
+//!
+//! Each stream's newest received stamp is its *watermark*: an input is released only
+//! when the other stream cannot deliver anything older any more (its queue holds a later
+//! input, its watermark has passed, or it has ended). On equal stamps odometry goes
+//! first: the filter predicts up to the scan's time, then updates.
+
+use fastslam_protocol::{LaserScanHeader, Observation, ObservationsHeader, Odometry};
+use std::collections::VecDeque;
+
+/// One scan's observations, copied out of shared memory.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scan {
+    /// The message header (stamp, sensor range and field of view).
+    pub header: ObservationsHeader,
+    /// The observations.
+    pub observations: Vec<Observation>,
+}
+
+/// One raw scan, copied out of shared memory (validated: the counts match).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RawScan {
+    /// The message header (stamp, beam layout, range limits).
+    pub header: LaserScanHeader,
+    /// The ranges (m), one per beam; intensities are not kept.
+    pub ranges: Vec<f32>,
+}
+
+/// An input released in stamp order.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Input {
+    /// Odometry over the interval ending at its stamp.
+    Odometry(Odometry),
+    /// A scan's observations.
+    Scan(Scan),
+    /// A raw scan (the lidar lane carries observations or raw scans).
+    RawScan(RawScan),
+}
+
+/// One stream: waiting inputs, newest stamp seen, and whether it has ended.
+#[derive(Debug, Clone)]
+struct Lane<T> {
+    queue: VecDeque<(u64, T)>,
+    watermark: Option<u64>,
+    ended: bool,
+}
+
+impl<T> Default for Lane<T> {
+    fn default() -> Self {
+        Self {
+            queue: VecDeque::new(),
+            watermark: None,
+            ended: false,
+        }
+    }
+}
+
+impl<T> Lane<T> {
+    fn push(&mut self, stamp: u64, item: T) {
+        self.watermark = Some(self.watermark.map_or(stamp, |w| w.max(stamp)));
+        self.queue.push_back((stamp, item));
+    }
+
+    fn head(&self) -> Option<u64> {
+        self.queue.front().map(|(t, _)| *t)
+    }
+
+    /// True when nothing stamped before `stamp` can still arrive on this stream.
+    fn passed(&self, stamp: u64) -> bool {
+        self.ended || self.watermark.is_some_and(|w| w >= stamp)
+    }
+
+    fn pop(&mut self) -> Option<T> {
+        self.queue.pop_front().map(|(_, item)| item)
+    }
+}
+
+/// Merges odometry and scans into stamp order.
+#[derive(Debug, Clone, Default)]
+pub struct Sequencer {
+    odometry: Lane<Odometry>,
+    /// The lidar lane: [`Input::Scan`] or [`Input::RawScan`].
+    scans: Lane<Input>,
+}
+
+impl Sequencer {
+    /// Queues an odometry message (stamps of one stream must not decrease; the caller
+    /// validates that).
+    pub fn push_odometry(&mut self, m: Odometry) {
+        self.odometry.push(m.header.stamp_ns, m);
+    }
+
+    /// Queues a scan's observations.
+    pub fn push_scan(&mut self, s: Scan) {
+        self.scans.push(s.header.header.stamp_ns, Input::Scan(s));
+    }
+
+    /// Queues a raw scan (on the same lane as observations: one lidar stream).
+    pub fn push_raw_scan(&mut self, s: RawScan) {
+        self.scans.push(s.header.header.stamp_ns, Input::RawScan(s));
+    }
+
+    /// The odometry stream has ended: nothing more will come.
+    pub fn end_odometry(&mut self) {
+        self.odometry.ended = true;
+    }
+
+    /// The observation stream has ended.
+    pub fn end_scans(&mut self) {
+        self.scans.ended = true;
+    }
+
+    /// The next input in stamp order, if it can be released now.
+    pub fn release(&mut self) -> Option<Input> {
+        match (self.odometry.head(), self.scans.head()) {
+            (Some(o), Some(s)) if o <= s => self.odometry.pop().map(Input::Odometry),
+            (Some(_), Some(_)) => self.scans.pop(),
+            (Some(o), None) if self.scans.passed(o) => self.odometry.pop().map(Input::Odometry),
+            (None, Some(s)) if self.odometry.passed(s) => self.scans.pop(),
+            _ => None,
+        }
+    }
+
+    /// Inputs waiting: (odometry, scans).
+    pub fn queued(&self) -> [u32; 2] {
+        [
+            self.odometry.queue.len() as u32,
+            self.scans.queue.len() as u32,
+        ]
+    }
+
+    /// Newest stamp received per stream (odometry, scans), 0 before the first.
+    pub fn watermarks(&self) -> [u64; 2] {
+        [
+            self.odometry.watermark.unwrap_or(0),
+            self.scans.watermark.unwrap_or(0),
+        ]
+    }
+
+    /// True when both streams have ended and everything was released.
+    pub fn finished(&self) -> bool {
+        self.odometry.ended
+            && self.scans.ended
+            && self.odometry.queue.is_empty()
+            && self.scans.queue.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fastslam_protocol::Header;
+
+    fn odo(t: u64) -> Odometry {
+        Odometry {
+            header: Header {
+                stamp_ns: t,
+                seq: t,
+            },
+            ..Default::default()
+        }
+    }
+
+    fn scan(t: u64) -> Scan {
+        let header = ObservationsHeader {
+            header: Header {
+                stamp_ns: t,
+                seq: t,
+            },
+            ..Default::default()
+        };
+        Scan {
+            header,
+            observations: Vec::new(),
+        }
+    }
+
+    fn stamps(seq: &mut Sequencer) -> Vec<(char, u64)> {
+        std::iter::from_fn(|| seq.release())
+            .map(|i| match i {
+                Input::Odometry(o) => ('o', o.header.stamp_ns),
+                Input::Scan(s) => ('s', s.header.header.stamp_ns),
+                Input::RawScan(s) => ('r', s.header.header.stamp_ns),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_scan_waits_for_odometry_up_to_its_stamp() {
+        let mut seq = Sequencer::default();
+        seq.push_scan(scan(20));
+        seq.push_odometry(odo(10));
+        assert_eq!(
+            stamps(&mut seq),
+            vec![('o', 10)],
+            "scan 20 must wait: odometry may still bring 15"
+        );
+        seq.push_odometry(odo(20));
+        assert_eq!(
+            stamps(&mut seq),
+            vec![('o', 20), ('s', 20)],
+            "equal stamps: odometry first"
+        );
+    }
+
+    #[test]
+    fn odometry_waits_for_a_late_scan() {
+        let mut seq = Sequencer::default();
+        seq.push_odometry(odo(10));
+        seq.push_odometry(odo(30));
+        seq.push_scan(scan(5));
+        assert_eq!(
+            stamps(&mut seq),
+            vec![('s', 5)],
+            "odometry 10 waits: a scan at 8 may come"
+        );
+        seq.push_scan(scan(20));
+        assert_eq!(stamps(&mut seq), vec![('o', 10), ('s', 20)]);
+        seq.end_scans();
+        assert_eq!(stamps(&mut seq), vec![('o', 30)]);
+        assert!(!seq.finished());
+        seq.end_odometry();
+        assert!(seq.finished());
+    }
+
+    #[test]
+    fn raw_scans_share_the_lidar_lane() {
+        let mut seq = Sequencer::default();
+        let raw = |t: u64| RawScan {
+            header: LaserScanHeader {
+                header: Header {
+                    stamp_ns: t,
+                    seq: t,
+                },
+                ..Default::default()
+            },
+            ranges: vec![1.0],
+        };
+        seq.push_raw_scan(raw(15));
+        seq.push_odometry(odo(10));
+        seq.push_odometry(odo(20));
+        assert_eq!(
+            stamps(&mut seq),
+            vec![('o', 10), ('r', 15)],
+            "odometry 20 waits: a scan at 18 may come"
+        );
+        seq.end_scans();
+        assert_eq!(stamps(&mut seq), vec![('o', 20)]);
+    }
+
+    #[test]
+    fn arrival_interleaving_does_not_change_the_output_order() {
+        // Each stream arrives in its own order; only the interleaving of the two varies.
+        let odos: Vec<Input> = (1..=12).map(|k| Input::Odometry(odo(k * 10))).collect();
+        let scans: Vec<Input> = (1..=3).map(|k| Input::Scan(scan(k * 40))).collect();
+        let run = |order: Vec<&Input>| {
+            let mut seq = Sequencer::default();
+            let mut out = Vec::new();
+            for input in order {
+                match input.clone() {
+                    Input::Odometry(o) => seq.push_odometry(o),
+                    Input::Scan(s) => seq.push_scan(s),
+                    Input::RawScan(s) => seq.push_raw_scan(s),
+                }
+                out.extend(stamps(&mut seq));
+            }
+            seq.end_odometry();
+            seq.end_scans();
+            out.extend(stamps(&mut seq));
+            out
+        };
+        let odo_first = run(odos.iter().chain(&scans).collect());
+        let scans_first = run(scans.iter().chain(&odos).collect());
+        let alternating = run(odos
+            .iter()
+            .zip(&scans)
+            .flat_map(|(a, b)| [a, b])
+            .chain(odos.iter().skip(3))
+            .collect());
+        assert_eq!(scans_first, odo_first);
+        assert_eq!(alternating, odo_first);
+        assert_eq!(odo_first.len(), 15);
+        let times: Vec<u64> = odo_first.iter().map(|(_, t)| *t).collect();
+        assert!(times.windows(2).all(|w| w[0] <= w[1]), "{odo_first:?}");
+        let scan_40 = odo_first.iter().position(|&e| e == ('s', 40)).unwrap();
+        assert_eq!(
+            odo_first[scan_40 - 1],
+            ('o', 40),
+            "odometry at the scan's stamp comes first"
+        );
+    }
+}

@@ -1,0 +1,352 @@
+//! Turns stamp-ordered inputs into filter calls, and the filter's results into messages.
+//! Raw scans go through pole extraction first and are kept (at keyframes) for the
+//! occupancy grid. No IPC here, so it is testable on its own.
+
+use crate::config::ServiceConfig;
+use crate::sequencer::{Input, RawScan};
+use fastslam_estimation::Pose2;
+use fastslam_estimation::fastslam::{FastSlam, OptimiserRefiner, PoseRefiner, StepReport};
+use fastslam_estimation::features::{ExtractorConfig, extract};
+use fastslam_estimation::grid::GridMapper;
+use fastslam_estimation::motion::Control;
+use fastslam_estimation::moves::MoveStats;
+use fastslam_estimation::observation::{Observation, Sensor};
+use fastslam_estimation::scan::RangeScan;
+use fastslam_protocol::{
+    Header, LandmarkMapHeader, MapLandmark, OccupancyGridHeader, PoseEstimate,
+};
+use std::f64::consts::TAU;
+
+/// The filter, its optimiser, and the service's bookkeeping around them.
+#[derive(Debug)]
+pub struct Slam {
+    filter: FastSlam,
+    refiner: Option<OptimiserRefiner>,
+    last_odometry_ns: Option<u64>,
+    extractor: ExtractorConfig,
+    mapper: GridMapper,
+}
+
+/// What an observation step produced.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Step {
+    /// The pose estimate, stamped with the scan's stamp (`seq` left to the publisher).
+    pub pose: PoseEstimate,
+    /// The filter's account of the step.
+    pub report: StepReport,
+    /// Observations the step used (extracted poles for a raw scan).
+    pub observations: usize,
+}
+
+impl Slam {
+    /// A filter with `config` ([`ServiceConfig::filter_config`]) and its optimiser,
+    /// starting at the map origin (the map frame is the start pose).
+    ///
+    /// # Errors
+    /// When the filter, optimiser or move configuration is invalid.
+    pub fn new(config: &ServiceConfig) -> fastslam_estimation::Result<Self> {
+        let filter = FastSlam::new(config.filter_config(), Pose2::default())?;
+        config.features.validate()?;
+        let refiner =
+            OptimiserRefiner::new(&config.optimizer, config.moves.clone(), config.filter.seed)?;
+        Ok(Self {
+            filter,
+            refiner,
+            last_odometry_ns: None,
+            extractor: config.features.clone(),
+            mapper: GridMapper::new(config.grid.clone())?,
+        })
+    }
+
+    /// Applies one input: odometry predicts over the interval since the previous odometry
+    /// stamp; a scan updates and yields a [`Step`].
+    ///
+    /// # Errors
+    /// The filter's error (bad input, degenerate weights); the filter is then unchanged
+    /// and the service carries on with the next input.
+    pub fn apply(&mut self, input: Input) -> fastslam_estimation::Result<Option<Step>> {
+        match input {
+            Input::Odometry(m) => {
+                let now = m.header.stamp_ns;
+                if let Some(previous) = self.last_odometry_ns.replace(now) {
+                    let dt = now.saturating_sub(previous) as f64 * 1e-9;
+                    let control = Control {
+                        v: m.v,
+                        omega: m.omega,
+                        steering: m.steering,
+                    };
+                    if dt > 0.0 {
+                        self.filter.predict(&control, dt)?;
+                    }
+                }
+                Ok(None)
+            }
+            Input::Scan(scan) => {
+                let observations: Vec<Observation> = scan
+                    .observations
+                    .iter()
+                    .map(|o| Observation {
+                        range: o.range,
+                        bearing: o.bearing,
+                        id: o.known_id(),
+                    })
+                    .collect();
+                let h = &scan.header;
+                let sensor = self.sensor(h.max_range, h.min_bearing, h.max_bearing);
+                self.update(h.header, &observations, &sensor).map(Some)
+            }
+            Input::RawScan(raw) => self.raw_scan(&raw).map(Some),
+        }
+    }
+
+    /// A raw scan: poles extracted and used as observations with unknown association,
+    /// then the scan offered to the grid mapper as a keyframe.
+    fn raw_scan(&mut self, raw: &RawScan) -> fastslam_estimation::Result<Step> {
+        let h = &raw.header;
+        let scan = RangeScan {
+            angle_min: h.angle_min.into(),
+            angle_increment: h.angle_increment.into(),
+            range_min: h.range_min.into(),
+            range_max: h.range_max.into(),
+            ranges: &raw.ranges,
+        };
+        // 1. Poles in the scan.
+        let observations: Vec<Observation> = extract(&scan, &self.extractor)
+            .iter()
+            .map(|f| Observation {
+                range: f.range,
+                bearing: f.bearing,
+                id: None,
+            })
+            .collect();
+        // 2. The filter step; poles are found up to the extractor's range.
+        let max_range = self.extractor.max_range.min(scan.range_max);
+        let sensor = self.sensor(max_range, scan.angle_min, h.angle_max());
+        let step = self.update(h.header, &observations, &sensor)?;
+        // 3. A keyframe for the grid: every particle records its pose.
+        let estimate = Pose2::new(step.pose.x, step.pose.y, step.pose.theta);
+        if let Some(keyframe) = self.mapper.offer(&scan, estimate) {
+            self.filter.record_poses(keyframe);
+        }
+        Ok(step)
+    }
+
+    fn update(
+        &mut self,
+        header: Header,
+        observations: &[Observation],
+        sensor: &Sensor,
+    ) -> fastslam_estimation::Result<Step> {
+        let refiner = self.refiner.as_mut().map(|r| r as &mut dyn PoseRefiner);
+        let report = self.filter.update_with(observations, sensor, refiner)?;
+        let estimate = self.filter.estimate();
+        let c = estimate.covariance;
+        let covariance = std::array::from_fn(|k| c[(k / 3, k % 3)]);
+        let pose = PoseEstimate {
+            header,
+            x: estimate.mean.x,
+            y: estimate.mean.y,
+            theta: estimate.mean.theta,
+            covariance,
+        };
+        Ok(Step {
+            pose,
+            report,
+            observations: observations.len(),
+        })
+    }
+
+    /// A scan's sensor: noise from the configuration, range and field of view from the
+    /// message. The filter's field of view is centred on the heading, so an asymmetric
+    /// one is widened to the larger side (negative evidence then errs on the side of
+    /// keeping landmarks).
+    fn sensor(&self, max_range: f64, min_bearing: f64, max_bearing: f64) -> Sensor {
+        let configured = &self.filter.config().sensor;
+        Sensor {
+            max_range,
+            field_of_view: (2.0 * min_bearing.abs().max(max_bearing.abs())).min(TAU),
+            ..configured.clone()
+        }
+    }
+
+    /// The best particle's occupancy grid, built from its own trajectory and the kept
+    /// raw scans; `None` before the first raw scan. See `fastslam_estimation::grid` for
+    /// the cost.
+    pub fn grid(&mut self, header: Header) -> Option<(OccupancyGridHeader, Vec<i8>)> {
+        let grid = self.mapper.grid(self.filter.best().trail())?;
+        let h = OccupancyGridHeader {
+            header,
+            resolution: grid.resolution,
+            origin_x: grid.origin[0],
+            origin_y: grid.origin[1],
+            origin_theta: 0.0,
+            width: u32::try_from(grid.width).unwrap_or(u32::MAX),
+            height: u32::try_from(grid.height).unwrap_or(u32::MAX),
+        };
+        Some((h, grid.cells))
+    }
+
+    /// What the optimiser's moves did so far (`None` without an optimiser).
+    pub fn move_stats(&self) -> Option<MoveStats> {
+        self.refiner.as_ref().map(OptimiserRefiner::stats)
+    }
+
+    /// Number of particles.
+    pub fn particles(&self) -> usize {
+        self.filter.particles().len()
+    }
+
+    /// Landmarks in the best particle's map.
+    pub fn landmarks(&self) -> usize {
+        self.filter.best().map().len()
+    }
+
+    /// The best particle's map as a message.
+    pub fn map(&self, header: Header) -> (LandmarkMapHeader, Vec<MapLandmark>) {
+        let map: Vec<MapLandmark> = self
+            .filter
+            .best_map()
+            .iter()
+            .map(|l| MapLandmark {
+                id: l.id,
+                x: l.mean.x,
+                y: l.mean.y,
+                cov_xx: l.covariance[(0, 0)],
+                cov_xy: l.covariance[(0, 1)],
+                cov_yy: l.covariance[(1, 1)],
+                observations: l.hits.into(),
+            })
+            .collect();
+        (
+            LandmarkMapHeader {
+                header,
+                count: map.len() as u32,
+                reserved: 0,
+            },
+            map,
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sequencer::Scan;
+    use fastslam_protocol::{LaserScanHeader, ObservationsHeader, Odometry};
+    use std::f64::consts::PI;
+
+    fn odometry(t_ns: u64, v: f64) -> Input {
+        Input::Odometry(Odometry {
+            header: Header {
+                stamp_ns: t_ns,
+                seq: 0,
+            },
+            v,
+            ..Default::default()
+        })
+    }
+
+    #[test]
+    fn odometry_then_a_scan_moves_the_estimate_and_maps_the_landmark() {
+        let mut config = ServiceConfig::default();
+        config.filter.particles = 20;
+        let mut slam = Slam::new(&config).unwrap();
+        assert_eq!(slam.apply(odometry(0, 0.0)).unwrap(), None);
+        for k in 1..=40 {
+            assert_eq!(slam.apply(odometry(k * 25_000_000, 2.0)).unwrap(), None);
+        }
+        let header = ObservationsHeader {
+            header: Header {
+                stamp_ns: 1_000_000_000,
+                seq: 0,
+            },
+            count: 1,
+            max_range: 30.0,
+            min_bearing: -1.6,
+            max_bearing: 1.6,
+            ..Default::default()
+        };
+        let obs = fastslam_protocol::Observation {
+            range: 8.0,
+            bearing: 0.0,
+            diameter: 0.0,
+            id: -1,
+        };
+        let step = slam
+            .apply(Input::Scan(Scan {
+                header,
+                observations: vec![obs],
+            }))
+            .unwrap()
+            .unwrap();
+        assert_eq!(step.pose.header.stamp_ns, 1_000_000_000);
+        assert!(
+            (step.pose.x - 2.0).abs() < 0.5,
+            "moved about 2 m in 1 s: {}",
+            step.pose.x
+        );
+        let (h, map) = slam.map(step.pose.header);
+        assert_eq!((h.count, map.len()), (1, 1));
+        assert!(
+            (map[0].x - 10.0).abs() < 1.0,
+            "landmark near x = 10: {}",
+            map[0].x
+        );
+        assert!(
+            step.pose.covariance[0] > 0.0 && step.pose.covariance[1] == step.pose.covariance[3]
+        );
+    }
+
+    #[test]
+    fn a_raw_scan_becomes_pole_observations_and_a_grid() {
+        let mut config = ServiceConfig::default();
+        config.filter.particles = 10;
+        let mut slam = Slam::new(&config).unwrap();
+        assert_eq!(slam.apply(odometry(0, 0.0)).unwrap(), None);
+        // A full turn of 720 beams: a pole of radius 0.2 m at (4, 0) inside a round wall
+        // of radius 8 m.
+        let increment = TAU / 720.0;
+        let ranges: Vec<f32> = (0..720)
+            .map(|i| {
+                let a = -PI + i as f64 * increment;
+                let across = 4.0 * a.sin();
+                let hits_pole = a.cos() > 0.0 && across.abs() <= 0.2;
+                let pole = 4.0 * a.cos() - (0.04 - across * across).max(0.0).sqrt();
+                (if hits_pole { pole } else { 8.0 }) as f32
+            })
+            .collect();
+        let header = LaserScanHeader {
+            header: Header {
+                stamp_ns: 100_000_000,
+                seq: 0,
+            },
+            angle_min: -PI as f32,
+            angle_increment: increment as f32,
+            range_min: 0.1,
+            range_max: 30.0,
+            ranges: 720,
+            ..Default::default()
+        };
+        let step = slam
+            .apply(Input::RawScan(RawScan { header, ranges }))
+            .unwrap()
+            .unwrap();
+        assert_eq!(step.observations, 1, "one pole, no wall");
+        let (_, map) = slam.map(step.pose.header);
+        assert_eq!(map.len(), 1);
+        assert!(
+            (map[0].x - 4.0).abs() < 0.05 && map[0].y.abs() < 0.05,
+            "{map:?}"
+        );
+        let (h, cells) = slam.grid(step.pose.header).unwrap();
+        assert_eq!(cells.len(), (h.width * h.height) as usize);
+        assert!(
+            cells.iter().any(|&c| c > 65),
+            "the wall and the pole are occupied"
+        );
+        assert!(
+            cells.iter().any(|&c| (0..45).contains(&c)),
+            "the inside is free"
+        );
+    }
+}

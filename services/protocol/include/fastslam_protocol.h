@@ -1,0 +1,308 @@
+/* The FastSLAM stack's wire contract for C and C++ (C11).
+ * GENERATED from services/protocol/README.md by tests/bindings.rs: do not edit;
+ * regenerate with FASTSLAM_BLESS=1 cargo test -p fastslam-protocol --test bindings.
+ * Publish with iceoryx2's C/C++ bindings: the type name, size and alignment of the
+ * payload must be the ones below; every topic is a publish-subscribe and an event
+ * service named <prefix>/<topic>, safe overflow off, the buffer and history below. */
+#ifndef FASTSLAM_PROTOCOL_H
+#define FASTSLAM_PROTOCOL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#define FASTSLAM_MAX_PUBLISHERS 8
+#define FASTSLAM_MAX_SUBSCRIBERS 8
+
+/* ground_truth: payload fastslam::GroundTruth, user header none */
+#define FASTSLAM_TOPIC_GROUND_TRUTH "ground_truth"
+#define FASTSLAM_TOPIC_GROUND_TRUTH_BUFFER 256
+#define FASTSLAM_TOPIC_GROUND_TRUTH_HISTORY 0
+
+/* truth/landmarks: payload [fastslam::MapLandmark], user header fastslam::LandmarkMapHeader */
+#define FASTSLAM_TOPIC_TRUTH_LANDMARKS "truth/landmarks"
+#define FASTSLAM_TOPIC_TRUTH_LANDMARKS_BUFFER 2
+#define FASTSLAM_TOPIC_TRUTH_LANDMARKS_HISTORY 1
+
+/* odometry: payload fastslam::Odometry, user header none */
+#define FASTSLAM_TOPIC_ODOMETRY "odometry"
+#define FASTSLAM_TOPIC_ODOMETRY_BUFFER 256
+#define FASTSLAM_TOPIC_ODOMETRY_HISTORY 0
+
+/* observations: payload [fastslam::Observation], user header fastslam::ObservationsHeader */
+#define FASTSLAM_TOPIC_OBSERVATIONS "observations"
+#define FASTSLAM_TOPIC_OBSERVATIONS_BUFFER 64
+#define FASTSLAM_TOPIC_OBSERVATIONS_HISTORY 0
+
+/* scan: payload [f32] (ranges, then intensities), user header fastslam::LaserScanHeader */
+#define FASTSLAM_TOPIC_SCAN "scan"
+#define FASTSLAM_TOPIC_SCAN_BUFFER 64
+#define FASTSLAM_TOPIC_SCAN_HISTORY 0
+
+/* pose: payload fastslam::PoseEstimate, user header none */
+#define FASTSLAM_TOPIC_POSE "pose"
+#define FASTSLAM_TOPIC_POSE_BUFFER 256
+#define FASTSLAM_TOPIC_POSE_HISTORY 0
+
+/* map: payload [fastslam::MapLandmark], user header fastslam::LandmarkMapHeader */
+#define FASTSLAM_TOPIC_MAP "map"
+#define FASTSLAM_TOPIC_MAP_BUFFER 4
+#define FASTSLAM_TOPIC_MAP_HISTORY 1
+
+/* grid: payload [i8] (cells), user header fastslam::OccupancyGridHeader */
+#define FASTSLAM_TOPIC_GRID "grid"
+#define FASTSLAM_TOPIC_GRID_BUFFER 2
+#define FASTSLAM_TOPIC_GRID_HISTORY 1
+
+/* status: payload fastslam::ServiceStatus, user header none */
+#define FASTSLAM_TOPIC_STATUS "status"
+#define FASTSLAM_TOPIC_STATUS_BUFFER 256
+#define FASTSLAM_TOPIC_STATUS_HISTORY 1
+
+/* end_of_stream: payload fastslam::EndOfStream, user header none */
+#define FASTSLAM_TOPIC_END_OF_STREAM "end_of_stream"
+#define FASTSLAM_TOPIC_END_OF_STREAM_BUFFER 16
+#define FASTSLAM_TOPIC_END_OF_STREAM_HISTORY 0
+
+#define FASTSLAM_STREAM_GROUND_TRUTH 1
+#define FASTSLAM_STREAM_ODOMETRY 2
+#define FASTSLAM_STREAM_OBSERVATIONS 3
+#define FASTSLAM_STREAM_POSE 4
+#define FASTSLAM_STREAM_MAP 5
+#define FASTSLAM_STREAM_STATUS 6
+#define FASTSLAM_STREAM_SCAN 7
+#define FASTSLAM_STREAM_GRID 8
+
+typedef struct fastslam_Header {
+    uint64_t stamp_ns; /* ns */
+    uint64_t seq; /* — */
+} fastslam_Header;
+
+/* fastslam::GroundTruth: true pose and the controls that led to it */
+#define FASTSLAM_GROUND_TRUTH_TYPE_NAME "fastslam::GroundTruth"
+typedef struct fastslam_GroundTruth {
+    fastslam_Header header;
+    double x; /* m: position x, frame `map */
+    double y; /* m: position y */
+    double theta; /* rad: heading in (−π, π] */
+    double v; /* m/s: true speed over the interval ending at the stamp */
+    double omega; /* rad/s: true yaw rate over that interval */
+    double steering; /* rad: true steering angle (0 for differential drive) */
+} fastslam_GroundTruth;
+_Static_assert(sizeof(fastslam_GroundTruth) == 64, "fastslam_GroundTruth must match the Rust layout");
+_Static_assert(_Alignof(fastslam_GroundTruth) == 8, "fastslam_GroundTruth must match the Rust layout");
+_Static_assert(offsetof(fastslam_GroundTruth, header.stamp_ns) == 0, "fastslam_GroundTruth must match the Rust layout");
+_Static_assert(offsetof(fastslam_GroundTruth, header.seq) == 8, "fastslam_GroundTruth must match the Rust layout");
+_Static_assert(offsetof(fastslam_GroundTruth, x) == 16, "fastslam_GroundTruth must match the Rust layout");
+_Static_assert(offsetof(fastslam_GroundTruth, y) == 24, "fastslam_GroundTruth must match the Rust layout");
+_Static_assert(offsetof(fastslam_GroundTruth, theta) == 32, "fastslam_GroundTruth must match the Rust layout");
+_Static_assert(offsetof(fastslam_GroundTruth, v) == 40, "fastslam_GroundTruth must match the Rust layout");
+_Static_assert(offsetof(fastslam_GroundTruth, omega) == 48, "fastslam_GroundTruth must match the Rust layout");
+_Static_assert(offsetof(fastslam_GroundTruth, steering) == 56, "fastslam_GroundTruth must match the Rust layout");
+
+/* fastslam::Odometry: measured speed, yaw rate, steering; dead-reckoned pose */
+#define FASTSLAM_ODOMETRY_TYPE_NAME "fastslam::Odometry"
+typedef struct fastslam_Odometry {
+    fastslam_Header header;
+    double v; /* m/s: measured forward speed */
+    double omega; /* rad/s: measured yaw rate (differential drive) */
+    double steering; /* rad: measured steering angle (car-like) */
+    double x; /* m: dead-reckoned x, frame `odom */
+    double y; /* m: dead-reckoned y */
+    double theta; /* rad: dead-reckoned heading */
+} fastslam_Odometry;
+_Static_assert(sizeof(fastslam_Odometry) == 64, "fastslam_Odometry must match the Rust layout");
+_Static_assert(_Alignof(fastslam_Odometry) == 8, "fastslam_Odometry must match the Rust layout");
+_Static_assert(offsetof(fastslam_Odometry, header.stamp_ns) == 0, "fastslam_Odometry must match the Rust layout");
+_Static_assert(offsetof(fastslam_Odometry, header.seq) == 8, "fastslam_Odometry must match the Rust layout");
+_Static_assert(offsetof(fastslam_Odometry, v) == 16, "fastslam_Odometry must match the Rust layout");
+_Static_assert(offsetof(fastslam_Odometry, omega) == 24, "fastslam_Odometry must match the Rust layout");
+_Static_assert(offsetof(fastslam_Odometry, steering) == 32, "fastslam_Odometry must match the Rust layout");
+_Static_assert(offsetof(fastslam_Odometry, x) == 40, "fastslam_Odometry must match the Rust layout");
+_Static_assert(offsetof(fastslam_Odometry, y) == 48, "fastslam_Odometry must match the Rust layout");
+_Static_assert(offsetof(fastslam_Odometry, theta) == 56, "fastslam_Odometry must match the Rust layout");
+
+/* fastslam::ObservationsHeader: header of one scan's landmark observations */
+#define FASTSLAM_OBSERVATIONS_HEADER_TYPE_NAME "fastslam::ObservationsHeader"
+typedef struct fastslam_ObservationsHeader {
+    fastslam_Header header;
+    uint32_t count; /* —: number of observations (= slice length) */
+    uint32_t reserved; /* —: 0 */
+    double max_range; /* m: the sensor's maximum range */
+    double min_bearing; /* rad: smallest bearing the sensor covers */
+    double max_bearing; /* rad: largest bearing the sensor covers */
+} fastslam_ObservationsHeader;
+_Static_assert(sizeof(fastslam_ObservationsHeader) == 48, "fastslam_ObservationsHeader must match the Rust layout");
+_Static_assert(_Alignof(fastslam_ObservationsHeader) == 8, "fastslam_ObservationsHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_ObservationsHeader, header.stamp_ns) == 0, "fastslam_ObservationsHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_ObservationsHeader, header.seq) == 8, "fastslam_ObservationsHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_ObservationsHeader, count) == 16, "fastslam_ObservationsHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_ObservationsHeader, reserved) == 20, "fastslam_ObservationsHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_ObservationsHeader, max_range) == 24, "fastslam_ObservationsHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_ObservationsHeader, min_bearing) == 32, "fastslam_ObservationsHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_ObservationsHeader, max_bearing) == 40, "fastslam_ObservationsHeader must match the Rust layout");
+
+/* fastslam::Observation: one range–bearing observation */
+#define FASTSLAM_OBSERVATION_TYPE_NAME "fastslam::Observation"
+typedef struct fastslam_Observation {
+    double range; /* m: range to the landmark's centre, in (0, max_range] */
+    double bearing; /* rad: bearing, vehicle frame */
+    double diameter; /* m: measured diameter, 0 when unknown */
+    int64_t id; /* —: landmark id when known (known association), −1 otherwise */
+} fastslam_Observation;
+_Static_assert(sizeof(fastslam_Observation) == 32, "fastslam_Observation must match the Rust layout");
+_Static_assert(_Alignof(fastslam_Observation) == 8, "fastslam_Observation must match the Rust layout");
+_Static_assert(offsetof(fastslam_Observation, range) == 0, "fastslam_Observation must match the Rust layout");
+_Static_assert(offsetof(fastslam_Observation, bearing) == 8, "fastslam_Observation must match the Rust layout");
+_Static_assert(offsetof(fastslam_Observation, diameter) == 16, "fastslam_Observation must match the Rust layout");
+_Static_assert(offsetof(fastslam_Observation, id) == 24, "fastslam_Observation must match the Rust layout");
+
+/* fastslam::PoseEstimate: estimated pose with 3×3 covariance */
+#define FASTSLAM_POSE_ESTIMATE_TYPE_NAME "fastslam::PoseEstimate"
+typedef struct fastslam_PoseEstimate {
+    fastslam_Header header;
+    double x; /* m: position x, frame `map */
+    double y; /* m: position y */
+    double theta; /* rad: heading */
+    double covariance[9]; /* m², m·rad, rad²: covariance of (x, y, θ), row-major */
+} fastslam_PoseEstimate;
+_Static_assert(sizeof(fastslam_PoseEstimate) == 112, "fastslam_PoseEstimate must match the Rust layout");
+_Static_assert(_Alignof(fastslam_PoseEstimate) == 8, "fastslam_PoseEstimate must match the Rust layout");
+_Static_assert(offsetof(fastslam_PoseEstimate, header.stamp_ns) == 0, "fastslam_PoseEstimate must match the Rust layout");
+_Static_assert(offsetof(fastslam_PoseEstimate, header.seq) == 8, "fastslam_PoseEstimate must match the Rust layout");
+_Static_assert(offsetof(fastslam_PoseEstimate, x) == 16, "fastslam_PoseEstimate must match the Rust layout");
+_Static_assert(offsetof(fastslam_PoseEstimate, y) == 24, "fastslam_PoseEstimate must match the Rust layout");
+_Static_assert(offsetof(fastslam_PoseEstimate, theta) == 32, "fastslam_PoseEstimate must match the Rust layout");
+_Static_assert(offsetof(fastslam_PoseEstimate, covariance) == 40, "fastslam_PoseEstimate must match the Rust layout");
+
+/* fastslam::LandmarkMapHeader: header of a landmark map */
+#define FASTSLAM_LANDMARK_MAP_HEADER_TYPE_NAME "fastslam::LandmarkMapHeader"
+typedef struct fastslam_LandmarkMapHeader {
+    fastslam_Header header;
+    uint32_t count; /* —: number of landmarks (= slice length) */
+    uint32_t reserved; /* —: 0 */
+} fastslam_LandmarkMapHeader;
+_Static_assert(sizeof(fastslam_LandmarkMapHeader) == 24, "fastslam_LandmarkMapHeader must match the Rust layout");
+_Static_assert(_Alignof(fastslam_LandmarkMapHeader) == 8, "fastslam_LandmarkMapHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_LandmarkMapHeader, header.stamp_ns) == 0, "fastslam_LandmarkMapHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_LandmarkMapHeader, header.seq) == 8, "fastslam_LandmarkMapHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_LandmarkMapHeader, count) == 16, "fastslam_LandmarkMapHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_LandmarkMapHeader, reserved) == 20, "fastslam_LandmarkMapHeader must match the Rust layout");
+
+/* fastslam::MapLandmark: one landmark: mean and covariance */
+#define FASTSLAM_MAP_LANDMARK_TYPE_NAME "fastslam::MapLandmark"
+typedef struct fastslam_MapLandmark {
+    uint64_t id; /* —: stable id within the map */
+    double x; /* m: mean x, frame `map */
+    double y; /* m: mean y */
+    double cov_xx; /* m²: covariance xx */
+    double cov_xy; /* m²: covariance xy */
+    double cov_yy; /* m²: covariance yy */
+    uint64_t observations; /* —: times observed (0 in a true map) */
+} fastslam_MapLandmark;
+_Static_assert(sizeof(fastslam_MapLandmark) == 56, "fastslam_MapLandmark must match the Rust layout");
+_Static_assert(_Alignof(fastslam_MapLandmark) == 8, "fastslam_MapLandmark must match the Rust layout");
+_Static_assert(offsetof(fastslam_MapLandmark, id) == 0, "fastslam_MapLandmark must match the Rust layout");
+_Static_assert(offsetof(fastslam_MapLandmark, x) == 8, "fastslam_MapLandmark must match the Rust layout");
+_Static_assert(offsetof(fastslam_MapLandmark, y) == 16, "fastslam_MapLandmark must match the Rust layout");
+_Static_assert(offsetof(fastslam_MapLandmark, cov_xx) == 24, "fastslam_MapLandmark must match the Rust layout");
+_Static_assert(offsetof(fastslam_MapLandmark, cov_xy) == 32, "fastslam_MapLandmark must match the Rust layout");
+_Static_assert(offsetof(fastslam_MapLandmark, cov_yy) == 40, "fastslam_MapLandmark must match the Rust layout");
+_Static_assert(offsetof(fastslam_MapLandmark, observations) == 48, "fastslam_MapLandmark must match the Rust layout");
+
+/* fastslam::ServiceStatus: the service's filter health and input bookkeeping */
+#define FASTSLAM_SERVICE_STATUS_TYPE_NAME "fastslam::ServiceStatus"
+typedef struct fastslam_ServiceStatus {
+    fastslam_Header header;
+    uint64_t steps; /* —: observation steps done */
+    uint64_t resamplings; /* —: times the particles were resampled */
+    double n_eff; /* —: effective sample size of the last step, before resampling */
+    uint32_t particles; /* —: number of particles */
+    uint32_t distinct_particles; /* —: distinct particles after the last step */
+    uint64_t landmarks; /* —: landmarks in the best particle's map */
+    uint64_t step_time_ns; /* ns: wall-clock time of the last filter update */
+    uint32_t queued[2]; /* —: inputs waiting: odometry, observations */
+    uint64_t last_input_ns[2]; /* ns: newest accepted stamp: odometry, observations */
+    uint32_t flags; /* —: bit 0: the last step resampled */
+    uint32_t reserved; /* —: 0 */
+    uint64_t rejections[16]; /* —: rejected inputs by reason: 0 non-finite, 1 out of range, 2 bad count, 3 stamp backwards, 4 refused by the filter */
+} fastslam_ServiceStatus;
+_Static_assert(sizeof(fastslam_ServiceStatus) == 224, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(_Alignof(fastslam_ServiceStatus) == 8, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, header.stamp_ns) == 0, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, header.seq) == 8, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, steps) == 16, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, resamplings) == 24, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, n_eff) == 32, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, particles) == 40, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, distinct_particles) == 44, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, landmarks) == 48, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, step_time_ns) == 56, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, queued) == 64, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, last_input_ns) == 72, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, flags) == 88, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, reserved) == 92, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, rejections) == 96, "fastslam_ServiceStatus must match the Rust layout");
+
+/* fastslam::EndOfStream: "this stream is finished" */
+#define FASTSLAM_END_OF_STREAM_TYPE_NAME "fastslam::EndOfStream"
+typedef struct fastslam_EndOfStream {
+    fastslam_Header header;
+    uint32_t stream; /* —: 1 ground truth, 2 odometry, 3 observations, 4 pose, 5 map, 6 status, 7 scan, 8 grid */
+    uint32_t reserved; /* —: 0 */
+} fastslam_EndOfStream;
+_Static_assert(sizeof(fastslam_EndOfStream) == 24, "fastslam_EndOfStream must match the Rust layout");
+_Static_assert(_Alignof(fastslam_EndOfStream) == 8, "fastslam_EndOfStream must match the Rust layout");
+_Static_assert(offsetof(fastslam_EndOfStream, header.stamp_ns) == 0, "fastslam_EndOfStream must match the Rust layout");
+_Static_assert(offsetof(fastslam_EndOfStream, header.seq) == 8, "fastslam_EndOfStream must match the Rust layout");
+_Static_assert(offsetof(fastslam_EndOfStream, stream) == 16, "fastslam_EndOfStream must match the Rust layout");
+_Static_assert(offsetof(fastslam_EndOfStream, reserved) == 20, "fastslam_EndOfStream must match the Rust layout");
+
+/* fastslam::LaserScanHeader: header of one raw lidar scan */
+#define FASTSLAM_LASER_SCAN_HEADER_TYPE_NAME "fastslam::LaserScanHeader"
+typedef struct fastslam_LaserScanHeader {
+    fastslam_Header header;
+    float angle_min; /* rad: direction of the first beam (0 = forward, counter-clockwise) */
+    float angle_increment; /* rad: angle between beams, > 0 (beams sweep counter-clockwise) */
+    float time_increment; /* s: time between beams (0: instantaneous scan) */
+    float scan_time; /* s: time between scans */
+    float range_min; /* m: shortest measurable range */
+    float range_max; /* m: longest measurable range */
+    uint32_t ranges; /* —: number of ranges, 1..=65536 */
+    uint32_t intensities; /* —: number of intensities after the ranges: 0 or `ranges */
+} fastslam_LaserScanHeader;
+_Static_assert(sizeof(fastslam_LaserScanHeader) == 48, "fastslam_LaserScanHeader must match the Rust layout");
+_Static_assert(_Alignof(fastslam_LaserScanHeader) == 8, "fastslam_LaserScanHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_LaserScanHeader, header.stamp_ns) == 0, "fastslam_LaserScanHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_LaserScanHeader, header.seq) == 8, "fastslam_LaserScanHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_LaserScanHeader, angle_min) == 16, "fastslam_LaserScanHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_LaserScanHeader, angle_increment) == 20, "fastslam_LaserScanHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_LaserScanHeader, time_increment) == 24, "fastslam_LaserScanHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_LaserScanHeader, scan_time) == 28, "fastslam_LaserScanHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_LaserScanHeader, range_min) == 32, "fastslam_LaserScanHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_LaserScanHeader, range_max) == 36, "fastslam_LaserScanHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_LaserScanHeader, ranges) == 40, "fastslam_LaserScanHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_LaserScanHeader, intensities) == 44, "fastslam_LaserScanHeader must match the Rust layout");
+
+/* fastslam::OccupancyGridHeader: header of an occupancy grid map */
+#define FASTSLAM_OCCUPANCY_GRID_HEADER_TYPE_NAME "fastslam::OccupancyGridHeader"
+typedef struct fastslam_OccupancyGridHeader {
+    fastslam_Header header;
+    double resolution; /* m: side of a square cell */
+    double origin_x; /* m: x of cell (0, 0)'s lower-left corner, frame `map */
+    double origin_y; /* m: y of that corner */
+    double origin_theta; /* rad: rotation of the grid about its origin */
+    uint32_t width; /* —: cells per row (along x) */
+    uint32_t height; /* —: rows (along y) */
+} fastslam_OccupancyGridHeader;
+_Static_assert(sizeof(fastslam_OccupancyGridHeader) == 56, "fastslam_OccupancyGridHeader must match the Rust layout");
+_Static_assert(_Alignof(fastslam_OccupancyGridHeader) == 8, "fastslam_OccupancyGridHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_OccupancyGridHeader, header.stamp_ns) == 0, "fastslam_OccupancyGridHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_OccupancyGridHeader, header.seq) == 8, "fastslam_OccupancyGridHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_OccupancyGridHeader, resolution) == 16, "fastslam_OccupancyGridHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_OccupancyGridHeader, origin_x) == 24, "fastslam_OccupancyGridHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_OccupancyGridHeader, origin_y) == 32, "fastslam_OccupancyGridHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_OccupancyGridHeader, origin_theta) == 40, "fastslam_OccupancyGridHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_OccupancyGridHeader, width) == 48, "fastslam_OccupancyGridHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_OccupancyGridHeader, height) == 52, "fastslam_OccupancyGridHeader must match the Rust layout");
+
+#endif /* FASTSLAM_PROTOCOL_H */

@@ -1,0 +1,297 @@
+"""The FastSLAM stack's wire contract for Python: ctypes structures with the
+protocol's type names, sizes and alignments, and the topics' settings.
+
+GENERATED from services/protocol/README.md by tests/bindings.rs: do not edit;
+regenerate with FASTSLAM_BLESS=1 cargo test -p fastslam-protocol --test bindings.
+Use with the iceoryx2 wheel (0.10): the structures carry `type_name()`.
+"""
+
+import ctypes
+from typing import NamedTuple
+
+MAX_PUBLISHERS = 8
+MAX_SUBSCRIBERS = 8
+
+
+class Topic(NamedTuple):
+    """A topic: service name below the prefix, subscriber buffer, history, payload."""
+
+    name: str
+    buffer: int
+    history: int
+    payload: str
+    user_header: str
+
+
+GROUND_TRUTH = Topic("ground_truth", 256, 0, "fastslam::GroundTruth", "")
+
+TRUTH_LANDMARKS = Topic("truth/landmarks", 2, 1, "[fastslam::MapLandmark]", "fastslam::LandmarkMapHeader")
+
+ODOMETRY = Topic("odometry", 256, 0, "fastslam::Odometry", "")
+
+OBSERVATIONS = Topic("observations", 64, 0, "[fastslam::Observation]", "fastslam::ObservationsHeader")
+
+SCAN = Topic("scan", 64, 0, "[f32] (ranges, then intensities)", "fastslam::LaserScanHeader")
+
+POSE = Topic("pose", 256, 0, "fastslam::PoseEstimate", "")
+
+MAP = Topic("map", 4, 1, "[fastslam::MapLandmark]", "fastslam::LandmarkMapHeader")
+
+GRID = Topic("grid", 2, 1, "[i8] (cells)", "fastslam::OccupancyGridHeader")
+
+STATUS = Topic("status", 256, 1, "fastslam::ServiceStatus", "")
+
+END_OF_STREAM = Topic("end_of_stream", 16, 0, "fastslam::EndOfStream", "")
+
+STREAM_GROUND_TRUTH = 1
+STREAM_ODOMETRY = 2
+STREAM_OBSERVATIONS = 3
+STREAM_POSE = 4
+STREAM_MAP = 5
+STREAM_STATUS = 6
+STREAM_SCAN = 7
+STREAM_GRID = 8
+
+
+class Header(ctypes.Structure):
+    """The `header` of a message."""
+
+    _fields_ = [
+        ("stamp_ns", ctypes.c_uint64),  # ns
+        ("seq", ctypes.c_uint64),  # —
+    ]
+
+
+class GroundTruth(ctypes.Structure):
+    """`fastslam::GroundTruth` (64 bytes, alignment 8): true pose and the controls that led to it."""
+
+    _fields_ = [
+        ("header", Header),
+        ("x", ctypes.c_double),  # m: position x, frame `map
+        ("y", ctypes.c_double),  # m: position y
+        ("theta", ctypes.c_double),  # rad: heading in (−π, π]
+        ("v", ctypes.c_double),  # m/s: true speed over the interval ending at the stamp
+        ("omega", ctypes.c_double),  # rad/s: true yaw rate over that interval
+        ("steering", ctypes.c_double),  # rad: true steering angle (0 for differential drive)
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::GroundTruth"
+
+
+class Odometry(ctypes.Structure):
+    """`fastslam::Odometry` (64 bytes, alignment 8): measured speed, yaw rate, steering; dead-reckoned pose."""
+
+    _fields_ = [
+        ("header", Header),
+        ("v", ctypes.c_double),  # m/s: measured forward speed
+        ("omega", ctypes.c_double),  # rad/s: measured yaw rate (differential drive)
+        ("steering", ctypes.c_double),  # rad: measured steering angle (car-like)
+        ("x", ctypes.c_double),  # m: dead-reckoned x, frame `odom
+        ("y", ctypes.c_double),  # m: dead-reckoned y
+        ("theta", ctypes.c_double),  # rad: dead-reckoned heading
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::Odometry"
+
+
+class ObservationsHeader(ctypes.Structure):
+    """`fastslam::ObservationsHeader` (48 bytes, alignment 8): header of one scan's landmark observations."""
+
+    _fields_ = [
+        ("header", Header),
+        ("count", ctypes.c_uint32),  # —: number of observations (= slice length)
+        ("reserved", ctypes.c_uint32),  # —: 0
+        ("max_range", ctypes.c_double),  # m: the sensor's maximum range
+        ("min_bearing", ctypes.c_double),  # rad: smallest bearing the sensor covers
+        ("max_bearing", ctypes.c_double),  # rad: largest bearing the sensor covers
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::ObservationsHeader"
+
+
+class Observation(ctypes.Structure):
+    """`fastslam::Observation` (32 bytes, alignment 8): one range–bearing observation."""
+
+    _fields_ = [
+        ("range", ctypes.c_double),  # m: range to the landmark's centre, in (0, max_range]
+        ("bearing", ctypes.c_double),  # rad: bearing, vehicle frame
+        ("diameter", ctypes.c_double),  # m: measured diameter, 0 when unknown
+        ("id", ctypes.c_int64),  # —: landmark id when known (known association), −1 otherwise
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::Observation"
+
+
+class PoseEstimate(ctypes.Structure):
+    """`fastslam::PoseEstimate` (112 bytes, alignment 8): estimated pose with 3×3 covariance."""
+
+    _fields_ = [
+        ("header", Header),
+        ("x", ctypes.c_double),  # m: position x, frame `map
+        ("y", ctypes.c_double),  # m: position y
+        ("theta", ctypes.c_double),  # rad: heading
+        ("covariance", ctypes.c_double * 9),  # m², m·rad, rad²: covariance of (x, y, θ), row-major
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::PoseEstimate"
+
+
+class LandmarkMapHeader(ctypes.Structure):
+    """`fastslam::LandmarkMapHeader` (24 bytes, alignment 8): header of a landmark map."""
+
+    _fields_ = [
+        ("header", Header),
+        ("count", ctypes.c_uint32),  # —: number of landmarks (= slice length)
+        ("reserved", ctypes.c_uint32),  # —: 0
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::LandmarkMapHeader"
+
+
+class MapLandmark(ctypes.Structure):
+    """`fastslam::MapLandmark` (56 bytes, alignment 8): one landmark: mean and covariance."""
+
+    _fields_ = [
+        ("id", ctypes.c_uint64),  # —: stable id within the map
+        ("x", ctypes.c_double),  # m: mean x, frame `map
+        ("y", ctypes.c_double),  # m: mean y
+        ("cov_xx", ctypes.c_double),  # m²: covariance xx
+        ("cov_xy", ctypes.c_double),  # m²: covariance xy
+        ("cov_yy", ctypes.c_double),  # m²: covariance yy
+        ("observations", ctypes.c_uint64),  # —: times observed (0 in a true map)
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::MapLandmark"
+
+
+class ServiceStatus(ctypes.Structure):
+    """`fastslam::ServiceStatus` (224 bytes, alignment 8): the service's filter health and input bookkeeping."""
+
+    _fields_ = [
+        ("header", Header),
+        ("steps", ctypes.c_uint64),  # —: observation steps done
+        ("resamplings", ctypes.c_uint64),  # —: times the particles were resampled
+        ("n_eff", ctypes.c_double),  # —: effective sample size of the last step, before resampling
+        ("particles", ctypes.c_uint32),  # —: number of particles
+        ("distinct_particles", ctypes.c_uint32),  # —: distinct particles after the last step
+        ("landmarks", ctypes.c_uint64),  # —: landmarks in the best particle's map
+        ("step_time_ns", ctypes.c_uint64),  # ns: wall-clock time of the last filter update
+        ("queued", ctypes.c_uint32 * 2),  # —: inputs waiting: odometry, observations
+        ("last_input_ns", ctypes.c_uint64 * 2),  # ns: newest accepted stamp: odometry, observations
+        ("flags", ctypes.c_uint32),  # —: bit 0: the last step resampled
+        ("reserved", ctypes.c_uint32),  # —: 0
+        ("rejections", ctypes.c_uint64 * 16),  # —: rejected inputs by reason: 0 non-finite, 1 out of range, 2 bad count, 3 stamp backwards, 4 refused by the filter
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::ServiceStatus"
+
+
+class EndOfStream(ctypes.Structure):
+    """`fastslam::EndOfStream` (24 bytes, alignment 8): "this stream is finished"."""
+
+    _fields_ = [
+        ("header", Header),
+        ("stream", ctypes.c_uint32),  # —: 1 ground truth, 2 odometry, 3 observations, 4 pose, 5 map, 6 status, 7 scan, 8 grid
+        ("reserved", ctypes.c_uint32),  # —: 0
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::EndOfStream"
+
+
+class LaserScanHeader(ctypes.Structure):
+    """`fastslam::LaserScanHeader` (48 bytes, alignment 8): header of one raw lidar scan."""
+
+    _fields_ = [
+        ("header", Header),
+        ("angle_min", ctypes.c_float),  # rad: direction of the first beam (0 = forward, counter-clockwise)
+        ("angle_increment", ctypes.c_float),  # rad: angle between beams, > 0 (beams sweep counter-clockwise)
+        ("time_increment", ctypes.c_float),  # s: time between beams (0: instantaneous scan)
+        ("scan_time", ctypes.c_float),  # s: time between scans
+        ("range_min", ctypes.c_float),  # m: shortest measurable range
+        ("range_max", ctypes.c_float),  # m: longest measurable range
+        ("ranges", ctypes.c_uint32),  # —: number of ranges, 1..=65536
+        ("intensities", ctypes.c_uint32),  # —: number of intensities after the ranges: 0 or `ranges
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::LaserScanHeader"
+
+
+class OccupancyGridHeader(ctypes.Structure):
+    """`fastslam::OccupancyGridHeader` (56 bytes, alignment 8): header of an occupancy grid map."""
+
+    _fields_ = [
+        ("header", Header),
+        ("resolution", ctypes.c_double),  # m: side of a square cell
+        ("origin_x", ctypes.c_double),  # m: x of cell (0, 0)'s lower-left corner, frame `map
+        ("origin_y", ctypes.c_double),  # m: y of that corner
+        ("origin_theta", ctypes.c_double),  # rad: rotation of the grid about its origin
+        ("width", ctypes.c_uint32),  # —: cells per row (along x)
+        ("height", ctypes.c_uint32),  # —: rows (along y)
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::OccupancyGridHeader"
+
+
+# The layouts above must equal the Rust ones (checked on import).
+LAYOUTS = {
+    GroundTruth: (64, 8, {"header": 0, "x": 16, "y": 24, "theta": 32, "v": 40, "omega": 48, "steering": 56}),
+    Odometry: (64, 8, {"header": 0, "v": 16, "omega": 24, "steering": 32, "x": 40, "y": 48, "theta": 56}),
+    ObservationsHeader: (48, 8, {"header": 0, "count": 16, "reserved": 20, "max_range": 24, "min_bearing": 32, "max_bearing": 40}),
+    Observation: (32, 8, {"range": 0, "bearing": 8, "diameter": 16, "id": 24}),
+    PoseEstimate: (112, 8, {"header": 0, "x": 16, "y": 24, "theta": 32, "covariance": 40}),
+    LandmarkMapHeader: (24, 8, {"header": 0, "count": 16, "reserved": 20}),
+    MapLandmark: (56, 8, {"id": 0, "x": 8, "y": 16, "cov_xx": 24, "cov_xy": 32, "cov_yy": 40, "observations": 48}),
+    ServiceStatus: (224, 8, {"header": 0, "steps": 16, "resamplings": 24, "n_eff": 32, "particles": 40, "distinct_particles": 44, "landmarks": 48, "step_time_ns": 56, "queued": 64, "last_input_ns": 72, "flags": 88, "reserved": 92, "rejections": 96}),
+    EndOfStream: (24, 8, {"header": 0, "stream": 16, "reserved": 20}),
+    LaserScanHeader: (48, 8, {"header": 0, "angle_min": 16, "angle_increment": 20, "time_increment": 24, "scan_time": 28, "range_min": 32, "range_max": 36, "ranges": 40, "intensities": 44}),
+    OccupancyGridHeader: (56, 8, {"header": 0, "resolution": 16, "origin_x": 24, "origin_y": 32, "origin_theta": 40, "width": 48, "height": 52}),
+}
+for _t, (_size, _align, _offsets) in LAYOUTS.items():
+    assert ctypes.sizeof(_t) == _size, _t
+    assert ctypes.alignment(_t) == _align, _t
+    for _field, _offset in _offsets.items():
+        assert getattr(_t, _field).offset == _offset, (_t, _field)

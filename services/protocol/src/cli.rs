@@ -1,0 +1,108 @@
+//! Flags and start-up every process of the stack shares: which stack to join, and logs.
+
+use crate::ipc::StackConfig;
+
+/// Default stack name: what a user's own publisher joins when nothing else is said.
+pub const DEFAULT_PREFIX: &str = "fastslam";
+
+/// Which stack a process joins.
+#[derive(Debug, Clone, clap::Args)]
+pub struct StackArgs {
+    /// Stack name: iceoryx2 file prefix and service-name prefix ([A-Za-z0-9_-], ≤ 32).
+    #[arg(long, env = "FASTSLAM_PREFIX", default_value = DEFAULT_PREFIX)]
+    pub prefix: String,
+    /// iceoryx2 root directory (keep it short: it holds Unix sockets). Default: iceoryx2's.
+    #[arg(long, env = "FASTSLAM_IOX_ROOT")]
+    pub iox_root: Option<String>,
+}
+
+impl StackArgs {
+    /// The stack location these flags name.
+    pub fn stack(&self) -> StackConfig {
+        StackConfig {
+            prefix: self.prefix.clone(),
+            root: self.iox_root.clone(),
+        }
+    }
+}
+
+/// Sends `tracing` output to stderr, filtered by `RUST_LOG` (default `info`), each line
+/// tagged with the process name so interleaved logs of a stack stay readable.
+pub fn init_logging(process: &'static str) {
+    use tracing_subscriber::EnvFilter;
+    let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("info"));
+    // A second call in the same process (tests) keeps the first subscriber.
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .with_target(false)
+        .try_init();
+    tracing::debug!(process, "logging started");
+}
+
+/// Command line of a single process: its own flags, nothing else.
+#[derive(Debug, clap::Parser)]
+#[command(version)]
+struct ProcessCli<A: clap::Args> {
+    #[command(flatten)]
+    args: A,
+}
+
+/// The whole `main` of a process binary: flags (with `about` as the `--help` text),
+/// logging, then `run`, inside a span named after the process so interleaved logs stay
+/// readable.
+///
+/// # Errors
+/// Whatever `run` returns.
+pub fn main_of<A: clap::Args, E: std::fmt::Display>(
+    process: &'static str,
+    about: &'static str,
+    run: impl FnOnce(A) -> Result<(), E>,
+) -> Result<(), E> {
+    use clap::{CommandFactory, FromArgMatches};
+    let matches = ProcessCli::<A>::command()
+        .name(process)
+        .about(about)
+        .get_matches();
+    let cli = ProcessCli::<A>::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    run_process(process, cli.args, run)
+}
+
+/// Runs a process whose flags are already parsed: logging, a span named after the
+/// process, and [`finish`].
+///
+/// # Errors
+/// `run`'s error unless a shutdown was requested.
+pub fn run_process<A, E: std::fmt::Display>(
+    process: &'static str,
+    args: A,
+    run: impl FnOnce(A) -> Result<(), E>,
+) -> Result<(), E> {
+    init_logging(process);
+    in_process_span(process, || finish(run(args)))
+}
+
+/// A process stopped by SIGINT/SIGTERM exits 0 whatever it was doing (it was asked to
+/// stop); any other error is the process's failure.
+///
+/// # Errors
+/// `result`'s error unless a shutdown was requested.
+pub fn finish<E: std::fmt::Display>(result: Result<(), E>) -> Result<(), E> {
+    match result {
+        Err(e) if crate::ipc::shutdown::requested() => {
+            tracing::info!("stopped by signal ({e})");
+            Ok(())
+        }
+        Ok(()) if crate::ipc::shutdown::requested() => {
+            tracing::info!("stopped by signal");
+            Ok(())
+        }
+        r => r,
+    }
+}
+
+/// Runs `f` inside the span that tags every log line with the process name.
+pub fn in_process_span<T>(process: &'static str, f: impl FnOnce() -> T) -> T {
+    tracing::info_span!("process", name = process).in_scope(f)
+}

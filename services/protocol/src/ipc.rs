@@ -1,0 +1,719 @@
+//! The IPC plumbing every process of the stack shares: where a stack lives (prefix and
+//! root path), and publishers/subscribers that pair each topic with an event service so
+//! receivers sleep in a `WaitSet` instead of polling.
+//!
+//! Delivery is lossless by default: services are created without safe overflow and
+//! publishers retry until a full subscriber buffer has room ("as fast as possible, lose
+//! nothing"), giving up only when the process is asked to shut down.
+
+use crate::topics::{self, Topic};
+use iceoryx2::port::ReceiveError;
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::publisher::PublisherCreateError;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::port::update_connections::UpdateConnections;
+use iceoryx2::port::{BackpressureAction, BackpressureInfo};
+use iceoryx2::prelude::*;
+use iceoryx2::sample::Sample;
+use iceoryx2::service::builder::publish_subscribe::{
+    Builder as PubSubBuilder, PublishSubscribeOpenOrCreateError,
+};
+use iceoryx2::service::port_factory::PortFactory as _;
+use iceoryx2::service::port_factory::publish_subscribe::PortFactory;
+use iceoryx2::waitset::WaitSetRunResult;
+use std::fmt::Debug;
+use std::time::{Duration, Instant};
+
+/// The iceoryx2 service flavour the stack uses: inter-process, shared memory.
+pub type Service = ipc::Service;
+
+/// What can go wrong while setting up or using IPC.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum IpcError {
+    /// The prefix or root path cannot be used as an iceoryx2 file name / path.
+    #[error("invalid stack location `{value}`: {reason}")]
+    InvalidLocation {
+        /// The rejected value.
+        value: String,
+        /// Why it was rejected.
+        reason: String,
+    },
+    /// An iceoryx2 call failed.
+    #[error("{action} failed: {reason}")]
+    Iceoryx {
+        /// What the process tried to do, e.g. "open service fastslam/pose".
+        action: String,
+        /// iceoryx2's error, as text.
+        reason: String,
+    },
+    /// Waiting for peers took longer than allowed.
+    #[error("timed out after {waited:?} waiting for {what}")]
+    Timeout {
+        /// What was awaited.
+        what: String,
+        /// How long the process waited.
+        waited: Duration,
+    },
+    /// SIGINT or SIGTERM arrived while waiting.
+    #[error("shutdown requested")]
+    Shutdown,
+}
+
+/// Result alias of the IPC helpers.
+pub type Result<T> = std::result::Result<T, IpcError>;
+
+fn iox_err<E: Debug>(action: impl Into<String>) -> impl FnOnce(E) -> IpcError {
+    let action = action.into();
+    move |e| IpcError::Iceoryx {
+        action,
+        reason: format!("{e:?}"),
+    }
+}
+
+/// Where a stack lives. The prefix is used twice: as iceoryx2's file prefix (so
+/// `/dev/shm/<prefix>*` belongs to this stack alone) and as the service-name prefix.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct StackConfig {
+    /// Stack name: letters, digits, `_` and `-` only.
+    pub prefix: String,
+    /// iceoryx2 root directory (Unix sockets live here; keep it short). `None`: the
+    /// iceoryx2 default.
+    pub root: Option<String>,
+}
+
+impl StackConfig {
+    /// The iceoryx2 configuration of this stack.
+    ///
+    /// # Errors
+    /// [`IpcError::InvalidLocation`] when the prefix or root is not a valid file name/path.
+    pub fn iceoryx_config(&self) -> Result<Config> {
+        let invalid = |value: &str, reason: &str| IpcError::InvalidLocation {
+            value: value.to_string(),
+            reason: reason.to_string(),
+        };
+        let ok_char = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '-';
+        if self.prefix.is_empty() || self.prefix.len() > 32 || !self.prefix.chars().all(ok_char) {
+            return Err(invalid(&self.prefix, "use 1–32 of [A-Za-z0-9_-]"));
+        }
+        let mut config = Config::default();
+        config.global.prefix = FileName::new(self.prefix.as_bytes())
+            .map_err(|e| invalid(&self.prefix, &format!("{e:?}")))?;
+        if let Some(root) = &self.root {
+            let path = Path::new(root.as_bytes()).map_err(|e| invalid(root, &format!("{e:?}")))?;
+            config.global.set_root_path(&path);
+        }
+        Ok(config)
+    }
+}
+
+/// Process-wide shutdown flag: set once SIGINT or SIGTERM has been seen by iceoryx2's
+/// signal handler (which reports a signal only once, so it is latched here).
+pub mod shutdown {
+    use iceoryx2_bb_posix::signal::SignalHandler;
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    static REQUESTED: AtomicBool = AtomicBool::new(false);
+
+    /// True once SIGINT or SIGTERM arrived (or [`request`] was called).
+    pub fn requested() -> bool {
+        if SignalHandler::termination_requested() {
+            REQUESTED.store(true, Ordering::SeqCst);
+        }
+        REQUESTED.load(Ordering::SeqCst)
+    }
+
+    /// Marks the process as shutting down (for example when a `WaitSet` reported a signal).
+    pub fn request() {
+        REQUESTED.store(true, Ordering::SeqCst);
+    }
+}
+
+/// One process's connection to a stack: an iceoryx2 node under the stack's config.
+pub struct Ipc {
+    node: Node<Service>,
+    prefix: String,
+    wait_timeout: Duration,
+}
+
+impl Ipc {
+    /// Joins the stack as node `name`. `wait_timeout` bounds every wait for peers
+    /// (publishers of a topic this process subscribes to, subscribers it waits for).
+    ///
+    /// # Errors
+    /// [`IpcError::InvalidLocation`] for a bad prefix/root, [`IpcError::Iceoryx`] when
+    /// the node cannot be created (for example `/dev/shm` is not writable).
+    pub fn open(stack: &StackConfig, name: &str, wait_timeout: Duration) -> Result<Self> {
+        // Installs iceoryx2's SIGINT/SIGTERM handler now, so a signal never kills the
+        // process in the middle of writing shared memory.
+        shutdown::requested();
+        let config = stack.iceoryx_config()?;
+        let node_name = NodeName::new(name).map_err(iox_err(format!("node name {name}")))?;
+        let node = NodeBuilder::new()
+            .name(&node_name)
+            .config(&config)
+            .create::<Service>()
+            .map_err(iox_err(format!("create node {name}")))?;
+        Ok(Self {
+            node,
+            prefix: stack.prefix.clone(),
+            wait_timeout,
+        })
+    }
+
+    /// The underlying iceoryx2 node.
+    pub fn node(&self) -> &Node<Service> {
+        &self.node
+    }
+
+    /// Opens a publisher for fixed-size messages `T` on `topic`.
+    ///
+    /// # Errors
+    /// [`IpcError::Iceoryx`] when the service cannot be opened with the stack's settings.
+    pub fn publisher<T: Debug + ZeroCopySend + 'static>(
+        &self,
+        topic: &Topic,
+    ) -> Result<Pub<T, ()>> {
+        Pub::open(self, topic)
+    }
+
+    /// Opens a publisher for a header `H` plus a slice of `T` on `topic`.
+    ///
+    /// # Errors
+    /// As [`Ipc::publisher`].
+    pub fn slice_publisher<H, T>(&self, topic: &Topic) -> Result<Pub<[T], H>>
+    where
+        H: Debug + ZeroCopySend + 'static,
+        T: Debug + ZeroCopySend + Copy + 'static,
+    {
+        Pub::open(self, topic)
+    }
+
+    /// Opens a subscriber for fixed-size messages `T` on `topic`.
+    ///
+    /// It waits until the topic has a publisher and connects to it at once. iceoryx2
+    /// connects a subscriber lazily (on its first receive); a publisher that floods a
+    /// not-yet-connected subscriber's buffer drops the overflow. Connecting on creation
+    /// closes that gap, provided every process creates its publishers before its
+    /// subscribers (then no wait can form a cycle).
+    ///
+    /// # Errors
+    /// As [`Ipc::publisher`], and [`IpcError::Timeout`] when no publisher appears.
+    pub fn subscriber<T: Debug + ZeroCopySend + 'static>(
+        &self,
+        topic: &Topic,
+    ) -> Result<Sub<T, ()>> {
+        Sub::open(self, topic)
+    }
+
+    /// Opens a subscriber for a header `H` plus a slice of `T` on `topic`; see
+    /// [`Ipc::subscriber`].
+    ///
+    /// # Errors
+    /// As [`Ipc::subscriber`].
+    pub fn slice_subscriber<H, T>(&self, topic: &Topic) -> Result<Sub<[T], H>>
+    where
+        H: Debug + ZeroCopySend + 'static,
+        T: Debug + ZeroCopySend + 'static,
+    {
+        Sub::open(self, topic)
+    }
+
+    /// A probe counting the publishers `topic` has (payload `P`, user header `H`), for a
+    /// process that accepts an input on one topic or another and waits to see which one
+    /// is published (see [`Ipc::wait_until`]).
+    ///
+    /// # Errors
+    /// [`IpcError::Iceoryx`] when the service cannot be opened with the stack's settings.
+    pub fn publisher_probe<P, H>(&self, topic: &Topic) -> Result<impl Fn() -> usize + use<P, H>>
+    where
+        P: Wire + ?Sized,
+        H: Debug + ZeroCopySend + 'static,
+    {
+        let service = self.pubsub::<P, H>(topic)?;
+        Ok(move || service.dynamic_config().number_of_publishers())
+    }
+
+    /// Polls `ready` until it holds, the wait timeout passes or a signal arrives.
+    ///
+    /// # Errors
+    /// [`IpcError::Timeout`] naming `what`, or [`IpcError::Shutdown`].
+    pub fn wait_until(&self, what: impl Fn() -> String, ready: impl Fn() -> bool) -> Result<()> {
+        let start = Instant::now();
+        while !ready() {
+            if start.elapsed() > self.wait_timeout {
+                return Err(IpcError::Timeout {
+                    what: what(),
+                    waited: start.elapsed(),
+                });
+            }
+            self.sleep(Duration::from_millis(2))?;
+        }
+        Ok(())
+    }
+
+    /// Sleeps for `d` unless a shutdown signal arrives first.
+    ///
+    /// # Errors
+    /// [`IpcError::Shutdown`] when SIGINT/SIGTERM arrived.
+    pub fn sleep(&self, d: Duration) -> Result<()> {
+        if self.node.wait(d).is_err() {
+            shutdown::request();
+        }
+        if shutdown::requested() {
+            Err(IpcError::Shutdown)
+        } else {
+            Ok(())
+        }
+    }
+
+    /// Sleeps until any of `listeners` fires (or `tick` elapses, if given) and calls
+    /// `on_wake` each time, until it returns [`Flow::Stop`] or a signal arrives.
+    ///
+    /// `on_wake` should drain every subscriber it owns: wake-ups are not per sample, and
+    /// it is also called at least every [`LOST_WAKEUP_GUARD`].
+    ///
+    /// # Errors
+    /// [`IpcError::Iceoryx`] when the WaitSet fails, or whatever `on_wake` returns.
+    pub fn wake_loop<E: From<IpcError>>(
+        &self,
+        listeners: &[&Listener<Service>],
+        tick: Option<Duration>,
+        mut on_wake: impl FnMut() -> std::result::Result<Flow, E>,
+    ) -> std::result::Result<Ended, E> {
+        let waitset = WaitSetBuilder::new()
+            .create::<Service>()
+            .map_err(iox_err("create waitset"))?;
+        let mut guards = Vec::with_capacity(listeners.len());
+        for l in listeners {
+            guards.push(
+                waitset
+                    .attach_notification(*l)
+                    .map_err(iox_err("attach listener"))?,
+            );
+        }
+        let period = tick.map_or(LOST_WAKEUP_GUARD, |t| t.min(LOST_WAKEUP_GUARD));
+        let tick_guard = waitset
+            .attach_interval(period)
+            .map_err(iox_err("attach interval"))?;
+        // Samples published before this loop started raise no new event: look once first.
+        if on_wake()? == Flow::Stop {
+            return Ok(Ended::Done);
+        }
+        let mut failure = None;
+        let result = waitset.wait_and_process(|_| match on_wake() {
+            Ok(Flow::Continue) => CallbackProgression::Continue,
+            Ok(Flow::Stop) => CallbackProgression::Stop,
+            Err(e) => {
+                failure = Some(e);
+                CallbackProgression::Stop
+            }
+        });
+        drop((guards, tick_guard));
+        if let Some(e) = failure {
+            return Err(e);
+        }
+        match result.map_err(iox_err("wait"))? {
+            WaitSetRunResult::Interrupt | WaitSetRunResult::TerminationRequest => {
+                shutdown::request();
+                Ok(Ended::Signal)
+            }
+            WaitSetRunResult::StopRequest | WaitSetRunResult::AllEventsHandled => Ok(Ended::Done),
+        }
+    }
+
+    fn pubsub<P, H>(&self, topic: &Topic) -> Result<PortFactory<Service, P, H>>
+    where
+        P: Wire + ?Sized,
+        H: Debug + ZeroCopySend + 'static,
+    {
+        let name = topics::service_name(&self.prefix, topic.name);
+        let service_name =
+            ServiceName::new(&name).map_err(iox_err(format!("service name {name}")))?;
+        let builder = self
+            .node
+            .service_builder(&service_name)
+            .publish_subscribe::<P>()
+            .user_header::<H>()
+            .enable_safe_overflow(false)
+            .subscriber_max_buffer_size(topic.buffer)
+            .history_size(topic.history)
+            .max_publishers(topics::MAX_PUBLISHERS)
+            .max_subscribers(topics::MAX_SUBSCRIBERS);
+        P::open_service(builder).map_err(iox_err(format!("open service {name}")))
+    }
+
+    fn event(
+        &self,
+        topic: &Topic,
+    ) -> Result<iceoryx2::service::port_factory::event::PortFactory<Service>> {
+        let name = topics::service_name(&self.prefix, topic.name);
+        let service_name =
+            ServiceName::new(&name).map_err(iox_err(format!("service name {name}")))?;
+        self.node
+            .service_builder(&service_name)
+            .event()
+            .open_or_create()
+            .map_err(iox_err(format!("open event {name}")))
+    }
+}
+
+/// Bridges iceoryx2's separate APIs for fixed-size payloads (`T`) and slices (`[T]`), so
+/// one [`Pub`] and one [`Sub`] serve both.
+pub trait Wire: Debug + IceoryxSend + 'static {
+    /// Opens or creates the publish–subscribe service from a configured builder.
+    ///
+    /// # Errors
+    /// iceoryx2's error when the service cannot be opened or created.
+    fn open_service<H: Debug + ZeroCopySend + 'static>(
+        builder: PubSubBuilder<Self, H, Service>,
+    ) -> std::result::Result<PortFactory<Service, Self, H>, PublishSubscribeOpenOrCreateError>;
+
+    /// Creates a publisher (slices: growing by powers of two from the topic's first guess).
+    ///
+    /// # Errors
+    /// iceoryx2's error when the publisher cannot be created.
+    fn create_publisher<H: Debug + ZeroCopySend + 'static>(
+        service: &PortFactory<Service, Self, H>,
+        topic: &Topic,
+    ) -> std::result::Result<Publisher<Service, Self, H>, PublisherCreateError>;
+
+    /// Receives the next sample, if any.
+    ///
+    /// # Errors
+    /// iceoryx2's error when receiving fails.
+    fn receive<H: Debug + ZeroCopySend + 'static>(
+        subscriber: &Subscriber<Service, Self, H>,
+    ) -> std::result::Result<Option<Sample<Service, Self, H>>, ReceiveError>;
+}
+
+impl<T: Debug + ZeroCopySend + 'static> Wire for T {
+    fn open_service<H: Debug + ZeroCopySend + 'static>(
+        builder: PubSubBuilder<Self, H, Service>,
+    ) -> std::result::Result<PortFactory<Service, Self, H>, PublishSubscribeOpenOrCreateError> {
+        builder.open_or_create()
+    }
+
+    fn create_publisher<H: Debug + ZeroCopySend + 'static>(
+        service: &PortFactory<Service, Self, H>,
+        _topic: &Topic,
+    ) -> std::result::Result<Publisher<Service, Self, H>, PublisherCreateError> {
+        service
+            .publisher_builder()
+            .backpressure_strategy(BackpressureStrategy::RetryUntilDelivered)
+            .set_backpressure_handler(retry_unless_shutting_down)
+            .create()
+    }
+
+    fn receive<H: Debug + ZeroCopySend + 'static>(
+        subscriber: &Subscriber<Service, Self, H>,
+    ) -> std::result::Result<Option<Sample<Service, Self, H>>, ReceiveError> {
+        subscriber.receive()
+    }
+}
+
+impl<T: Debug + ZeroCopySend + 'static> Wire for [T] {
+    fn open_service<H: Debug + ZeroCopySend + 'static>(
+        builder: PubSubBuilder<Self, H, Service>,
+    ) -> std::result::Result<PortFactory<Service, Self, H>, PublishSubscribeOpenOrCreateError> {
+        builder.open_or_create()
+    }
+
+    fn create_publisher<H: Debug + ZeroCopySend + 'static>(
+        service: &PortFactory<Service, Self, H>,
+        topic: &Topic,
+    ) -> std::result::Result<Publisher<Service, Self, H>, PublisherCreateError> {
+        service
+            .publisher_builder()
+            .initial_max_slice_len(topic.initial_slice_len)
+            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .backpressure_strategy(BackpressureStrategy::RetryUntilDelivered)
+            .set_backpressure_handler(retry_unless_shutting_down)
+            .create()
+    }
+
+    fn receive<H: Debug + ZeroCopySend + 'static>(
+        subscriber: &Subscriber<Service, Self, H>,
+    ) -> std::result::Result<Option<Sample<Service, Self, H>>, ReceiveError> {
+        subscriber.receive()
+    }
+}
+
+/// The longest [`Ipc::wake_loop`] sleeps without looking at its subscribers.
+///
+/// iceoryx2 0.10 can swallow a notification: when a notifier's `notify` runs while the
+/// listener is draining (between the listener resetting its state from "notified" to
+/// "idle" and emptying its socket), the listener consumes the new datagram but the state
+/// is left "notified", so the next `notify` sends no datagram and the `WaitSet` does not
+/// wake (iceoryx2-cal `event/common.rs`, `notify` and `drain_events`). A stack whose
+/// loops only slept on listeners hung once (in some hundreds of runs) with the odometry
+/// sensor asleep and the truth's end of stream unprocessed, which fits this. Looking
+/// again after this period turns a lost wake-up into a short delay; the extra wake-ups
+/// cost nothing measurable.
+pub const LOST_WAKEUP_GUARD: Duration = Duration::from_millis(100);
+
+/// What a [`Ipc::wake_loop`] callback wants next.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Flow {
+    /// Keep sleeping and waking.
+    Continue,
+    /// The work is done: leave the loop.
+    Stop,
+}
+
+/// Why a [`Ipc::wake_loop`] ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ended {
+    /// The callback said it was done.
+    Done,
+    /// SIGINT or SIGTERM arrived.
+    Signal,
+}
+
+/// A publisher on one topic, with the notifier that wakes its subscribers.
+pub struct Pub<P: Wire + ?Sized, H: Debug + ZeroCopySend + 'static> {
+    service: PortFactory<Service, P, H>,
+    publisher: Publisher<Service, P, H>,
+    notifier: Notifier<Service>,
+    topic: &'static str,
+}
+
+impl<P, H> Pub<P, H>
+where
+    P: Wire + ?Sized,
+    H: Debug + ZeroCopySend + 'static,
+{
+    fn open(ipc: &Ipc, topic: &Topic) -> Result<Self> {
+        let service = ipc.pubsub::<P, H>(topic)?;
+        let publisher = P::create_publisher(&service, topic)
+            .map_err(iox_err(format!("create publisher on {}", topic.name)))?;
+        let notifier = ipc
+            .event(topic)?
+            .notifier_builder()
+            .create()
+            .map_err(iox_err(format!("create notifier on {}", topic.name)))?;
+        Ok(Self {
+            service,
+            publisher,
+            notifier,
+            topic: topic.name,
+        })
+    }
+
+    /// Number of subscribers connected right now.
+    pub fn subscribers(&self) -> usize {
+        self.service.dynamic_config().number_of_subscribers()
+    }
+
+    /// Waits until at least `n` subscribers are connected, so that nothing published
+    /// afterwards is lost on a subscriber that was still starting. (A [`Sub`] connects as
+    /// it is created, see [`Ipc::subscriber`], so every counted subscriber is ready.)
+    ///
+    /// # Errors
+    /// [`IpcError::Timeout`] after the wait timeout, [`IpcError::Shutdown`] on a signal.
+    pub fn wait_for_subscribers(&self, ipc: &Ipc, n: usize) -> Result<()> {
+        ipc.wait_until(
+            || format!("{n} subscriber(s) on {}", self.topic),
+            || self.subscribers() >= n,
+        )
+    }
+
+    /// Waits until every subscriber has left (bounded by the wait timeout), for a
+    /// process about to exit. A slice topic's samples live in the publisher's growable
+    /// data segment, which a subscriber maps only when it receives from it: were the
+    /// publisher to exit first, samples not yet received would be lost (iceoryx2 logs
+    /// "Lost chunk"). Consumers leave once they have everything, so this wait is short;
+    /// one that never leaves (a viewer) costs the wait timeout, with a warning.
+    ///
+    /// # Errors
+    /// [`IpcError::Shutdown`] on a signal (a timeout is not an error).
+    pub fn wait_until_unsubscribed(&self, ipc: &Ipc) -> Result<()> {
+        let left = ipc.wait_until(
+            || format!("the subscribers of {} to leave", self.topic),
+            || self.subscribers() == 0,
+        );
+        match left {
+            Err(IpcError::Timeout { what, waited }) => {
+                tracing::warn!(?waited, "gave up waiting for {what}");
+                Ok(())
+            }
+            other => other,
+        }
+    }
+
+    fn notify(&self) -> Result<()> {
+        self.notifier
+            .notify()
+            .map(|_| ())
+            .map_err(iox_err(format!("notify on {}", self.topic)))
+    }
+}
+
+/// Keeps retrying a full subscriber buffer, unless the process is shutting down.
+fn retry_unless_shutting_down(_: &BackpressureInfo) -> BackpressureAction {
+    if shutdown::requested() {
+        BackpressureAction::DiscardData
+    } else {
+        BackpressureAction::Retry
+    }
+}
+
+impl<T: Debug + ZeroCopySend + 'static> Pub<T, ()> {
+    /// Publishes one message and wakes the subscribers.
+    ///
+    /// # Errors
+    /// [`IpcError::Iceoryx`] when the sample cannot be loaned or sent.
+    pub fn send(&self, value: T) -> Result<()> {
+        self.publisher
+            .send_copy(value)
+            .map_err(iox_err(format!("send on {}", self.topic)))?;
+        self.notify()
+    }
+}
+
+impl<H, T> Pub<[T], H>
+where
+    H: Debug + ZeroCopySend + Default + 'static,
+    T: Debug + ZeroCopySend + Copy + 'static,
+{
+    /// Publishes `header` with `items` and wakes the subscribers. The items are written
+    /// once, straight into shared memory.
+    ///
+    /// # Errors
+    /// [`IpcError::Iceoryx`] when the sample cannot be loaned or sent.
+    pub fn send(&self, header: H, items: &[T]) -> Result<()> {
+        let mut sample = self
+            .publisher
+            .loan_slice_uninit(items.len())
+            .map_err(iox_err(format!("loan on {}", self.topic)))?;
+        *sample.user_header_mut() = header;
+        let sample = sample.write_from_slice(items);
+        sample
+            .send()
+            .map_err(iox_err(format!("send on {}", self.topic)))?;
+        self.notify()
+    }
+}
+
+/// A subscriber on one topic, with the listener a `WaitSet` can sleep on.
+pub struct Sub<P: Wire + ?Sized, H: Debug + ZeroCopySend + 'static> {
+    subscriber: Subscriber<Service, P, H>,
+    listener: Listener<Service>,
+    topic: &'static str,
+}
+
+impl<P, H> Sub<P, H>
+where
+    P: Wire + ?Sized,
+    H: Debug + ZeroCopySend + 'static,
+{
+    fn open(ipc: &Ipc, topic: &Topic) -> Result<Self> {
+        let service = ipc.pubsub::<P, H>(topic)?;
+        ipc.wait_until(
+            || format!("a publisher on {}", topic.name),
+            || service.dynamic_config().number_of_publishers() > 0,
+        )?;
+        let subscriber = service
+            .subscriber_builder()
+            .buffer_size(topic.buffer)
+            .create()
+            .map_err(iox_err(format!("create subscriber on {}", topic.name)))?;
+        subscriber
+            .update_connections()
+            .map_err(iox_err(format!("connect subscriber on {}", topic.name)))?;
+        let listener = ipc
+            .event(topic)?
+            .listener_builder()
+            .create()
+            .map_err(iox_err(format!("create listener on {}", topic.name)))?;
+        Ok(Self {
+            subscriber,
+            listener,
+            topic: topic.name,
+        })
+    }
+
+    /// The listener to attach to a `WaitSet`.
+    pub fn listener(&self) -> &Listener<Service> {
+        &self.listener
+    }
+
+    /// The topic name (without prefix), for logs.
+    pub fn topic(&self) -> &'static str {
+        self.topic
+    }
+
+    /// Takes every pending sample, in publication order, after clearing the pending
+    /// wake-ups (otherwise the `WaitSet` keeps firing).
+    ///
+    /// # Errors
+    /// [`IpcError::Iceoryx`] when receiving fails.
+    pub fn drain(&self, mut each: impl FnMut(Sample<Service, P, H>)) -> Result<usize> {
+        self.listener
+            .try_wait(|_| {})
+            .map_err(iox_err(format!("wait on {}", self.topic)))?;
+        let mut n = 0;
+        while let Some(sample) =
+            P::receive(&self.subscriber).map_err(iox_err(format!("receive on {}", self.topic)))?
+        {
+            each(sample);
+            n += 1;
+        }
+        Ok(n)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::EndOfStream;
+
+    /// Without notifications a wake loop still looks again (see [`LOST_WAKEUP_GUARD`]);
+    /// before the guard this loop slept forever.
+    #[test]
+    fn wake_loop_looks_again_when_no_notification_arrives() {
+        let prefix = format!("wlg{}x", std::process::id());
+        let root = std::env::temp_dir().join("fsl").join(&prefix);
+        let stack = StackConfig {
+            prefix: prefix.clone(),
+            root: Some(root.display().to_string()),
+        };
+        let (done, result) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let ipc = Ipc::open(&stack, "test", Duration::from_secs(5)).unwrap();
+            let _publisher = ipc
+                .publisher::<EndOfStream>(&topics::END_OF_STREAM)
+                .unwrap();
+            let sub = ipc
+                .subscriber::<EndOfStream>(&topics::END_OF_STREAM)
+                .unwrap();
+            let mut calls = 0;
+            let ended = ipc.wake_loop::<IpcError>(&[sub.listener()], None, || {
+                calls += 1;
+                Ok(if calls == 3 {
+                    Flow::Stop
+                } else {
+                    Flow::Continue
+                })
+            });
+            let _ = done.send(ended.map_err(|e| e.to_string()));
+        });
+        let ended = result.recv_timeout(Duration::from_secs(10));
+        for e in std::fs::read_dir("/dev/shm")
+            .into_iter()
+            .flatten()
+            .flatten()
+        {
+            if e.file_name().to_string_lossy().starts_with(&prefix) {
+                let _ = std::fs::remove_file(e.path());
+            }
+        }
+        let _ = std::fs::remove_dir_all(&root);
+        assert_eq!(
+            ended.expect("the loop never woke up without a notification"),
+            Ok(Ended::Done)
+        );
+    }
+}

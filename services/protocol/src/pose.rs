@@ -1,0 +1,48 @@
+//! Poses: the simulator's ground truth and the service's estimate.
+
+use crate::header::Header;
+use iceoryx2::prelude::*;
+
+/// True vehicle state, published by the simulator (frame `map`).
+///
+/// Carries the true controls that moved the vehicle to this pose over the interval
+/// ending at `header.stamp_ns`, so the odometry simulator can derive noisy odometry.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("fastslam::GroundTruth")]
+#[repr(C)]
+pub struct GroundTruth {
+    /// Stamp and sequence number.
+    pub header: Header,
+    /// Position x (m).
+    pub x: f64,
+    /// Position y (m).
+    pub y: f64,
+    /// Heading (rad, counter-clockwise from +x, in (−π, π]).
+    pub theta: f64,
+    /// Forward speed over the last interval (m/s).
+    pub v: f64,
+    /// Yaw rate over the last interval (rad/s).
+    pub omega: f64,
+    /// Steering angle over the last interval (rad; 0 for a differential-drive robot).
+    pub steering: f64,
+}
+
+/// The estimated vehicle pose with its covariance (frame `map`), like
+/// `geometry_msgs/PoseWithCovarianceStamped` restricted to the plane.
+///
+/// `header.stamp_ns` is the stamp of the observation that produced the estimate.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("fastslam::PoseEstimate")]
+#[repr(C)]
+pub struct PoseEstimate {
+    /// Stamp of the input that produced this estimate, and the estimate's sequence number.
+    pub header: Header,
+    /// Position x (m).
+    pub x: f64,
+    /// Position y (m).
+    pub y: f64,
+    /// Heading (rad, in (−π, π]).
+    pub theta: f64,
+    /// Covariance of (x, y, θ), row-major (m², m·rad, rad²).
+    pub covariance: [f64; 9],
+}

@@ -1,0 +1,64 @@
+//! The service's account of itself: filter health, timing and input bookkeeping, for
+//! monitoring and metrics. Clients judge accuracy from poses and ground truth, never from
+//! this message; it says how the filter is doing, not how well.
+
+use crate::header::Header;
+use iceoryx2::prelude::*;
+
+/// Number of rejection counters in [`ServiceStatus::rejections`].
+pub const REJECTION_KINDS: usize = 16;
+
+/// Why an input was rejected; the index into [`ServiceStatus::rejections`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum RejectionKind {
+    /// A number is NaN or infinite.
+    NonFinite = 0,
+    /// A value is outside its allowed range (negative or over-range range, …).
+    OutOfRange = 1,
+    /// The header's count disagrees with the payload, or exceeds the limit.
+    BadCount = 2,
+    /// The stamp goes back before the stream's previous one.
+    StampBackwards = 3,
+    /// The filter refused the input (degenerate weights, a control it cannot apply).
+    Filter = 4,
+}
+
+/// Bit flags of [`ServiceStatus::flags`].
+pub mod flags {
+    /// The last observation step resampled the particles.
+    pub const RESAMPLED: u32 = 1;
+}
+
+/// Published by the service after every observation step.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("fastslam::ServiceStatus")]
+#[repr(C)]
+pub struct ServiceStatus {
+    /// Stamp of the last observation step, and sequence number.
+    pub header: Header,
+    /// Observation steps done.
+    pub steps: u64,
+    /// Times the particles were resampled.
+    pub resamplings: u64,
+    /// Effective sample size of the last step, before resampling (1..N).
+    pub n_eff: f64,
+    /// Number of particles.
+    pub particles: u32,
+    /// Distinct particles after the last step (N when it did not resample).
+    pub distinct_particles: u32,
+    /// Landmarks in the best particle's map.
+    pub landmarks: u64,
+    /// Wall-clock time of the last observation step's filter update (ns).
+    pub step_time_ns: u64,
+    /// Inputs waiting in the service's queues (odometry, observations).
+    pub queued: [u32; 2],
+    /// Newest accepted stamp per input stream (odometry, observations), ns.
+    pub last_input_ns: [u64; 2],
+    /// Bit set of [`flags`].
+    pub flags: u32,
+    /// Reserved, 0.
+    pub reserved: u32,
+    /// Rejected inputs so far, indexed by [`RejectionKind`].
+    pub rejections: [u64; REJECTION_KINDS],
+}

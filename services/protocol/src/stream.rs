@@ -1,0 +1,158 @@
+//! End of a finite stream.
+
+use crate::header::Header;
+use iceoryx2::prelude::*;
+
+/// Which stream an [`EndOfStream`] closes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum StreamId {
+    /// [`crate::GroundTruth`] on [`crate::topics::GROUND_TRUTH`].
+    GroundTruth = 1,
+    /// [`crate::Odometry`] on [`crate::topics::ODOMETRY`].
+    Odometry = 2,
+    /// Observations on [`crate::topics::OBSERVATIONS`].
+    Observations = 3,
+    /// [`crate::PoseEstimate`] on [`crate::topics::POSE`].
+    Pose = 4,
+    /// Landmark maps on [`crate::topics::MAP`].
+    Map = 5,
+    /// [`crate::ServiceStatus`] on [`crate::topics::STATUS`].
+    Status = 6,
+    /// Raw lidar scans on [`crate::topics::SCAN`].
+    Scan = 7,
+    /// Occupancy grids on [`crate::topics::GRID`].
+    Grid = 8,
+}
+
+impl StreamId {
+    /// The stream for a wire value, if it is one.
+    pub fn from_u32(v: u32) -> Option<Self> {
+        [
+            Self::GroundTruth,
+            Self::Odometry,
+            Self::Observations,
+            Self::Pose,
+            Self::Map,
+            Self::Status,
+            Self::Scan,
+            Self::Grid,
+        ]
+        .into_iter()
+        .find(|s| *s as u32 == v)
+    }
+}
+
+/// "Stream `stream` is finished; its last message had this header."
+///
+/// Published on [`crate::topics::END_OF_STREAM`], which every stream shares. A receiver
+/// treats the stream as finished once it has processed the message with `header.seq`
+/// (messages of different topics are not ordered against each other), or at once when
+/// the stream never sent anything (`header.seq == u64::MAX`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ZeroCopySend)]
+#[type_name("fastslam::EndOfStream")]
+#[repr(C)]
+pub struct EndOfStream {
+    /// Stamp and sequence number of the stream's last message.
+    pub header: Header,
+    /// The [`StreamId`] as `u32`.
+    pub stream: u32,
+    /// Reserved, must be 0.
+    pub reserved: u32,
+}
+
+impl EndOfStream {
+    /// The closing message of `stream` whose last message had `last` as header
+    /// (`None`: the stream sent nothing).
+    pub fn new(stream: StreamId, last: Option<Header>) -> Self {
+        let header = last.unwrap_or(Header {
+            stamp_ns: 0,
+            seq: u64::MAX,
+        });
+        Self {
+            header,
+            stream: stream as u32,
+            reserved: 0,
+        }
+    }
+
+    /// The sequence number of the last message, `None` when the stream sent nothing.
+    pub fn last_seq(&self) -> Option<u64> {
+        (self.header.seq != u64::MAX).then_some(self.header.seq)
+    }
+}
+
+/// Whether one stream has finished, from a receiver's point of view: finished once its
+/// [`EndOfStream`] arrived *and* the announced last message has been processed.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct StreamEnd {
+    announced: Option<Option<u64>>,
+    newest_seq: Option<u64>,
+}
+
+impl StreamEnd {
+    /// Records that the message with `seq` was processed.
+    pub fn saw(&mut self, seq: u64) {
+        self.newest_seq = Some(self.newest_seq.map_or(seq, |s| s.max(seq)));
+    }
+
+    /// Records the stream's end-of-stream message.
+    pub fn announce(&mut self, eos: &EndOfStream) {
+        self.announced = Some(eos.last_seq());
+    }
+
+    /// True once the end was announced and everything up to the last message was seen.
+    pub fn finished(&self) -> bool {
+        match self.announced {
+            None => false,
+            Some(None) => true,
+            Some(Some(last)) => self.newest_seq.is_some_and(|s| s >= last),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stream_end_waits_for_the_announced_last_message() {
+        let mut end = StreamEnd::default();
+        end.saw(3);
+        assert!(!end.finished());
+        end.announce(&EndOfStream::new(
+            StreamId::Pose,
+            Some(Header {
+                stamp_ns: 9,
+                seq: 5,
+            }),
+        ));
+        assert!(!end.finished(), "message 5 not seen yet");
+        end.saw(5);
+        assert!(end.finished());
+    }
+
+    #[test]
+    fn stream_end_of_an_empty_stream_is_immediate() {
+        let mut end = StreamEnd::default();
+        end.announce(&EndOfStream::new(StreamId::Map, None));
+        assert!(end.finished());
+    }
+
+    #[test]
+    fn stream_ids_round_trip() {
+        for id in [
+            StreamId::GroundTruth,
+            StreamId::Odometry,
+            StreamId::Observations,
+            StreamId::Pose,
+            StreamId::Map,
+            StreamId::Status,
+            StreamId::Scan,
+            StreamId::Grid,
+        ] {
+            assert_eq!(StreamId::from_u32(id as u32), Some(id));
+        }
+        assert_eq!(StreamId::from_u32(0), None);
+    }
+}

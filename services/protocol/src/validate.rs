@@ -1,0 +1,447 @@
+//! Checks every receiver applies before it uses a message: a bad message is reported
+//! with its reason and skipped, never allowed to crash the receiver or poison the filter.
+
+use crate::{
+    GroundTruth, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation, ObservationsHeader,
+    OccupancyGridHeader, Odometry,
+};
+
+/// Most observations one message may carry.
+pub const MAX_OBSERVATIONS: usize = 4096;
+/// Most landmarks one map message may carry.
+pub const MAX_MAP_LANDMARKS: usize = 1 << 20;
+/// Most beams one scan may carry.
+pub const MAX_SCAN_BEAMS: usize = 1 << 16;
+/// Most cells one occupancy grid may carry (a 1 km square at 0.25 m).
+pub const MAX_GRID_CELLS: usize = 1 << 24;
+
+/// Why a message was rejected.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum Rejection {
+    /// A field that must be a finite number is NaN or infinite.
+    #[error("non-finite `{field}`")]
+    NonFinite {
+        /// The field's name.
+        field: &'static str,
+    },
+    /// A value is outside its allowed range.
+    #[error("`{field}` = {value} out of range: {reason}")]
+    OutOfRange {
+        /// The field's name.
+        field: &'static str,
+        /// The rejected value.
+        value: f64,
+        /// The allowed range, in words.
+        reason: &'static str,
+    },
+    /// The header's count disagrees with the slice length, or exceeds the limit.
+    #[error("header count {count} but {len} items (limit {limit})")]
+    BadCount {
+        /// Count the header claims.
+        count: u64,
+        /// Items actually in the slice.
+        len: usize,
+        /// The limit for this message type.
+        limit: usize,
+    },
+    /// The stamp is older than the stream's previous message.
+    #[error("stamp {stamp_ns} ns goes back before {previous_ns} ns")]
+    StampBackwards {
+        /// This message's stamp.
+        stamp_ns: u64,
+        /// The previous message's stamp.
+        previous_ns: u64,
+    },
+}
+
+impl Rejection {
+    /// The counter this rejection belongs to in [`crate::ServiceStatus::rejections`].
+    pub fn kind(&self) -> crate::status::RejectionKind {
+        use crate::status::RejectionKind as K;
+        match self {
+            Self::NonFinite { .. } => K::NonFinite,
+            Self::OutOfRange { .. } => K::OutOfRange,
+            Self::BadCount { .. } => K::BadCount,
+            Self::StampBackwards { .. } => K::StampBackwards,
+        }
+    }
+}
+
+fn finite(field: &'static str, v: f64) -> Result<(), Rejection> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(Rejection::NonFinite { field })
+    }
+}
+
+fn count(count: u32, len: usize, limit: usize) -> Result<(), Rejection> {
+    if count as usize == len && len <= limit {
+        Ok(())
+    } else {
+        Err(Rejection::BadCount {
+            count: count.into(),
+            len,
+            limit,
+        })
+    }
+}
+
+/// Checks a ground-truth pose: all numbers finite.
+pub fn ground_truth(m: &GroundTruth) -> Result<(), Rejection> {
+    for (field, v) in [
+        ("x", m.x),
+        ("y", m.y),
+        ("theta", m.theta),
+        ("v", m.v),
+        ("omega", m.omega),
+        ("steering", m.steering),
+    ] {
+        finite(field, v)?;
+    }
+    Ok(())
+}
+
+/// Checks odometry: all numbers finite.
+pub fn odometry(m: &Odometry) -> Result<(), Rejection> {
+    for (field, v) in [
+        ("v", m.v),
+        ("omega", m.omega),
+        ("steering", m.steering),
+        ("x", m.x),
+        ("y", m.y),
+        ("theta", m.theta),
+    ] {
+        finite(field, v)?;
+    }
+    Ok(())
+}
+
+/// Checks a scan's observations: count matches, sensor description sane, every range
+/// positive and within the sensor's maximum, every bearing finite.
+pub fn observations(h: &ObservationsHeader, items: &[Observation]) -> Result<(), Rejection> {
+    count(h.count, items.len(), MAX_OBSERVATIONS)?;
+    finite("max_range", h.max_range)?;
+    finite("min_bearing", h.min_bearing)?;
+    finite("max_bearing", h.max_bearing)?;
+    if h.max_range <= 0.0 {
+        return Err(Rejection::OutOfRange {
+            field: "max_range",
+            value: h.max_range,
+            reason: "must be > 0",
+        });
+    }
+    if h.min_bearing > h.max_bearing {
+        return Err(Rejection::OutOfRange {
+            field: "min_bearing",
+            value: h.min_bearing,
+            reason: "must be ≤ max_bearing",
+        });
+    }
+    for o in items {
+        finite("range", o.range)?;
+        finite("bearing", o.bearing)?;
+        finite("diameter", o.diameter)?;
+        if o.range <= 0.0 || o.range > h.max_range {
+            return Err(Rejection::OutOfRange {
+                field: "range",
+                value: o.range,
+                reason: "must be in (0, max_range]",
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Checks a raw scan's header against its slice: counts (1 ≤ ranges ≤
+/// [`MAX_SCAN_BEAMS`], intensities 0 or one per range, slice length = ranges +
+/// intensities), finite angles, times and limits, a positive increment, a sweep of at
+/// most one turn, and `0 ≤ range_min < range_max`.
+///
+/// Individual ranges are not judged here: REP-117 makes `+∞` (no return), `−∞` (too
+/// close), NaN (invalid) and values outside `[range_min, range_max]` legitimate beam
+/// values, each meaning "no obstacle measured along this beam". Receivers treat them
+/// so; a scan is rejected only when its header or counts make it unreadable.
+/// Intensities are carried, not used, and not checked.
+pub fn laser_scan(h: &LaserScanHeader, data: &[f32]) -> Result<(), Rejection> {
+    let ranges = h.ranges as usize;
+    let expected = ranges + h.intensities as usize;
+    let intensities_ok = h.intensities == 0 || h.intensities == h.ranges;
+    if ranges == 0 || !intensities_ok || expected != data.len() || ranges > MAX_SCAN_BEAMS {
+        return Err(Rejection::BadCount {
+            count: expected as u64,
+            len: data.len(),
+            limit: 2 * MAX_SCAN_BEAMS,
+        });
+    }
+    for (field, v) in [
+        ("angle_min", h.angle_min),
+        ("angle_increment", h.angle_increment),
+        ("time_increment", h.time_increment),
+        ("scan_time", h.scan_time),
+        ("range_min", h.range_min),
+        ("range_max", h.range_max),
+    ] {
+        finite(field, v.into())?;
+    }
+    let sweep = f64::from(h.angle_increment) * (ranges - 1) as f64;
+    if h.angle_increment <= 0.0 || sweep > std::f64::consts::TAU + 1e-4 {
+        return Err(Rejection::OutOfRange {
+            field: "angle_increment",
+            value: h.angle_increment.into(),
+            reason: "must be > 0 with (ranges − 1) · angle_increment ≤ 2π",
+        });
+    }
+    if !(h.range_min >= 0.0 && h.range_min < h.range_max) {
+        return Err(Rejection::OutOfRange {
+            field: "range_min",
+            value: h.range_min.into(),
+            reason: "must satisfy 0 ≤ range_min < range_max",
+        });
+    }
+    Ok(())
+}
+
+/// Checks an occupancy grid: resolution finite and > 0, origin finite, `width · height`
+/// cells (at most [`MAX_GRID_CELLS`]) equal to the slice length, every cell −1 or 0..=100.
+pub fn occupancy_grid(h: &OccupancyGridHeader, cells: &[i8]) -> Result<(), Rejection> {
+    let count = h.cells().filter(|&n| n <= MAX_GRID_CELLS);
+    if count != Some(cells.len()) {
+        return Err(Rejection::BadCount {
+            count: u64::from(h.width) * u64::from(h.height),
+            len: cells.len(),
+            limit: MAX_GRID_CELLS,
+        });
+    }
+    for (field, v) in [
+        ("resolution", h.resolution),
+        ("origin_x", h.origin_x),
+        ("origin_y", h.origin_y),
+        ("origin_theta", h.origin_theta),
+    ] {
+        finite(field, v)?;
+    }
+    if h.resolution <= 0.0 {
+        return Err(Rejection::OutOfRange {
+            field: "resolution",
+            value: h.resolution,
+            reason: "must be > 0",
+        });
+    }
+    if let Some(&bad) = cells.iter().find(|&&c| !(-1..=100).contains(&c)) {
+        return Err(Rejection::OutOfRange {
+            field: "cells",
+            value: bad.into(),
+            reason: "must be -1 (unknown) or 0..=100",
+        });
+    }
+    Ok(())
+}
+
+/// Checks a landmark map: count matches and every number finite.
+pub fn landmark_map(h: &LandmarkMapHeader, items: &[MapLandmark]) -> Result<(), Rejection> {
+    count(h.count, items.len(), MAX_MAP_LANDMARKS)?;
+    for l in items {
+        for (field, v) in [
+            ("x", l.x),
+            ("y", l.y),
+            ("cov_xx", l.cov_xx),
+            ("cov_xy", l.cov_xy),
+            ("cov_yy", l.cov_yy),
+        ] {
+            finite(field, v)?;
+        }
+    }
+    Ok(())
+}
+
+/// Per-stream stamp order: remembers the newest stamp and rejects older ones.
+#[derive(Debug, Default, Clone)]
+pub struct StampOrder {
+    last_ns: Option<u64>,
+}
+
+impl StampOrder {
+    /// Accepts `stamp_ns` when it is not older than the previous accepted stamp.
+    ///
+    /// # Errors
+    /// [`Rejection::StampBackwards`] otherwise (the stream's state is left unchanged).
+    pub fn accept(&mut self, stamp_ns: u64) -> Result<(), Rejection> {
+        match self.last_ns {
+            Some(previous_ns) if stamp_ns < previous_ns => Err(Rejection::StampBackwards {
+                stamp_ns,
+                previous_ns,
+            }),
+            _ => {
+                self.last_ns = Some(stamp_ns);
+                Ok(())
+            }
+        }
+    }
+
+    /// The newest accepted stamp: the stream's watermark.
+    pub fn last(&self) -> Option<u64> {
+        self.last_ns
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scan(ranges: &[f64]) -> (ObservationsHeader, Vec<Observation>) {
+        let items: Vec<Observation> = ranges
+            .iter()
+            .map(|&range| Observation {
+                range,
+                bearing: 0.1,
+                diameter: 0.0,
+                id: -1,
+            })
+            .collect();
+        let h = ObservationsHeader {
+            count: items.len() as u32,
+            max_range: 30.0,
+            min_bearing: -1.5,
+            max_bearing: 1.5,
+            ..Default::default()
+        };
+        (h, items)
+    }
+
+    #[test]
+    fn observations_accept_a_good_scan() {
+        let (h, items) = scan(&[1.0, 29.9]);
+        assert_eq!(observations(&h, &items), Ok(()));
+    }
+
+    #[test]
+    fn observations_reject_nan_negative_and_over_range() {
+        for bad in [f64::NAN, -1.0, 0.0, 30.5, f64::INFINITY] {
+            let (h, items) = scan(&[1.0, bad]);
+            assert!(observations(&h, &items).is_err(), "range {bad} accepted");
+        }
+    }
+
+    #[test]
+    fn observations_reject_count_mismatch() {
+        let (mut h, items) = scan(&[1.0, 2.0]);
+        h.count = 3;
+        assert!(matches!(
+            observations(&h, &items),
+            Err(Rejection::BadCount {
+                count: 3,
+                len: 2,
+                ..
+            })
+        ));
+    }
+
+    fn laser(ranges: &[f32], intensities: usize) -> (LaserScanHeader, Vec<f32>) {
+        let mut data = ranges.to_vec();
+        data.extend(std::iter::repeat_n(1.0, intensities));
+        let h = LaserScanHeader {
+            angle_min: -1.5,
+            angle_increment: 0.01,
+            range_min: 0.1,
+            range_max: 30.0,
+            ranges: ranges.len() as u32,
+            intensities: intensities as u32,
+            ..Default::default()
+        };
+        (h, data)
+    }
+
+    #[test]
+    fn laser_scan_accepts_rep117_beam_values() {
+        let odd = [2.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN, 0.0, 99.0];
+        let (h, data) = laser(&odd, 0);
+        assert_eq!(laser_scan(&h, &data), Ok(()));
+        let (h, data) = laser(&odd, odd.len());
+        assert_eq!(laser_scan(&h, &data), Ok(()), "with intensities");
+        assert_eq!(h.ranges_of(&data).len(), 6);
+        assert_eq!(h.intensities_of(&data), &[1.0; 6]);
+    }
+
+    #[test]
+    fn laser_scan_rejects_bad_counts_and_headers() {
+        let (mut h, data) = laser(&[1.0, 2.0, 3.0], 0);
+        h.ranges = 4;
+        assert!(matches!(
+            laser_scan(&h, &data),
+            Err(Rejection::BadCount { .. })
+        ));
+        let (mut h, data) = laser(&[1.0, 2.0, 3.0], 3);
+        h.intensities = 2;
+        assert!(matches!(
+            laser_scan(&h, &data),
+            Err(Rejection::BadCount { .. })
+        ));
+        let (mut h, data) = laser(&[1.0, 2.0], 0);
+        h.angle_min = f32::NAN;
+        assert_eq!(
+            laser_scan(&h, &data),
+            Err(Rejection::NonFinite { field: "angle_min" })
+        );
+        for (increment, range_min, range_max) in
+            [(0.0, 0.1, 30.0), (4.0, 0.1, 30.0), (0.01, 5.0, 5.0)]
+        {
+            let (mut h, data) = laser(&[1.0, 2.0, 3.0], 0);
+            (h.angle_increment, h.range_min, h.range_max) = (increment, range_min, range_max);
+            assert!(
+                matches!(laser_scan(&h, &data), Err(Rejection::OutOfRange { .. })),
+                "{increment} {range_min} {range_max}"
+            );
+        }
+        let (h, _) = laser(&[], 0);
+        assert!(laser_scan(&h, &[]).is_err(), "a scan needs a beam");
+    }
+
+    #[test]
+    fn occupancy_grid_checks_size_numbers_and_cell_values() {
+        let h = OccupancyGridHeader {
+            resolution: 0.1,
+            width: 3,
+            height: 2,
+            ..Default::default()
+        };
+        assert_eq!(occupancy_grid(&h, &[-1, 0, 100, 50, 0, -1]), Ok(()));
+        assert!(matches!(
+            occupancy_grid(&h, &[0; 5]),
+            Err(Rejection::BadCount { .. })
+        ));
+        assert!(occupancy_grid(&h, &[0, 0, 0, 0, 0, 101]).is_err());
+        assert!(occupancy_grid(&h, &[0, 0, 0, 0, 0, -2]).is_err());
+        let nan = OccupancyGridHeader {
+            origin_x: f64::NAN,
+            ..h
+        };
+        assert!(occupancy_grid(&nan, &[0; 6]).is_err());
+        let huge = OccupancyGridHeader {
+            width: u32::MAX,
+            height: u32::MAX,
+            ..h
+        };
+        assert!(occupancy_grid(&huge, &[0; 6]).is_err());
+    }
+
+    #[test]
+    fn odometry_rejects_non_finite() {
+        let m = Odometry {
+            v: f64::NAN,
+            ..Default::default()
+        };
+        assert_eq!(odometry(&m), Err(Rejection::NonFinite { field: "v" }));
+    }
+
+    #[test]
+    fn stamp_order_rejects_going_back_and_keeps_watermark() {
+        let mut s = StampOrder::default();
+        assert!(s.accept(10).is_ok());
+        assert!(s.accept(10).is_ok());
+        assert!(s.accept(9).is_err());
+        assert_eq!(s.last(), Some(10));
+        assert!(s.accept(11).is_ok());
+    }
+}

@@ -1,0 +1,499 @@
+//! `fastslam-stack compare`: the whole multi-process stack for every optimiser × particle
+//! count × seed, then a comparison table (Markdown and CSV, the papers' table shape —
+//! particles, time, trajectory RMSE, landmark RMSE — plus NEES) and a plot of trajectory
+//! RMSE against the service's CPU time.
+//!
+//! Each configuration is an ordinary `fastslam-stack run` started as a child process
+//! under a prefix of its own, so its numbers are by construction those of an individual
+//! run with the same flags; `--jobs` runs several stacks side by side. Optimiser names
+//! are passed through to the service untouched: a name the service rejects fails that
+//! configuration with the service's reason and the others still run.
+
+use crate::run::short;
+use crate::supervisor::stop_flag;
+use anyhow::Context;
+use fastslam_client::plot::{self, CostPlot, CostSeries};
+use fastslam_client::stats::{mean, std_dev};
+use fastslam_sensors_sim::scenario::DEFAULT_SCENARIO;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use serde_json::Value;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// Flags of `compare`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct CompareArgs {
+    /// Scenario: a built-in name (see `scenarios`) or a scenario TOML file.
+    #[arg(long, default_value = DEFAULT_SCENARIO)]
+    pub scenario: String,
+    /// Optimisers to compare, comma-separated (passed to the service's --optimizer).
+    #[arg(long, value_delimiter = ',', default_value = "none")]
+    pub optimizers: Vec<String>,
+    /// Particle counts, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "25,50,100")]
+    pub particles: Vec<usize>,
+    /// Seeds, comma-separated: each configuration runs once per seed.
+    #[arg(long, value_delimiter = ',', default_value = "1,2,3")]
+    pub seeds: Vec<u64>,
+    /// Stacks to run at the same time (each under its own prefix). More than the cores
+    /// the machine has slows every run; CPU times stay comparable, wall times do not.
+    #[arg(long, default_value_t = 1)]
+    pub jobs: usize,
+    /// Output folder (default: <runs-dir>/compare_<scenario name>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Where output folders go by default.
+    #[arg(long, default_value = "runs")]
+    pub runs_dir: PathBuf,
+    /// Stop a run after this many seconds (default: no limit).
+    #[arg(long)]
+    pub timeout_s: Option<f64>,
+}
+
+/// One configuration of the comparison.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct Config {
+    optimizer: String,
+    particles: usize,
+    seed: u64,
+}
+
+impl Config {
+    /// The run folder's name.
+    fn folder(&self) -> String {
+        format!("{}_n{}_seed{}", self.optimizer, self.particles, self.seed)
+    }
+}
+
+/// What one run gave.
+#[derive(Debug, Clone)]
+struct RunResult {
+    config: Config,
+    folder: PathBuf,
+    wall_s: f64,
+    /// The run's `metrics.json`, or why there is none.
+    metrics: Result<Value, String>,
+}
+
+impl RunResult {
+    /// A number of the metrics by JSON pointer (NaN when missing or the run failed).
+    fn num(&self, pointer: &str) -> f64 {
+        self.metrics
+            .as_ref()
+            .ok()
+            .and_then(|m| m.pointer(pointer))
+            .and_then(Value::as_f64)
+            .unwrap_or(f64::NAN)
+    }
+}
+
+/// The per-run columns of `runs.csv`: (header, JSON pointer into `metrics.json`).
+const RUN_COLUMNS: [(&str, &str); 13] = [
+    ("service_cpu_s", "/cost/service_cpu_s"),
+    ("stack_cpu_s", "/cost/stack_cpu_s"),
+    ("ate_rmse_m", "/estimate/ate_rmse_m"),
+    ("heading_rmse_rad", "/estimate/heading_rmse_rad"),
+    ("final_error_m", "/estimate/final_error_m"),
+    ("dead_reckoning_ate_rmse_m", "/dead_reckoning/ate_rmse_m"),
+    ("landmark_rmse_m", "/map/rmse_m"),
+    ("landmarks_matched", "/map/matched"),
+    ("landmarks_spurious", "/map/spurious"),
+    ("nees_mean", "/consistency/nees_mean"),
+    ("nees_within_95", "/consistency/nees_within_95"),
+    ("latency_median_ms", "/cost/latency_ms/median"),
+    ("latency_p99_ms", "/cost/latency_ms/p99"),
+];
+
+/// Runs the comparison; returns the exit code (0 all runs finished, 1 some failed, 130
+/// interrupted).
+///
+/// # Errors
+/// When the output folder cannot be written or the launcher cannot find itself.
+pub fn compare(args: CompareArgs) -> anyhow::Result<i32> {
+    let scenario = fastslam_sensors_sim::Scenario::load(&args.scenario)?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| args.runs_dir.join(format!("compare_{}", scenario.name)));
+    std::fs::create_dir_all(out.join("runs"))
+        .with_context(|| format!("creating {}", out.display()))?;
+    let mut configs = Vec::new();
+    for optimizer in &args.optimizers {
+        for &particles in &args.particles {
+            for &seed in &args.seeds {
+                configs.push(Config {
+                    optimizer: optimizer.clone(),
+                    particles,
+                    seed,
+                });
+            }
+        }
+    }
+    anyhow::ensure!(
+        !configs.is_empty(),
+        "nothing to compare: give optimizers, particles and seeds"
+    );
+    let exe = std::env::current_exe().context("locating the launcher's own executable")?;
+    let stop = stop_flag()?;
+    eprintln!(
+        "compare on {}: {} runs ({} optimisers × {} particle counts × {} seeds), {} at a time",
+        scenario.name,
+        configs.len(),
+        args.optimizers.len(),
+        args.particles.len(),
+        args.seeds.len(),
+        args.jobs.max(1)
+    );
+
+    let bar =
+        ProgressBar::with_draw_target(Some(configs.len() as u64), ProgressDrawTarget::stderr());
+    if let Ok(style) =
+        ProgressStyle::with_template("{elapsed_precise} [{bar:32}] {pos}/{len} runs {msg}")
+    {
+        bar.set_style(style);
+    }
+    let next = AtomicUsize::new(0);
+    let results: Mutex<Vec<RunResult>> = Mutex::new(Vec::new());
+    std::thread::scope(|scope| {
+        for _ in 0..args.jobs.max(1) {
+            scope.spawn(|| {
+                while !stop.load(Ordering::SeqCst) {
+                    let i = next.fetch_add(1, Ordering::SeqCst);
+                    let Some(config) = configs.get(i) else { break };
+                    let result = run_one(&exe, &args, &out, config, i, &stop);
+                    bar.inc(1);
+                    bar.set_message(summary_line(&result));
+                    if let Ok(mut r) = results.lock() {
+                        r.push(result);
+                    }
+                }
+            });
+        }
+    });
+    bar.finish_and_clear();
+    let mut results = results.into_inner().unwrap_or_else(|e| e.into_inner());
+    // Table order is the order of the flags, whatever order the runs finished in.
+    results.sort_by_key(|r| configs.iter().position(|c| *c == r.config));
+
+    let markdown = write_tables(&out, &args, &results)?;
+    plot::save(&cost_plot(&args, &results), &out, "rmse_vs_cpu")?;
+    println!("comparison folder: {}", out.display());
+    print!("{markdown}");
+    let interrupted = stop.load(Ordering::SeqCst);
+    Ok(if interrupted {
+        130
+    } else if results.iter().all(|r| r.metrics.is_ok()) {
+        0
+    } else {
+        1
+    })
+}
+
+/// Runs one configuration as `fastslam-stack run` under its own prefix.
+fn run_one(
+    exe: &Path,
+    args: &CompareArgs,
+    out: &Path,
+    config: &Config,
+    index: usize,
+    stop: &AtomicBool,
+) -> RunResult {
+    let folder = out.join("runs").join(config.folder());
+    let prefix = format!("fc{}j{index}x", std::process::id());
+    let mut cmd = Command::new(exe);
+    cmd.args([
+        "run",
+        "--scenario",
+        &args.scenario,
+        "--optimizer",
+        &config.optimizer,
+    ])
+    .args(["--particles", &config.particles.to_string()])
+    .args([
+        "--seed",
+        &config.seed.to_string(),
+        "--prefix",
+        &prefix,
+        "--out",
+    ])
+    .arg(&folder)
+    .stdin(Stdio::null());
+    if let Some(t) = args.timeout_s {
+        cmd.args(["--timeout-s", &t.to_string()]);
+    }
+    let started = Instant::now();
+    let output = cmd.output();
+    let wall_s = started.elapsed().as_secs_f64();
+    let metrics = match output {
+        Err(e) => Err(format!("could not start: {e}")),
+        Ok(o) if o.status.success() => read_metrics(&folder),
+        Ok(o) if stop.load(Ordering::SeqCst) => Err(format!("interrupted ({})", o.status)),
+        Ok(o) => Err(reason(
+            &String::from_utf8_lossy(&o.stderr),
+            &o.status.to_string(),
+        )),
+    };
+    RunResult {
+        config: config.clone(),
+        folder,
+        wall_s,
+        metrics,
+    }
+}
+
+/// The run folder's `metrics.json`.
+fn read_metrics(folder: &Path) -> Result<Value, String> {
+    let path = folder.join(fastslam_client::report::files::METRICS);
+    let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Why a run failed, in one line: the last line of its error output before any
+/// backtrace (where the launcher puts the cause, e.g. the service's rejection of an
+/// optimiser name).
+fn reason(stderr: &str, status: &str) -> String {
+    let message = stderr.split("Stack backtrace:").next().unwrap_or_default();
+    message
+        .lines()
+        .map(str::trim)
+        .rfind(|l| !l.is_empty())
+        .map_or_else(
+            || format!("failed ({status})"),
+            |l| format!("failed ({status}): {l}"),
+        )
+}
+
+/// One line about a finished run, for the progress bar.
+fn summary_line(r: &RunResult) -> String {
+    match &r.metrics {
+        Ok(_) => format!(
+            "{}: ATE {:.3} m",
+            r.config.folder(),
+            r.num("/estimate/ate_rmse_m")
+        ),
+        Err(e) => format!("{}: {e}", r.config.folder()),
+    }
+}
+
+/// Mean ± sample standard deviation of a column over runs, as text.
+fn mean_std(xs: &[f64], digits: usize) -> String {
+    match xs.len() {
+        0 => "—".into(),
+        1 => format!("{:.digits$}", xs[0]),
+        _ => format!("{:.digits$} ± {:.digits$}", mean(xs), std_dev(xs)),
+    }
+}
+
+/// Writes `runs.csv`, `summary.csv` and `summary.md`; returns the Markdown.
+fn write_tables(out: &Path, args: &CompareArgs, results: &[RunResult]) -> std::io::Result<String> {
+    // One row per run.
+    let mut csv = String::from("optimizer,particles,seed,status,wall_s");
+    for (name, _) in RUN_COLUMNS {
+        write!(csv, ",{name}").ok();
+    }
+    csv.push_str(",run_folder\n");
+    for r in results {
+        let status = r
+            .metrics
+            .as_ref()
+            .err()
+            .map_or("ok".into(), |e| e.replace(',', ";"));
+        write!(
+            csv,
+            "{},{},{},{status},{:.3}",
+            r.config.optimizer, r.config.particles, r.config.seed, r.wall_s
+        )
+        .ok();
+        for (_, pointer) in RUN_COLUMNS {
+            write!(csv, ",{}", cell(r.num(pointer))).ok();
+        }
+        writeln!(csv, ",{}", r.folder.display()).ok();
+    }
+    std::fs::write(out.join("runs.csv"), csv)?;
+
+    // One row per optimiser × particle count, over the seeds that finished.
+    let mut summary = String::from(
+        "optimizer,particles,runs,failed,service_cpu_s_mean,service_cpu_s_std,wall_s_mean,\
+         ate_rmse_m_mean,ate_rmse_m_std,landmark_rmse_m_mean,landmark_rmse_m_std,\
+         nees_mean_mean,nees_within_95_mean\n",
+    );
+    let mut md = String::from(
+        "| optimizer | particles | runs | time (s, service CPU) | trajectory RMSE (m) | \
+         landmark RMSE (m) | NEES mean | NEES within 95 % |\n|---|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    let mut failures = String::new();
+    for o in &args.optimizers {
+        for &n in &args.particles {
+            let group: Vec<&RunResult> = results
+                .iter()
+                .filter(|r| r.config.optimizer == *o && r.config.particles == n)
+                .collect();
+            let ok: Vec<&RunResult> = group
+                .iter()
+                .copied()
+                .filter(|r| r.metrics.is_ok())
+                .collect();
+            if group.is_empty() {
+                continue;
+            }
+            let col = |p: &str| ok.iter().map(|r| r.num(p)).collect::<Vec<f64>>();
+            let (cpu, wall) = (
+                col("/cost/service_cpu_s"),
+                ok.iter().map(|r| r.wall_s).collect::<Vec<_>>(),
+            );
+            let (ate, lm) = (col("/estimate/ate_rmse_m"), col("/map/rmse_m"));
+            let (nees, within) = (
+                col("/consistency/nees_mean"),
+                col("/consistency/nees_within_95"),
+            );
+            writeln!(
+                summary,
+                "{o},{n},{},{},{},{},{},{},{},{},{},{},{}",
+                ok.len(),
+                group.len() - ok.len(),
+                cell(mean(&cpu)),
+                cell(std_dev(&cpu)),
+                cell(mean(&wall)),
+                cell(mean(&ate)),
+                cell(std_dev(&ate)),
+                cell(mean(&lm)),
+                cell(std_dev(&lm)),
+                cell(mean(&nees)),
+                cell(mean(&within)),
+            )
+            .ok();
+            let nees_text = if ok.is_empty() {
+                "—".into()
+            } else {
+                short(mean(&nees))
+            };
+            let within_text = if ok.is_empty() {
+                "—".into()
+            } else {
+                format!("{:.0} %", 100.0 * mean(&within))
+            };
+            writeln!(
+                md,
+                "| {o} | {n} | {} | {} | {} | {} | {nees_text} | {within_text} |",
+                ok.len(),
+                mean_std(&cpu, 2),
+                mean_std(&ate, 3),
+                mean_std(&lm, 3),
+            )
+            .ok();
+        }
+    }
+    // Failures, one line per optimiser and reason (a rejected name fails every run alike).
+    let mut reasons: Vec<(&str, &str, Vec<String>)> = Vec::new();
+    for r in results {
+        if let Err(e) = &r.metrics {
+            match reasons
+                .iter_mut()
+                .find(|x| x.0 == r.config.optimizer && x.1 == e)
+            {
+                Some(x) => x.2.push(r.config.folder()),
+                None => reasons.push((&r.config.optimizer, e, vec![r.config.folder()])),
+            }
+        }
+    }
+    for (optimizer, e, runs) in &reasons {
+        let which = if runs.len() == 1 {
+            format!("`{}`", runs[0])
+        } else {
+            format!("{} runs", runs.len())
+        };
+        writeln!(failures, "- `{optimizer}` ({which}): {e}").ok();
+    }
+    std::fs::write(out.join("summary.csv"), summary)?;
+    let mut text = format!(
+        "# Comparison on `{}` (seeds {})\n\nMean ± standard deviation over the seeds; time is the \
+         FastSLAM service's CPU time per run. Run folders: `runs/`, every run: `runs.csv`.\n\n{md}",
+        args.scenario,
+        args.seeds
+            .iter()
+            .map(u64::to_string)
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    if !failures.is_empty() {
+        write!(text, "\nRuns that failed:\n\n{failures}").ok();
+    }
+    std::fs::write(out.join("summary.md"), &text)?;
+    Ok(text)
+}
+
+/// A CSV cell: the shortest exact text of a number, empty when unknown.
+fn cell(v: f64) -> String {
+    if v.is_finite() {
+        v.to_string()
+    } else {
+        String::new()
+    }
+}
+
+/// RMSE against service CPU time: every run, and the per-particle-count means joined.
+fn cost_plot(args: &CompareArgs, results: &[RunResult]) -> CostPlot {
+    let point = |r: &RunResult| (r.num("/cost/service_cpu_s"), r.num("/estimate/ate_rmse_m"));
+    let series = args
+        .optimizers
+        .iter()
+        .map(|o| {
+            let mine: Vec<&RunResult> = results
+                .iter()
+                .filter(|r| r.config.optimizer == *o && r.metrics.is_ok())
+                .collect();
+            let means = args
+                .particles
+                .iter()
+                .filter_map(|&n| {
+                    let pts: Vec<(f64, f64)> = mine
+                        .iter()
+                        .filter(|r| r.config.particles == n)
+                        .map(|r| point(r))
+                        .collect();
+                    (!pts.is_empty()).then(|| {
+                        let (x, y): (Vec<f64>, Vec<f64>) = pts.into_iter().unzip();
+                        (mean(&x), mean(&y))
+                    })
+                })
+                .collect();
+            CostSeries {
+                name: o.clone(),
+                runs: mine.iter().map(|r| point(r)).collect(),
+                means,
+            }
+        })
+        .filter(|s| !s.runs.is_empty())
+        .collect();
+    CostPlot { series }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_reason_is_the_last_line_of_the_error_output() {
+        let stderr = "stack x: magic on s (seed 1)\nError: service settings\n\nCaused by:\n    unknown optimizer `magic`\n\n";
+        assert_eq!(
+            reason(stderr, "exit status: 1"),
+            "failed (exit status: 1): unknown optimizer `magic`"
+        );
+        assert_eq!(reason("", "signal: 9"), "failed (signal: 9)");
+        let with_backtrace = format!("{stderr}Stack backtrace:\n   0: main\n  10: _start\n");
+        assert!(reason(&with_backtrace, "1").ends_with("unknown optimizer `magic`"));
+    }
+
+    #[test]
+    fn mean_std_cells_say_how_many_runs_they_hold() {
+        assert_eq!(mean_std(&[], 2), "—");
+        assert_eq!(mean_std(&[1.234], 2), "1.23");
+        assert_eq!(mean_std(&[1.0, 3.0], 1), "2.0 ± 1.4");
+        assert_eq!(cell(f64::NAN), "");
+        assert_eq!(cell(0.5), "0.5");
+    }
+}

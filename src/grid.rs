@@ -1,0 +1,93 @@
+//! Which estimators a comparison runs: the flags `ungm` and `monte-carlo` share.
+
+use fastslam_estimation::moves::MoveCorrection;
+use fastslam_estimation::optimise::OptimiserKind;
+
+/// Optimisers × move corrections × particle counts, from comma-separated flags; an empty
+/// list means the default.
+#[derive(Debug, Clone, Default, PartialEq, clap::Args)]
+pub struct Grid {
+    /// Optimisers, comma-separated: none, coa, icoa, ba, iba, gwo, qpso, pso (default: all).
+    #[arg(long, value_delimiter = ',')]
+    pub optimizers: Vec<OptimiserKind>,
+    /// Move corrections, comma-separated: none (the papers) and/or mh (default: both).
+    /// Rows without an optimiser have nothing to correct and appear once.
+    #[arg(long, value_delimiter = ',')]
+    pub move_corrections: Vec<MoveCorrection>,
+    /// Particle counts, comma-separated (default: the command's).
+    #[arg(long, value_delimiter = ',')]
+    pub particles: Vec<usize>,
+}
+
+impl Grid {
+    /// The (optimiser, correction) pairs in the order given, `none` once.
+    pub fn methods(&self) -> Vec<(OptimiserKind, MoveCorrection)> {
+        let optimizers = or_all(&self.optimizers, &OptimiserKind::ALL);
+        let corrections = or_all(&self.move_corrections, &MoveCorrection::ALL);
+        let mut out = Vec::new();
+        for kind in optimizers {
+            for &correction in &corrections {
+                let first = corrections[0];
+                if kind != OptimiserKind::None || correction == first {
+                    out.push((kind, correction));
+                }
+            }
+        }
+        out
+    }
+
+    /// The particle counts, or `default` when none were given.
+    pub fn particles_or(&self, default: &[usize]) -> Vec<usize> {
+        or_all(&self.particles, default)
+    }
+}
+
+/// `given`, or `all` when `given` is empty.
+fn or_all<T: Clone>(given: &[T], all: &[T]) -> Vec<T> {
+    if given.is_empty() { all } else { given }.to_vec()
+}
+
+/// A method's label: the optimiser's name, `+mh` for corrected moves.
+pub fn label(kind: OptimiserKind, correction: MoveCorrection) -> String {
+    match (kind, correction) {
+        (OptimiserKind::None, _) | (_, MoveCorrection::None) => kind.to_string(),
+        (_, MoveCorrection::Mh) => format!("{kind}+mh"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        grid: Grid,
+    }
+
+    #[test]
+    fn lists_parse_default_to_everything_and_list_none_once() {
+        let cli = Cli::parse_from(["x", "--optimizers", "none,coa", "--particles", "30,100"]);
+        let methods = cli.grid.methods();
+        assert_eq!(
+            methods,
+            [
+                (OptimiserKind::None, MoveCorrection::None),
+                (OptimiserKind::Coa, MoveCorrection::None),
+                (OptimiserKind::Coa, MoveCorrection::Mh),
+            ]
+        );
+        assert_eq!(cli.grid.particles_or(&[5]), [30, 100]);
+        let all = Cli::parse_from(["x"]).grid;
+        assert_eq!(all.methods().len(), 1 + 7 * 2);
+        assert_eq!(all.particles_or(&[5]), [5]);
+        let err = Cli::try_parse_from(["x", "--optimizers", "magic"])
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(err.contains("none, coa, icoa"), "{err}");
+        assert_eq!(label(OptimiserKind::Pso, MoveCorrection::Mh), "pso+mh");
+        assert_eq!(label(OptimiserKind::None, MoveCorrection::Mh), "none");
+    }
+}

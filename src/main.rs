@@ -1,0 +1,124 @@
+//! `fastslam-stack`: one command that runs the whole FastSLAM stack — simulated sensors,
+//! the FastSLAM service and the metrics client, each its own process talking over
+//! iceoryx2 shared memory — and leaves a run folder with the results.
+//!
+//! The same binary also *is* each process (hidden subcommands), so a single
+//! `cargo run --release -- run` builds and starts everything.
+
+mod compare;
+mod extraction_report;
+mod monte_carlo;
+mod progress;
+mod replay;
+mod run;
+mod supervisor;
+mod ungm;
+
+use clap::{Parser, Subcommand};
+use fastslam_protocol::cli::run_process;
+use fastslam_sensors_sim::processes::{lidar, odometry, truth};
+
+/// Runs the zero-copy FastSLAM stack.
+#[derive(Debug, Parser)]
+#[command(name = "fastslam-stack", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Run the whole stack on a scenario, then print the headline metrics and where the
+    /// run folder is (metrics.json, TUM trajectories, maps, logs).
+    Run(run::RunArgs),
+    /// Run the whole stack for every optimiser × particle count × seed, then write a
+    /// comparison table (Markdown, CSV) and a plot of RMSE against CPU time.
+    Compare(compare::CompareArgs),
+    /// Replay a recorded data set through the stack (replay process, service, client),
+    /// then print the headline metrics and where the run folder is.
+    Replay {
+        /// The data set.
+        #[command(subcommand)]
+        data_set: replay::DataSet,
+    },
+    /// List the built-in scenarios.
+    Scenarios,
+    /// Run the pole extraction on the Victoria Park raw laser scans and compare it with
+    /// the tree detections released with the data set (matched fraction both ways,
+    /// median centre error).
+    ExtractionReport(extraction_report::ReportArgs),
+    /// The UNGM benchmark (ICOA paper Table 1's shape) for every optimiser, with a
+    /// 20 000-particle bootstrap filter as the reference: RMSE, 90 % coverage, time.
+    Ungm(ungm::UngmArgs),
+    /// Offline Monte Carlo comparison in process (no IPC): optimisers × proposals ×
+    /// particle counts × seeds on a scenario, scored by the client's metrics.
+    MonteCarlo(monte_carlo::MonteCarloArgs),
+    /// The truth simulator process (started by `run`).
+    #[command(hide = true)]
+    TruthSim(truth::Args),
+    /// The odometry sensor process (started by `run`).
+    #[command(hide = true)]
+    OdometrySim(odometry::Args),
+    /// The landmark sensor process (started by `run`).
+    #[command(hide = true)]
+    LidarSim(lidar::Args),
+    /// The MRCLAM replay process (started by `replay mrclam`).
+    #[command(hide = true)]
+    ReplayMrclam(fastslam_replay::processes::mrclam::Args),
+    /// The Victoria Park replay process (started by `replay victoria-park`).
+    #[command(hide = true)]
+    ReplayVictoriaPark(fastslam_replay::processes::victoria_park::Args),
+    /// The FastSLAM service process (started by `run`).
+    #[command(hide = true)]
+    Service(fastslam_service::process::Args),
+    /// The metrics client process (started by `run`).
+    #[command(hide = true)]
+    Client(fastslam_client::process::Args),
+}
+
+fn main() -> anyhow::Result<()> {
+    match Cli::parse().command {
+        Command::Run(args) => {
+            fastslam_protocol::cli::init_logging("launcher");
+            let code = run::run(args)?;
+            std::process::exit(code)
+        }
+        Command::Compare(args) => {
+            fastslam_protocol::cli::init_logging("compare");
+            let code = compare::compare(args)?;
+            std::process::exit(code)
+        }
+        Command::Replay { data_set } => {
+            fastslam_protocol::cli::init_logging("launcher");
+            let code = replay::replay(data_set)?;
+            std::process::exit(code)
+        }
+        Command::Scenarios => {
+            for (name, text) in fastslam_sensors_sim::scenario::BUILT_IN {
+                let first = text
+                    .lines()
+                    .next()
+                    .unwrap_or_default()
+                    .trim_start_matches("# ");
+                println!("{name:16} {first}");
+            }
+            Ok(())
+        }
+        Command::ExtractionReport(args) => extraction_report::run(&args),
+        Command::Ungm(a) => ungm::run(&a),
+        Command::MonteCarlo(a) => monte_carlo::run(&a),
+        Command::TruthSim(a) => run_process("truth-sim", a, truth::run),
+        Command::OdometrySim(a) => run_process("odometry-sim", a, odometry::run),
+        Command::LidarSim(a) => run_process("lidar-sim", a, lidar::run),
+        Command::ReplayMrclam(a) => {
+            run_process("replay-mrclam", a, fastslam_replay::processes::mrclam::run)
+        }
+        Command::ReplayVictoriaPark(a) => run_process(
+            "replay-victoria-park",
+            a,
+            fastslam_replay::processes::victoria_park::run,
+        ),
+        Command::Service(a) => run_process("service", a, fastslam_service::process::run),
+        Command::Client(a) => run_process("client", a, fastslam_client::process::run),
+    }
+}

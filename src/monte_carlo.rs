@@ -1,0 +1,105 @@
+//! `fastslam-stack monte-carlo`: the offline comparison — every estimator × particle count
+//! × seed in process (no IPC), scored by the client's metrics, summarised per row. The
+//! pipeline is `fastslam_stack::offline`; this parses flags and prints.
+
+use anyhow::Context;
+use fastslam_estimation::stats::Summary;
+use fastslam_sensors_sim::Scenario;
+use fastslam_sensors_sim::scenario::DEFAULT_SCENARIO;
+use fastslam_stack::offline::{self, Comparison, Row};
+use std::path::PathBuf;
+
+/// Flags of `monte-carlo`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct MonteCarloArgs {
+    /// Scenario: a built-in name (see `scenarios`) or a scenario TOML file.
+    #[arg(long, default_value = DEFAULT_SCENARIO)]
+    pub scenario: String,
+    /// Service config file (default: the scenario's [service] table).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Estimators, particle counts and seeds.
+    #[command(flatten)]
+    pub comparison: Comparison,
+}
+
+/// Runs the comparison and prints its table, one row as soon as it is done.
+///
+/// # Errors
+/// A bad setting, or a filter that cannot be built.
+pub fn run(args: &MonteCarloArgs) -> anyhow::Result<()> {
+    let scenario = Scenario::load(&args.scenario)?;
+    let seeds = &args.comparison.seeds.0;
+    println!(
+        "Monte Carlo on {} ({} seeds, {}..{}), in process; per run: mean ± std [95 % CI of the mean]",
+        scenario.name,
+        seeds.len(),
+        seeds[0],
+        seeds[seeds.len() - 1]
+    );
+    println!(
+        "  {:<18} {:>5}  {:>30}  {:>30}  {:>30}  {:>10}  {:>8}  {:>12}  DR ATE (m) · moves kept",
+        "method",
+        "N",
+        "ATE RMSE (m)",
+        "landmark RMSE (m)",
+        "NEES mean (3 = consistent)",
+        "NEES ≤ χ²₉₅",
+        "singular",
+        "filter s/run",
+    );
+    offline::compare(
+        &scenario,
+        args.config.as_deref(),
+        &args.comparison,
+        print_row,
+    )
+    .context("monte carlo")?;
+    Ok(())
+}
+
+/// `mean ± std [lo, hi]`, switching to scientific notation for huge values (NEES).
+fn cell(s: &Summary) -> String {
+    let huge = s.mean.abs() >= 1e4 || s.std >= 1e4;
+    let text = if huge {
+        format!(
+            "{:.2e} ± {:.1e} [{:.1e}, {:.1e}]",
+            s.mean, s.std, s.ci95.0, s.ci95.1
+        )
+    } else {
+        format!(
+            "{:.3} ± {:.3} [{:.3}, {:.3}]",
+            s.mean, s.std, s.ci95.0, s.ci95.1
+        )
+    };
+    if s.non_finite > 0 {
+        format!("{text} ({} n/a)", s.non_finite)
+    } else {
+        text
+    }
+}
+
+/// One table row.
+fn print_row(row: &Row) {
+    let moves = row.moves.map_or(String::new(), |m| {
+        format!(
+            " · {}/{} ({:.1} %)",
+            m.accepted,
+            m.proposed,
+            100.0 * m.accepted as f64 / m.proposed.max(1) as f64
+        )
+    });
+    println!(
+        "  {:<18} {:>5}  {:>30}  {:>30}  {:>30}  {:>10.3}  {:>8.3}  {:>7.2} ± {:<4.2}  {:.3}{moves}",
+        row.method,
+        row.particles,
+        cell(&row.ate),
+        cell(&row.landmark),
+        cell(&row.nees),
+        row.nees_within.mean,
+        row.singular.mean,
+        row.seconds.mean,
+        row.seconds.std,
+        row.dead_reckoning.mean
+    );
+}

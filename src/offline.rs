@@ -1,0 +1,245 @@
+//! The stack in one process, without IPC: the simulators' messages
+//! ([`OfflineRun`]), the service's own glue ([`Sequencer`] and [`Slam`]) and the client's
+//! scoring ([`Metrics::compute`]) — the same code the processes run, message for message,
+//! so an in-process run and a run through the processes with the same seed give identical
+//! metrics (an integration test holds this). On top of it, the Monte Carlo comparison of
+//! `fastslam-stack monte-carlo`.
+
+use crate::grid::Grid;
+use crate::settings;
+use fastslam_client::metrics::Alignment;
+use fastslam_client::{Metrics, Recording};
+use fastslam_estimation::fastslam::Proposal;
+use fastslam_estimation::moves::MoveStats;
+use fastslam_estimation::stats::Summary;
+use fastslam_protocol::Header;
+use fastslam_protocol::validate::{self, StampOrder};
+use fastslam_sensors_sim::Scenario;
+use fastslam_sensors_sim::offline::{Message, OfflineRun};
+use fastslam_service::config::{Overrides, ServiceConfig};
+use fastslam_service::sequencer::{Scan, Sequencer};
+use fastslam_service::slam::Slam;
+use std::str::FromStr;
+use std::time::{Duration, Instant};
+
+/// What one in-process run produced.
+#[derive(Debug, Clone)]
+pub struct RunOutcome {
+    /// The client's metrics, exactly as `metrics.json` of a run through the processes.
+    pub metrics: Metrics,
+    /// Time spent in the filter (prediction and update calls), simulation excluded.
+    pub filter_time: Duration,
+    /// What the optimiser's moves did (`None` without an optimiser).
+    pub moves: Option<MoveStats>,
+}
+
+/// Runs `scenario` with simulation seed `seed` through the service configured by `config`
+/// and scores it as the client does.
+///
+/// Inputs are admitted as the processes admit them (the service's and the client's
+/// validation and per-stream stamp order), ordered by the service's [`Sequencer`], and
+/// applied by its [`Slam`]; a filter error skips that input, as the service does.
+///
+/// # Errors
+/// When the filter cannot be built from `config`.
+pub fn run_in_process(
+    scenario: &Scenario,
+    seed: u64,
+    config: &ServiceConfig,
+) -> anyhow::Result<RunOutcome> {
+    let mut slam = Slam::new(config)?;
+    let mut sequencer = Sequencer::default();
+    let mut recording = Recording::default();
+    let (mut odometry_order, mut scan_order) = (StampOrder::default(), StampOrder::default());
+    let mut filter_time = Duration::ZERO;
+    let mut last_pose: Option<Header> = None;
+    let mut apply = |sequencer: &mut Sequencer, recording: &mut Recording| {
+        while let Some(input) = sequencer.release() {
+            let started = Instant::now();
+            let step = slam.apply(input);
+            filter_time += started.elapsed();
+            if let Ok(Some(step)) = step {
+                recording.add_estimate(&step.pose);
+                last_pose = Some(step.pose.header);
+            }
+        }
+    };
+    for message in OfflineRun::new(scenario, seed) {
+        match message {
+            Message::TrueMap(map) => recording.true_map = map,
+            Message::GroundTruth(truth) => {
+                if validate::ground_truth(&truth).is_ok() {
+                    recording.add_truth(&truth);
+                }
+            }
+            Message::Odometry(m) => {
+                if validate::odometry(&m).is_ok() {
+                    recording.add_odometry(&m);
+                    if odometry_order.accept(m.header.stamp_ns).is_ok() {
+                        sequencer.push_odometry(m);
+                    }
+                }
+            }
+            Message::Observations(header, observations) => {
+                let admitted = validate::observations(&header, &observations)
+                    .and_then(|()| scan_order.accept(header.header.stamp_ns));
+                if admitted.is_ok() {
+                    sequencer.push_scan(Scan {
+                        header,
+                        observations,
+                    });
+                }
+            }
+        }
+        apply(&mut sequencer, &mut recording);
+    }
+    sequencer.end_odometry();
+    sequencer.end_scans();
+    apply(&mut sequencer, &mut recording);
+    let stamp_ns = last_pose.map_or(0, |h| h.stamp_ns);
+    recording.map = slam.map(Header { stamp_ns, seq: 0 }).1;
+    Ok(RunOutcome {
+        metrics: Metrics::compute(&recording, true, Alignment::default()),
+        filter_time,
+        moves: slam.move_stats(),
+    })
+}
+
+/// One row of the Monte Carlo comparison: an estimator (the service settings a run used)
+/// with one particle count, over the seeds.
+#[derive(Debug, Clone)]
+pub struct Row {
+    /// Short name of the estimator ([`ServiceConfig::method`]).
+    pub method: String,
+    /// Number of particles.
+    pub particles: usize,
+    /// Absolute trajectory error RMSE per run (m).
+    pub ate: Summary,
+    /// Dead reckoning's ATE RMSE per run (m): the baseline.
+    pub dead_reckoning: Summary,
+    /// Landmark RMSE per run after optimal assignment (m).
+    pub landmark: Summary,
+    /// Mean pose NEES per run (3 when consistent).
+    pub nees: Summary,
+    /// Fraction of steps within the χ²₃ 95 % bound per run.
+    pub nees_within: Summary,
+    /// Fraction of steps per run whose published covariance is singular (particles
+    /// collapsed onto one pose; no NEES, outside the bound).
+    pub singular: Summary,
+    /// Time in the filter per run (s).
+    pub seconds: Summary,
+    /// The optimiser's moves summed over the runs (`None` without an optimiser).
+    pub moves: Option<MoveStats>,
+}
+
+/// The settings of one comparison: which estimators, particle counts and seeds.
+#[derive(Debug, Clone, clap::Args)]
+pub struct Comparison {
+    /// Optimisers, corrections and particle counts (default N: 100).
+    #[command(flatten)]
+    pub grid: Grid,
+    /// Proposals, comma-separated: motion (FastSLAM 1.0) and/or fastslam2.
+    #[arg(long, value_delimiter = ',', default_value = "motion")]
+    pub proposals: Vec<Proposal>,
+    /// Seeds of simulation and filter (as `run --seed`): an inclusive range `a..b` or a
+    /// comma-separated list.
+    #[arg(long, default_value = "1..10")]
+    pub seeds: Seeds,
+}
+
+/// Particle count of a comparison that names none.
+pub const DEFAULT_PARTICLES: usize = 100;
+
+/// A list of seeds, written `a..b` (inclusive) or `a,b,c`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Seeds(pub Vec<u64>);
+
+impl FromStr for Seeds {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        let number = |s: &str| s.trim().parse::<u64>().map_err(|e| format!("`{s}`: {e}"));
+        let seeds: Vec<u64> = match text.split_once("..") {
+            Some((a, b)) => (number(a)?..=number(b)?).collect(),
+            None => text.split(',').map(number).collect::<Result<_, _>>()?,
+        };
+        if seeds.is_empty() {
+            return Err(format!("`{text}` holds no seed"));
+        }
+        Ok(Self(seeds))
+    }
+}
+
+/// Runs the comparison on `scenario` with the service settings of `base` (a config file,
+/// else the scenario's `[service]` table), calling `row_done` after each row.
+///
+/// # Errors
+/// A bad setting, or a filter that cannot be built.
+pub fn compare(
+    scenario: &Scenario,
+    base: Option<&std::path::Path>,
+    comparison: &Comparison,
+    mut row_done: impl FnMut(&Row),
+) -> anyhow::Result<Vec<Row>> {
+    let mut rows = Vec::new();
+    for &proposal in &comparison.proposals {
+        for (kind, correction) in comparison.grid.methods() {
+            for particles in comparison.grid.particles_or(&[DEFAULT_PARTICLES]) {
+                let mut runs = Vec::with_capacity(comparison.seeds.0.len());
+                let mut method = String::new();
+                for &seed in &comparison.seeds.0 {
+                    let overrides = Overrides {
+                        particles: Some(particles),
+                        seed: Some(seed),
+                        ..Overrides::default()
+                    };
+                    let mut config = settings::service_config(scenario, base, &overrides)?;
+                    config.filter.proposal = proposal;
+                    config.optimizer.kind = kind;
+                    config.moves.correction = correction;
+                    method = config.method();
+                    runs.push(run_in_process(scenario, seed, &config)?);
+                }
+                let row = summarise(method, particles, &runs);
+                row_done(&row);
+                rows.push(row);
+            }
+        }
+    }
+    Ok(rows)
+}
+
+/// The row of one estimator from its runs.
+fn summarise(method: String, particles: usize, runs: &[RunOutcome]) -> Row {
+    let column =
+        |f: &dyn Fn(&RunOutcome) -> f64| Summary::of(&runs.iter().map(f).collect::<Vec<_>>());
+    let moves = runs.iter().filter_map(|r| r.moves).reduce(|a, b| a + b);
+    Row {
+        method,
+        particles,
+        ate: column(&|r| r.metrics.estimate.ate_rmse_m),
+        dead_reckoning: column(&|r| r.metrics.dead_reckoning.ate_rmse_m),
+        landmark: column(&|r| r.metrics.map.rmse_m),
+        nees: column(&|r| r.metrics.consistency.nees_mean),
+        nees_within: column(&|r| r.metrics.consistency.nees_within_95),
+        singular: column(&|r| {
+            let c = &r.metrics.consistency;
+            c.singular as f64 / (c.poses + c.singular).max(1) as f64
+        }),
+        seconds: column(&|r| r.filter_time.as_secs_f64()),
+        moves,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn seeds_are_an_inclusive_range_or_a_list() {
+        assert_eq!("1..3".parse::<Seeds>().unwrap().0, [1, 2, 3]);
+        assert_eq!("4, 7".parse::<Seeds>().unwrap().0, [4, 7]);
+        assert!("3..1".parse::<Seeds>().is_err());
+        assert!("x".parse::<Seeds>().is_err());
+    }
+}

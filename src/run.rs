@@ -1,0 +1,281 @@
+//! `fastslam-stack run`: the whole stack on one scenario, under a fresh stack prefix, with
+//! a run folder at the end.
+
+use crate::progress;
+use crate::supervisor::{Outcome, Supervisor, stop_flag};
+use anyhow::{Context, bail};
+use fastslam_sensors_sim::Scenario;
+use fastslam_sensors_sim::scenario::{BUILT_IN, DEFAULT_SCENARIO};
+use fastslam_service::config::{EstimatorChoice, Overrides};
+use fastslam_stack::settings;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Flags of `run`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct RunArgs {
+    /// Scenario: a built-in name (see `scenarios`) or a scenario TOML file.
+    #[arg(long, default_value = DEFAULT_SCENARIO)]
+    pub scenario: String,
+    /// Seed of the simulation and the filter (default: the scenario's).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Optimiser, proposal and move correction of the FastSLAM service.
+    #[command(flatten)]
+    pub choice: EstimatorChoice,
+    /// Number of particles (default: the service's config).
+    #[arg(long)]
+    pub particles: Option<usize>,
+    /// Service config file (default: the scenario's [service] table).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Run folder (default: <runs-dir>/<scenario>_<method>_seed<seed>, the method being
+    /// the optimiser with +fastslam2 and +mh when they apply).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Where run folders go by default.
+    #[arg(long, default_value = "runs")]
+    pub runs_dir: PathBuf,
+    /// Pace the simulation in real time instead of as fast as the stack can go.
+    #[arg(long)]
+    pub realtime: bool,
+    /// Stop everything after this many seconds (default: no limit).
+    #[arg(long)]
+    pub timeout_s: Option<f64>,
+    /// Stack prefix, to let your own processes join (default: a fresh one per run,
+    /// removed with its shared-memory files at the end).
+    #[arg(long)]
+    pub prefix: Option<String>,
+}
+
+/// Runs the stack; returns the process exit code (0 finished, 1 failed, 130 interrupted).
+///
+/// # Errors
+/// When the scenario is invalid or the processes cannot be started.
+pub fn run(args: RunArgs) -> anyhow::Result<i32> {
+    let scenario = Scenario::load(&args.scenario)?;
+    let seed = args.seed.unwrap_or(scenario.seed);
+    let prefix = args
+        .prefix
+        .clone()
+        .unwrap_or_else(|| format!("fs{}x", std::process::id()));
+    let root = std::env::temp_dir().join("fsl").join(&prefix);
+    // The service's settings, checked here so a bad value fails before anything starts.
+    let overrides = Overrides {
+        particles: args.particles,
+        seed: Some(seed),
+        choice: args.choice.clone(),
+    };
+    let method = settings::service_config(&scenario, args.config.as_deref(), &overrides)?.method();
+    let out = args.out.clone().unwrap_or_else(|| {
+        args.runs_dir
+            .join(format!("{}_{method}_seed{seed}", scenario.name))
+    });
+    let logs = out.join("logs");
+    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    let service_config = service_config_file(&args, &scenario, &out)?;
+    let exe = std::env::current_exe().context("locating the launcher's own executable")?;
+
+    let stop = stop_flag()?;
+    let started = Instant::now();
+    let mut stack = Supervisor::default();
+    let stack_flags = vec![
+        "--prefix".to_string(),
+        prefix.clone(),
+        "--iox-root".into(),
+        root.display().to_string(),
+    ];
+    let sim_flags = |subscribers: usize| {
+        let mut f = stack_flags.clone();
+        f.extend([
+            "--scenario".into(),
+            scenario_arg(&args.scenario),
+            "--seed".into(),
+            seed.to_string(),
+        ]);
+        f.extend(["--wait-subscribers".into(), subscribers.to_string()]);
+        f
+    };
+    let mut service = stack_flags.clone();
+    service.extend(overrides.flags());
+    service.extend(["--wait-subscribers".into(), "1".into()]);
+    if let Some(c) = &service_config {
+        service.extend(["--config".into(), c.display().to_string()]);
+    }
+    let mut client = stack_flags.clone();
+    client.extend(["--out".into(), out.display().to_string()]);
+    let mut truth = sim_flags(3); // odometry-sim, lidar-sim, client
+    if args.realtime {
+        truth.push("--realtime".into());
+    }
+    let processes: [(&'static str, Vec<String>); 5] = [
+        ("client", client),
+        ("service", service),
+        ("odometry-sim", sim_flags(2)), // service, client
+        ("lidar-sim", sim_flags(2)),    // service, client (latency)
+        ("truth-sim", truth),
+    ];
+    eprintln!(
+        "stack {prefix}: {method} on {} (seed {seed})",
+        scenario.name
+    );
+    let total_s = progress::simulated_duration_s(&scenario);
+    let mut live_view = None;
+    for (name, flags) in &processes {
+        let mut argv = vec![name.to_string()];
+        argv.extend(flags.iter().cloned());
+        let log = logs.join(format!("{name}.log"));
+        if *name == "client" {
+            // The client's progress lines drive the live view (see `progress`).
+            let stdout = stack.spawn_reading_stdout(name, &exe, &argv, &log)?;
+            live_view = Some(progress::follow(
+                stdout,
+                &log,
+                progress::bar(total_s),
+                total_s,
+            )?);
+        } else {
+            stack.spawn(name, &exe, &argv, &log)?;
+        }
+    }
+    let outcome = stack.wait(&stop, args.timeout_s.map(Duration::from_secs_f64));
+    drop(stack);
+    if let Some(view) = live_view {
+        let _ = view.join();
+    }
+    remove_iceoryx_files(&prefix, &root);
+
+    conclude(outcome, &out, &logs, started.elapsed())
+}
+
+/// Reports how a stack ended: the summary of its run folder when it finished, else what
+/// went wrong and where the logs are. Returns the launcher's exit code (0 finished, 1
+/// failed or timed out, 130 interrupted).
+///
+/// # Errors
+/// When a finished run's metrics cannot be read.
+pub(crate) fn conclude(
+    outcome: Outcome,
+    out: &Path,
+    logs: &Path,
+    wall: Duration,
+) -> anyhow::Result<i32> {
+    match outcome {
+        Outcome::Finished => {
+            print_summary(out, wall)?;
+            Ok(0)
+        }
+        Outcome::Failed { name, status } => {
+            eprintln!(
+                "{name} failed ({status}); the other processes were stopped. Its log ends with:"
+            );
+            eprintln!("{}", tail(&logs.join(format!("{name}.log")), 15));
+            Ok(1)
+        }
+        Outcome::Interrupted => {
+            eprintln!(
+                "interrupted; processes stopped, shared memory removed. Logs: {}",
+                logs.display()
+            );
+            Ok(130)
+        }
+        Outcome::TimedOut => {
+            eprintln!("timed out; processes stopped. Logs: {}", logs.display());
+            Ok(1)
+        }
+    }
+}
+
+/// A built-in scenario is passed by name, a file by absolute path.
+fn scenario_arg(scenario: &str) -> String {
+    if BUILT_IN.iter().any(|(n, _)| *n == scenario) {
+        return scenario.to_string();
+    }
+    std::fs::canonicalize(scenario)
+        .map_or_else(|_| scenario.to_string(), |p| p.display().to_string())
+}
+
+/// The service's config file: `--config`, else the scenario's `[service]` table written
+/// into the run folder (so the folder records what ran).
+fn service_config_file(
+    args: &RunArgs,
+    scenario: &Scenario,
+    out: &Path,
+) -> anyhow::Result<Option<PathBuf>> {
+    if let Some(c) = &args.config {
+        if !c.is_file() {
+            bail!("service config {} is not a readable file", c.display());
+        }
+        return Ok(Some(std::fs::canonicalize(c)?));
+    }
+    let Some(table) = &scenario.service else {
+        return Ok(None);
+    };
+    let path = out.join("service.toml");
+    std::fs::write(&path, toml::to_string_pretty(table)?)?;
+    Ok(Some(path))
+}
+
+/// Removes the stack's shared-memory files and its iceoryx2 root directory.
+pub(crate) fn remove_iceoryx_files(prefix: &str, root: &Path) {
+    if let Ok(entries) = std::fs::read_dir("/dev/shm") {
+        for e in entries.flatten() {
+            if e.file_name().to_string_lossy().starts_with(prefix) {
+                let _ = std::fs::remove_file(e.path());
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(root);
+}
+
+/// A number in at most 8 characters: fixed point, or scientific when huge.
+pub(crate) fn short(v: f64) -> String {
+    if v.abs() < 1e5 {
+        format!("{v:.2}")
+    } else {
+        format!("{v:.2e}")
+    }
+}
+
+/// The last `n` lines of a log file.
+fn tail(path: &Path, n: usize) -> String {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    let lines: Vec<&str> = text.lines().collect();
+    lines[lines.len().saturating_sub(n)..].join("\n")
+}
+
+/// Prints where the run folder is and its headline metrics.
+fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
+    let path = out.join("metrics.json");
+    let text =
+        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    let m: serde_json::Value = serde_json::from_str(&text)?;
+    let num = |p: &str| {
+        m.pointer(p)
+            .and_then(serde_json::Value::as_f64)
+            .unwrap_or(f64::NAN)
+    };
+    println!("run folder: {}", out.display());
+    println!(
+        "  ATE RMSE       {:8.3} m   (dead reckoning {:.3} m)",
+        num("/estimate/ate_rmse_m"),
+        num("/dead_reckoning/ate_rmse_m")
+    );
+    println!("  final error    {:8.3} m", num("/estimate/final_error_m"));
+    println!(
+        "  landmark RMSE  {:8.3} m   ({} of {} matched, {} spurious)",
+        num("/map/rmse_m"),
+        num("/map/matched"),
+        num("/map/truth"),
+        num("/map/spurious")
+    );
+    println!(
+        "  NEES mean      {:>8}     ({:.0} % of steps within the 95 % bound; 3 when consistent; \
+         {} steps with a singular covariance)",
+        short(num("/consistency/nees_mean")),
+        100.0 * num("/consistency/nees_within_95"),
+        num("/consistency/singular")
+    );
+    println!("  wall time      {:8.2} s", wall.as_secs_f64());
+    Ok(())
+}

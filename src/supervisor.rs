@@ -1,0 +1,200 @@
+//! Starts the stack's processes, watches them, and stops them: SIGINT, then SIGTERM,
+//! then SIGKILL, each after a grace period (as ROS 2 launch does). Each child runs in its
+//! own process group, so a Ctrl-C in the terminal reaches only the launcher, which then
+//! stops the children in order.
+
+use nix::sys::signal::{Signal, kill};
+use nix::unistd::Pid;
+use std::fs::{File, OpenOptions};
+use std::os::unix::process::CommandExt;
+use std::path::Path;
+use std::process::{Child, ChildStdout, Command, ExitStatus, Stdio};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// How long a process gets after each signal before the next, stronger one.
+pub const GRACE: Duration = Duration::from_secs(5);
+/// How often children are polled.
+const POLL: Duration = Duration::from_millis(20);
+
+/// One started process.
+#[derive(Debug)]
+pub struct Process {
+    /// Its role in the stack (also the subcommand that started it).
+    pub name: &'static str,
+    child: Child,
+    status: Option<ExitStatus>,
+}
+
+/// How the stack ended.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Outcome {
+    /// Every process exited 0 on its own.
+    Finished,
+    /// A process failed; the others were stopped.
+    Failed {
+        /// The failed process.
+        name: &'static str,
+        /// Its exit status, as text.
+        status: String,
+    },
+    /// The launcher was interrupted (SIGINT/SIGTERM); the processes were stopped.
+    Interrupted,
+    /// The run took longer than allowed; the processes were stopped.
+    TimedOut,
+}
+
+/// The running processes of one stack.
+#[derive(Debug, Default)]
+pub struct Supervisor {
+    processes: Vec<Process>,
+}
+
+impl Supervisor {
+    /// Starts `exe` with `args` as process `name`, its output written to `log`.
+    ///
+    /// # Errors
+    /// When the log cannot be opened or the process cannot be started.
+    pub fn spawn(
+        &mut self,
+        name: &'static str,
+        exe: &Path,
+        args: &[String],
+        log: &Path,
+    ) -> std::io::Result<()> {
+        let out = open_log(log)?;
+        self.start(name, exe, args, out.try_clone()?.into(), out)
+            .map(|_| ())
+    }
+
+    /// As [`Supervisor::spawn`], but the process's stdout comes back as a pipe for the
+    /// caller to read (and copy into `log`, which is opened for appending, so both
+    /// writers' lines land whole).
+    ///
+    /// # Errors
+    /// When the log cannot be opened or the process cannot be started.
+    pub fn spawn_reading_stdout(
+        &mut self,
+        name: &'static str,
+        exe: &Path,
+        args: &[String],
+        log: &Path,
+    ) -> std::io::Result<ChildStdout> {
+        let out = open_log(log)?;
+        let child = self.start(name, exe, args, Stdio::piped(), out)?;
+        child
+            .stdout
+            .take()
+            .ok_or_else(|| std::io::Error::other("the child's stdout pipe is missing"))
+    }
+
+    fn start(
+        &mut self,
+        name: &'static str,
+        exe: &Path,
+        args: &[String],
+        stdout: Stdio,
+        stderr: File,
+    ) -> std::io::Result<&mut Child> {
+        let child = Command::new(exe)
+            .args(args)
+            .stdin(Stdio::null())
+            .stdout(stdout)
+            .stderr(stderr)
+            .process_group(0)
+            .spawn()?;
+        tracing::debug!(name, pid = child.id(), "started");
+        self.processes.push(Process {
+            name,
+            child,
+            status: None,
+        });
+        let last = self.processes.len() - 1;
+        Ok(&mut self.processes[last].child)
+    }
+
+    /// Waits until every process has exited, one fails, `stop` is raised or `timeout`
+    /// passes; in the last three cases the remaining processes are stopped.
+    pub fn wait(&mut self, stop: &AtomicBool, timeout: Option<Duration>) -> Outcome {
+        let start = Instant::now();
+        let outcome = loop {
+            if let Some(failed) = self.poll().find(|p| p.status.is_some_and(|s| !s.success())) {
+                break Outcome::Failed {
+                    name: failed.name,
+                    status: describe(failed.status),
+                };
+            }
+            if self.processes.iter().all(|p| p.status.is_some()) {
+                return Outcome::Finished;
+            }
+            if stop.load(Ordering::SeqCst) {
+                break Outcome::Interrupted;
+            }
+            if timeout.is_some_and(|t| start.elapsed() > t) {
+                break Outcome::TimedOut;
+            }
+            std::thread::sleep(POLL);
+        };
+        self.stop_all();
+        outcome
+    }
+
+    /// Refreshes exit statuses and returns the processes.
+    fn poll(&mut self) -> impl Iterator<Item = &Process> {
+        for p in self.processes.iter_mut().filter(|p| p.status.is_none()) {
+            p.status = p.child.try_wait().ok().flatten();
+        }
+        self.processes.iter()
+    }
+
+    /// Stops every running process: SIGINT, SIGTERM, SIGKILL, each after [`GRACE`].
+    pub fn stop_all(&mut self) {
+        for signal in [Signal::SIGINT, Signal::SIGTERM, Signal::SIGKILL] {
+            let running: Vec<&Process> = self.poll().filter(|p| p.status.is_none()).collect();
+            if running.is_empty() {
+                return;
+            }
+            for p in running {
+                tracing::debug!(name = p.name, ?signal, "stopping");
+                // The process may have exited since the poll: ESRCH is fine.
+                let _ = kill(Pid::from_raw(p.child.id() as i32), signal);
+            }
+            let deadline = Instant::now() + GRACE;
+            while Instant::now() < deadline && self.poll().any(|p| p.status.is_none()) {
+                std::thread::sleep(POLL);
+            }
+        }
+        for p in self.processes.iter_mut().filter(|p| p.status.is_none()) {
+            p.status = p.child.wait().ok();
+        }
+    }
+}
+
+impl Drop for Supervisor {
+    fn drop(&mut self) {
+        self.stop_all();
+    }
+}
+
+/// Creates (or empties) a log and opens it for appending.
+fn open_log(log: &Path) -> std::io::Result<File> {
+    File::create(log)?;
+    OpenOptions::new().append(true).open(log)
+}
+
+fn describe(status: Option<ExitStatus>) -> String {
+    status.map_or_else(|| "running".to_string(), |s| s.to_string())
+}
+
+/// A flag raised by SIGINT or SIGTERM to the launcher.
+///
+/// # Errors
+/// When the signal handlers cannot be installed.
+pub fn stop_flag() -> std::io::Result<Arc<AtomicBool>> {
+    let flag = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, Arc::clone(&flag))?;
+    }
+    Ok(flag)
+}

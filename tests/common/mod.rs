@@ -1,0 +1,240 @@
+//! Helpers for the integration tests: start the real launcher (which starts the real
+//! processes over real iceoryx2), each test under its own stack prefix and folder, and
+//! check what a run left behind.
+
+#![allow(dead_code)] // each test binary uses a different subset
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The launcher binary cargo built for these tests.
+pub const LAUNCHER: &str = env!("CARGO_BIN_EXE_fastslam-stack");
+
+/// A stack prefix no other test (or test run) uses: test name, process id.
+pub fn prefix(test: &str) -> String {
+    let tag: String = test
+        .chars()
+        .filter(|c| c.is_ascii_alphanumeric())
+        .take(12)
+        .collect();
+    format!("t{}{tag}x", std::process::id())
+}
+
+/// A fresh folder for a test's run folders.
+pub fn folder(prefix: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join("fastslam-tests").join(prefix);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("creating the test folder");
+    dir
+}
+
+/// Runs `fastslam-stack run` under `prefix`, writing the run folder `out`, with `extra`
+/// flags; fails the test after a generous timeout instead of hanging.
+pub fn run_stack(prefix: &str, out: &Path, extra: &[&str]) -> Output {
+    Command::new(LAUNCHER)
+        .args(["run", "--prefix", prefix, "--out"])
+        .arg(out)
+        .args(["--timeout-s", "600"])
+        .args(extra)
+        .output()
+        .expect("starting the launcher")
+}
+
+/// The run folder's metrics.
+pub fn metrics(out: &Path) -> serde_json::Value {
+    let path = out.join("metrics.json");
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).expect("metrics.json is JSON")
+}
+
+/// The reproducible part of a run's metrics: everything but `cost` (time on the machine).
+pub fn reproducible(out: &Path) -> serde_json::Value {
+    let mut m = metrics(out);
+    m.as_object_mut()
+        .expect("metrics.json is an object")
+        .remove("cost")
+        .expect("metrics.json has a cost section");
+    m
+}
+
+/// A number in the metrics, by JSON pointer.
+pub fn num(m: &serde_json::Value, pointer: &str) -> f64 {
+    m.pointer(pointer)
+        .and_then(serde_json::Value::as_f64)
+        .unwrap_or_else(|| panic!("no number at {pointer} in {m}"))
+}
+
+/// Processes whose command line mentions `prefix`, and shared-memory files named after it.
+pub fn leftovers(prefix: &str) -> (Vec<String>, Vec<String>) {
+    let processes = std::fs::read_dir("/proc")
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| {
+            let cmdline = std::fs::read(e.path().join("cmdline")).ok()?;
+            let text = String::from_utf8_lossy(&cmdline).replace('\0', " ");
+            text.contains(prefix)
+                .then(|| format!("{}: {text}", e.file_name().to_string_lossy()))
+        })
+        .collect();
+    let files = std::fs::read_dir("/dev/shm")
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(prefix))
+        .collect();
+    (processes, files)
+}
+
+/// Fails the test with the launcher's output unless it exited 0.
+pub fn assert_success(out: &Output) {
+    assert!(
+        out.status.success(),
+        "launcher failed ({}):\nstdout:\n{}\nstderr:\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// The iceoryx2 wheels the Python tests use: the 0.10 line, wire-compatible with the
+/// stack's iceoryx2.
+pub const ICEORYX2_WHEEL: &str = "iceoryx2>=0.10,<0.11";
+
+/// The evo release the run-folder test checks our ATE against.
+pub const EVO: &str = "evo==1.38.1";
+
+/// A Python interpreter with the iceoryx2 wheel (see [`python_venv`]).
+pub fn python_with_iceoryx2() -> PathBuf {
+    python_venv("iceoryx2-0.10", ICEORYX2_WHEEL)
+        .join("bin")
+        .join("python3")
+}
+
+/// `evo_ape` from PyPI (see [`python_venv`]), or `$EVO_APE` when set.
+pub fn evo_ape() -> PathBuf {
+    match std::env::var_os("EVO_APE") {
+        Some(p) => PathBuf::from(p),
+        None => python_venv("evo-1.38.1", EVO).join("bin").join("evo_ape"),
+    }
+}
+
+/// A Python virtual environment named `name` with `requirement` installed from PyPI,
+/// under the cargo target directory: created on first use (`python3 -m venv`, then
+/// `pip install`) and reused afterwards, so the README's test command works on a fresh
+/// machine with Python and access to PyPI. Tests running in parallel serialise on a lock
+/// file; the environment is built in place (a venv's scripts name its own path, so it
+/// cannot be moved) and marked done only once complete.
+///
+/// # Panics
+/// With the reason when Python, venv or pip fail (a test that needs Python must not pass
+/// without it).
+pub fn python_venv(name: &str, requirement: &str) -> PathBuf {
+    let target = Path::new(LAUNCHER)
+        .parent()
+        .and_then(Path::parent)
+        .expect("the launcher lives in <target>/<profile>/");
+    let home = target.join("python");
+    std::fs::create_dir_all(&home).expect("creating the Python folder in the target dir");
+    let venv = home.join(format!("venv-{name}"));
+    let done = venv.join(".installed");
+    let lock = std::fs::File::create(home.join(format!("venv-{name}.lock")))
+        .expect("creating the venv lock file");
+    lock.lock().expect("locking the venv");
+    if done.is_file() {
+        return venv;
+    }
+    let _ = std::fs::remove_dir_all(&venv); // a build that did not finish
+    let step = |what: &str, cmd: &mut Command| {
+        let out = cmd
+            .output()
+            .unwrap_or_else(|e| panic!("Python bootstrap: {what} could not start: {e}"));
+        assert!(
+            out.status.success(),
+            "Python bootstrap: {what} failed ({}):\n{}{}",
+            out.status,
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    step(
+        "python3 -m venv",
+        Command::new("python3").args(["-m", "venv"]).arg(&venv),
+    );
+    step(
+        &format!("pip install {requirement}"),
+        Command::new(venv.join("bin").join("python3"))
+            .args([
+                "-m",
+                "pip",
+                "install",
+                "--quiet",
+                "--disable-pip-version-check",
+            ])
+            .arg(requirement),
+    );
+    std::fs::write(&done, requirement).expect("marking the venv done");
+    venv
+}
+
+/// Removes a stack's shared-memory files and its iceoryx2 root directory (what the
+/// launcher does after a run; tests that start processes themselves call it).
+pub fn remove_stack_files(prefix: &str, root: &Path) {
+    for e in std::fs::read_dir("/dev/shm")
+        .into_iter()
+        .flatten()
+        .flatten()
+    {
+        if e.file_name().to_string_lossy().starts_with(prefix) {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+    let _ = std::fs::remove_dir_all(root);
+}
+
+/// Positions `(t, x, y)` of a TUM trajectory file.
+pub fn read_tum(path: &Path) -> Vec<(f64, f64, f64)> {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    text.lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| {
+            let v: Vec<f64> = l.split(' ').map(|x| x.parse().unwrap()).collect();
+            (v[0], v[1], v[2])
+        })
+        .collect()
+}
+
+/// How well `track` reproduces the *shape* of `truth`, whatever the frame: at `n` truth
+/// times spread over the part both cover, the RMS difference between the distances of
+/// every pair of positions on `track` and on `truth` (m). Needs no alignment, so it
+/// scores data whose truth lives in a frame of its own (Vicon, GPS) fairly; a rotated
+/// but otherwise exact track scores 0.
+pub fn shape_error(track: &[(f64, f64, f64)], truth: &[(f64, f64, f64)], n: usize) -> f64 {
+    let at = |t: f64| {
+        let i = track.partition_point(|p| p.0 < t).clamp(1, track.len() - 1);
+        let (a, b) = (track[i - 1], track[i]);
+        let f = ((t - a.0) / (b.0 - a.0)).clamp(0.0, 1.0);
+        (a.1 + f * (b.1 - a.1), a.2 + f * (b.2 - a.2))
+    };
+    let (start, end) = (track[0].0, track[track.len() - 1].0);
+    let covered: Vec<_> = truth
+        .iter()
+        .filter(|g| g.0 >= start && g.0 <= end)
+        .collect();
+    let picked: Vec<((f64, f64), (f64, f64))> = (0..n)
+        .map(|k| covered[k * (covered.len() - 1) / (n - 1)])
+        .map(|g| ((g.1, g.2), at(g.0)))
+        .collect();
+    let mut sum = 0.0;
+    let mut pairs = 0;
+    for (i, (gi, ei)) in picked.iter().enumerate() {
+        for (gj, ej) in &picked[i + 1..] {
+            let d_truth = (gi.0 - gj.0).hypot(gi.1 - gj.1);
+            let d_track = (ei.0 - ej.0).hypot(ei.1 - ej.1);
+            sum += (d_truth - d_track).powi(2);
+            pairs += 1;
+        }
+    }
+    (sum / pairs as f64).sqrt()
+}

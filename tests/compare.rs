@@ -1,0 +1,175 @@
+//! `fastslam-stack compare` through the real stack: every configuration runs the whole
+//! multi-process stack; the table has one row per optimiser × particle count, its numbers
+//! are those of individual runs with the same seeds, and a name the service rejects is
+//! reported with the service's reason while the other runs still happen.
+
+mod common;
+
+use common::*;
+use std::collections::BTreeSet;
+use std::process::Command;
+
+/// The optimisers compared: the first three the service knows (`none`, `coa`, `icoa`), the
+/// issue's "3 optimisers × 2 seeds" check.
+fn optimizers() -> Vec<String> {
+    fastslam_estimation::optimise::OptimiserKind::ALL
+        .iter()
+        .take(3)
+        .map(ToString::to_string)
+        .collect()
+}
+
+const PARTICLES: [usize; 2] = [10, 30];
+const SEEDS: [u64; 2] = [1, 2];
+
+/// Rows of a CSV file as header-keyed maps.
+fn csv(path: &std::path::Path) -> Vec<std::collections::BTreeMap<String, String>> {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut lines = text.lines();
+    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    lines
+        .map(|l| {
+            header
+                .iter()
+                .cloned()
+                .zip(l.split(',').map(String::from))
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn compare_tables_every_configuration_with_the_numbers_of_individual_runs() {
+    let prefix = prefix("compare");
+    let dir = folder(&prefix);
+    let out = dir.join("cmp");
+    let good = optimizers();
+    let mut names = good.clone();
+    names.push("magic".into()); // not an optimiser: rejected by the service
+    let join = |v: Vec<String>| v.join(",");
+    let result = Command::new(LAUNCHER)
+        .args(["compare", "--scenario", "bailey-short", "--jobs", "2"])
+        .args(["--optimizers", &names.join(",")])
+        .args([
+            "--particles",
+            &join(PARTICLES.map(|n| n.to_string()).to_vec()),
+        ])
+        .args(["--seeds", &join(SEEDS.map(|n| n.to_string()).to_vec())])
+        .args(["--timeout-s", "300", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&result.stdout);
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert_eq!(
+        result.status.code(),
+        Some(1),
+        "a rejected run fails compare:\n{stdout}\n{stderr}"
+    );
+
+    // One summary row per optimiser × particle count, in the order asked for.
+    let summary = csv(&out.join("summary.csv"));
+    let keys: Vec<(String, String)> = summary
+        .iter()
+        .map(|r| (r["optimizer"].clone(), r["particles"].clone()))
+        .collect();
+    let expected: Vec<(String, String)> = names
+        .iter()
+        .flat_map(|o| PARTICLES.map(|n| (o.to_string(), n.to_string())))
+        .collect();
+    assert_eq!(keys, expected);
+    for r in &summary {
+        let (runs, failed) = if r["optimizer"] == "magic" {
+            ("0", "2")
+        } else {
+            ("2", "0")
+        };
+        assert_eq!(
+            (r["runs"].as_str(), r["failed"].as_str()),
+            (runs, failed),
+            "{r:?}"
+        );
+    }
+    // The Markdown table says the same, and names the rejection with its reason.
+    let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert!(md.contains("| none | 10 | 2 |"), "{md}");
+    assert!(
+        md.contains("magic") && md.contains("expected one of"),
+        "{md}"
+    );
+    assert!(stdout.contains("| optimizer | particles |"), "{stdout}");
+    for ext in ["svg", "png"] {
+        let plot = out.join(format!("rmse_vs_cpu.{ext}"));
+        assert!(
+            std::fs::metadata(&plot)
+                .map(|m| m.len() > 1000)
+                .unwrap_or(false),
+            "{plot:?}"
+        );
+    }
+
+    // Every run is in runs.csv; each good one equals an individual run with its seed.
+    let runs = csv(&out.join("runs.csv"));
+    assert_eq!(runs.len(), names.len() * PARTICLES.len() * SEEDS.len());
+    let ok: BTreeSet<(String, String, String)> = runs
+        .iter()
+        .filter(|r| r["status"] == "ok")
+        .map(|r| {
+            (
+                r["optimizer"].clone(),
+                r["particles"].clone(),
+                r["seed"].clone(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        ok.len(),
+        good.len() * PARTICLES.len() * SEEDS.len(),
+        "{runs:?}"
+    );
+    let (optimizer, particles, seed) = (good[good.len() - 1].as_str(), PARTICLES[1], SEEDS[1]);
+    let single = dir.join("single");
+    assert_success(&run_stack(
+        &prefix,
+        &single,
+        &[
+            "--scenario",
+            "bailey-short",
+            "--optimizer",
+            optimizer,
+            "--particles",
+            &particles.to_string(),
+            "--seed",
+            &seed.to_string(),
+        ],
+    ));
+    let in_compare = out
+        .join("runs")
+        .join(format!("{optimizer}_n{particles}_seed{seed}"));
+    assert_eq!(
+        reproducible(&single),
+        reproducible(&in_compare),
+        "compare's run differs from the individual run"
+    );
+    let row = runs
+        .iter()
+        .find(|r| {
+            r["optimizer"] == optimizer
+                && r["particles"] == particles.to_string()
+                && r["seed"] == seed.to_string()
+        })
+        .unwrap();
+    let table_ate: f64 = row["ate_rmse_m"].parse().unwrap();
+    assert_eq!(table_ate, num(&metrics(&single), "/estimate/ate_rmse_m"));
+    let nees: f64 = row["nees_mean"].parse().unwrap();
+    assert_eq!(nees, num(&metrics(&single), "/consistency/nees_mean"));
+    for r in runs.iter().filter(|r| r["optimizer"] == "magic") {
+        assert!(r["status"].contains("magic"), "{r:?}");
+    }
+    // No run left a process behind.
+    assert_eq!(
+        leftovers(&dir.display().to_string()).0,
+        Vec::<String>::new()
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,0 +1,172 @@
+//! Recorded data through the real processes: `fastslam-stack replay` starts the data
+//! set's replay process, the FastSLAM service and the client; the tests judge what the
+//! client recorded.
+//!
+//! MRCLAM's truth (Vicon) and Victoria Park's (GPS) live in frames the filter cannot know
+//! (MRCLAM robot 1's heading drifts unobserved for 35 s before it maps most landmarks),
+//! so the trajectories are compared by their shape ([`common::shape_error`]), which needs
+//! no alignment. Once the client scores with an SE(2) alignment, the profiles pass its
+//! flag and these tests can assert the client's aligned ATE instead.
+
+mod common;
+
+use common::*;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// Points sampled along the truth for the shape comparison.
+const SHAPE_POINTS: usize = 200;
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("data")
+        .join(name)
+}
+
+/// Runs `fastslam-stack replay <args>` under `prefix` into `out`; fails the test with the
+/// launcher's output unless it finished.
+fn replay(prefix: &str, out: &Path, args: &[&str]) -> serde_json::Value {
+    let result = Command::new(LAUNCHER)
+        .arg("replay")
+        .args(args)
+        .args(["--prefix", prefix, "--timeout-s", "600", "--out"])
+        .arg(out)
+        .output()
+        .expect("starting the launcher");
+    assert_success(&result);
+    let stdout = String::from_utf8_lossy(&result.stdout);
+    assert!(
+        stdout.contains("ATE RMSE") && stdout.contains("landmark RMSE"),
+        "{stdout}"
+    );
+    assert_eq!(
+        leftovers(prefix),
+        (vec![], vec![]),
+        "processes or shared memory left"
+    );
+    let m = metrics(out);
+    assert_eq!(m["complete"], true, "{m}");
+    m
+}
+
+/// Shape errors of the estimate and of dead reckoning against the truth (m).
+fn shapes(out: &Path) -> (f64, f64) {
+    let truth = read_tum(&out.join("truth.tum"));
+    let estimate = shape_error(&read_tum(&out.join("estimate.tum")), &truth, SHAPE_POINTS);
+    let dead_reckoning = shape_error(
+        &read_tum(&out.join("dead_reckoning.tum")),
+        &truth,
+        SHAPE_POINTS,
+    );
+    (estimate, dead_reckoning)
+}
+
+fn mrclam(association: &str) -> (serde_json::Value, f64, f64) {
+    let prefix = prefix(&format!("mrclam{association}"));
+    let dir = folder(&prefix);
+    let out = dir.join("run");
+    let data = data("mrclam7");
+    let m = replay(
+        &prefix,
+        &out,
+        &[
+            "mrclam",
+            "--data",
+            data.to_str().unwrap(),
+            "--association",
+            association,
+        ],
+    );
+    // One estimate per camera frame with a landmark in it.
+    assert!(num(&m, "/estimate/poses") > 1500.0, "{m}");
+    assert_eq!(
+        num(&m, "/map/truth"),
+        15.0,
+        "the true landmarks arrived: {m}"
+    );
+    let (estimate, dead_reckoning) = shapes(&out);
+    std::fs::remove_dir_all(&dir).ok();
+    (m, estimate, dead_reckoning)
+}
+
+#[test]
+fn mrclam_with_barcodes_as_ids_beats_dead_reckoning_and_maps_each_landmark_once() {
+    let (m, estimate, dead_reckoning) = mrclam("known");
+    assert_eq!(
+        num(&m, "/map/estimated"),
+        15.0,
+        "one landmark per barcode: {m}"
+    );
+    assert!(
+        estimate < 0.5 * dead_reckoning,
+        "shape error {estimate} m vs dead reckoning {dead_reckoning} m"
+    );
+}
+
+#[test]
+fn mrclam_with_unknown_association_beats_dead_reckoning() {
+    let (m, estimate, dead_reckoning) = mrclam("unknown");
+    assert!(num(&m, "/map/estimated") >= 10.0, "{m}");
+    assert!(
+        estimate < 0.5 * dead_reckoning,
+        "shape error {estimate} m vs dead reckoning {dead_reckoning} m"
+    );
+}
+
+#[test]
+fn victoria_park_follows_the_gps_loop_far_better_than_dead_reckoning() {
+    let prefix = prefix("victoriapark");
+    let dir = folder(&prefix);
+    let out = dir.join("run");
+    let data = data("victoria_park");
+    let m = replay(
+        &prefix,
+        &out,
+        &["victoria-park", "--data", data.to_str().unwrap()],
+    );
+    assert_eq!(num(&m, "/map/truth"), 0.0, "no true tree map: {m}");
+    assert!(num(&m, "/map/estimated") > 50.0, "trees mapped: {m}");
+    // Every laser scan produced an estimate (7249 scans; the GPS ends before the last).
+    assert_eq!(num(&m, "/estimate/poses"), 7248.0, "{m}");
+    let (estimate, dead_reckoning) = shapes(&out);
+    assert!(
+        estimate < 10.0 && estimate < 0.2 * dead_reckoning,
+        "shape error against GPS {estimate} m vs dead reckoning {dead_reckoning} m"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_missing_data_folder_or_profile_is_reported_with_its_reason() {
+    let prefix = prefix("replaybad");
+    let dir = folder(&prefix);
+    let run = |args: &[&str]| {
+        Command::new(LAUNCHER)
+            .arg("replay")
+            .args(args)
+            .args(["--prefix", &prefix, "--out"])
+            .arg(dir.join("run"))
+            .output()
+            .unwrap()
+    };
+    let missing = run(&["mrclam", "--data", "/no/such/folder"]);
+    assert!(!missing.status.success());
+    let err = String::from_utf8_lossy(&missing.stderr);
+    assert!(err.contains("/no/such/folder"), "{err}");
+    let mrclam = data("mrclam7");
+    let profile = run(&[
+        "mrclam",
+        "--data",
+        mrclam.to_str().unwrap(),
+        "--profile",
+        "nope",
+    ]);
+    assert!(!profile.status.success());
+    let err = String::from_utf8_lossy(&profile.stderr);
+    assert!(
+        err.contains("nope") && err.contains("victoria-park"),
+        "{err}"
+    );
+    assert_eq!(leftovers(&prefix), (vec![], vec![]));
+    std::fs::remove_dir_all(&dir).ok();
+}
