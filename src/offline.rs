@@ -7,7 +7,7 @@
 
 use crate::grid::Grid;
 use crate::settings;
-use fastslam_client::metrics::Alignment;
+use fastslam_client::metrics::{Alignment, ScoreAt};
 use fastslam_client::{Metrics, Recording};
 use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::moves::MoveStats;
@@ -99,7 +99,7 @@ pub fn run_in_process(
     let stamp_ns = last_pose.map_or(0, |h| h.stamp_ns);
     recording.map = slam.map(Header { stamp_ns, seq: 0 }).1;
     Ok(RunOutcome {
-        metrics: Metrics::compute(&recording, true, Alignment::default()),
+        metrics: Metrics::compute(&recording, true, Alignment::default(), ScoreAt::Estimates),
         filter_time,
         moves: slam.move_stats(),
     })

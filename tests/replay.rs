@@ -4,18 +4,14 @@
 //!
 //! MRCLAM's truth (Vicon) and Victoria Park's (GPS) live in frames the filter cannot know
 //! (MRCLAM robot 1's heading drifts unobserved for 35 s before it maps most landmarks),
-//! so the trajectories are compared by their shape ([`common::shape_error`]), which needs
-//! no alignment. Once the client scores with an SE(2) alignment, the profiles pass its
-//! flag and these tests can assert the client's aligned ATE instead.
+//! so the profiles make the client align each trajectory onto the truth (least-squares
+//! SE(2)) before scoring, and the tests judge the client's aligned ATE.
 
 mod common;
 
 use common::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-
-/// Points sampled along the truth for the shape comparison.
-const SHAPE_POINTS: usize = 200;
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -46,19 +42,16 @@ fn replay(prefix: &str, out: &Path, args: &[&str]) -> serde_json::Value {
     );
     let m = metrics(out);
     assert_eq!(m["complete"], true, "{m}");
+    assert_eq!(m["alignment"]["method"], "se2", "the profile aligns: {m}");
     m
 }
 
-/// Shape errors of the estimate and of dead reckoning against the truth (m).
-fn shapes(out: &Path) -> (f64, f64) {
-    let truth = read_tum(&out.join("truth.tum"));
-    let estimate = shape_error(&read_tum(&out.join("estimate.tum")), &truth, SHAPE_POINTS);
-    let dead_reckoning = shape_error(
-        &read_tum(&out.join("dead_reckoning.tum")),
-        &truth,
-        SHAPE_POINTS,
-    );
-    (estimate, dead_reckoning)
+/// The client's aligned ATE RMSE of the estimate and of dead reckoning (m).
+fn ates(m: &serde_json::Value) -> (f64, f64) {
+    (
+        num(m, "/estimate/ate_rmse_m"),
+        num(m, "/dead_reckoning/ate_rmse_m"),
+    )
 }
 
 fn mrclam(association: &str) -> (serde_json::Value, f64, f64) {
@@ -84,7 +77,7 @@ fn mrclam(association: &str) -> (serde_json::Value, f64, f64) {
         15.0,
         "the true landmarks arrived: {m}"
     );
-    let (estimate, dead_reckoning) = shapes(&out);
+    let (estimate, dead_reckoning) = ates(&m);
     std::fs::remove_dir_all(&dir).ok();
     (m, estimate, dead_reckoning)
 }
@@ -99,7 +92,7 @@ fn mrclam_with_barcodes_as_ids_beats_dead_reckoning_and_maps_each_landmark_once(
     );
     assert!(
         estimate < 0.5 * dead_reckoning,
-        "shape error {estimate} m vs dead reckoning {dead_reckoning} m"
+        "ATE {estimate} m vs dead reckoning {dead_reckoning} m"
     );
 }
 
@@ -109,7 +102,7 @@ fn mrclam_with_unknown_association_beats_dead_reckoning() {
     assert!(num(&m, "/map/estimated") >= 10.0, "{m}");
     assert!(
         estimate < 0.5 * dead_reckoning,
-        "shape error {estimate} m vs dead reckoning {dead_reckoning} m"
+        "ATE {estimate} m vs dead reckoning {dead_reckoning} m"
     );
 }
 
@@ -126,12 +119,17 @@ fn victoria_park_follows_the_gps_loop_far_better_than_dead_reckoning() {
     );
     assert_eq!(num(&m, "/map/truth"), 0.0, "no true tree map: {m}");
     assert!(num(&m, "/map/estimated") > 50.0, "trees mapped: {m}");
-    // Every laser scan produced an estimate (7249 scans; the GPS ends before the last).
-    assert_eq!(num(&m, "/estimate/poses"), 7248.0, "{m}");
-    let (estimate, dead_reckoning) = shapes(&out);
+    // Every laser scan made an observation step, and the scoring is at the GPS fixes.
+    assert_eq!(num(&m, "/filter/steps"), 7249.0, "{m}");
+    assert_eq!(m["scored_at"], "truth", "{m}");
     assert!(
-        estimate < 10.0 && estimate < 0.2 * dead_reckoning,
-        "shape error against GPS {estimate} m vs dead reckoning {dead_reckoning} m"
+        num(&m, "/estimate/poses") > 4000.0,
+        "GPS fixes compared: {m}"
+    );
+    let (estimate, dead_reckoning) = ates(&m);
+    assert!(
+        estimate < 20.0 && estimate < 0.2 * dead_reckoning,
+        "ATE at the GPS points {estimate} m vs dead reckoning {dead_reckoning} m"
     );
     std::fs::remove_dir_all(&dir).ok();
 }

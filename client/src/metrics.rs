@@ -61,6 +61,8 @@ pub struct Metrics {
     pub complete: bool,
     /// How the estimate was aligned with the truth before scoring.
     pub alignment: Alignment,
+    /// Where the trajectories were compared with the truth.
+    pub scored_at: ScoreAt,
     /// The service's pose estimates against ground truth.
     pub estimate: TrajectoryMetrics,
     /// Dead reckoning (the odometry's own pose) at the same stamps: the baseline.
@@ -171,9 +173,11 @@ pub struct Cost {
 }
 
 impl Metrics {
-    /// Scores `rec` (already aligned as `alignment` says, see [`align`]); `complete`
-    /// says whether every stream ended normally.
-    pub fn compute(rec: &Recording, complete: bool, alignment: Alignment) -> Self {
+    /// Scores `rec` (already aligned as `alignment` says, see [`fit_alignment`]) at the
+    /// stamps `at` says (see [`scored_at`]); `complete` says whether every stream ended
+    /// normally.
+    pub fn compute(rec: &Recording, complete: bool, alignment: Alignment, at: ScoreAt) -> Self {
+        let rec = &scored_at(rec, at);
         let estimates: Vec<StampedPose> = rec.estimates.iter().map(|e| e.pose).collect();
         let dead_reckoning: Vec<StampedPose> = estimates
             .iter()
@@ -182,6 +186,7 @@ impl Metrics {
         Self {
             complete,
             alignment,
+            scored_at: at,
             estimate: trajectory(&estimates, &rec.truth),
             dead_reckoning: trajectory(&dead_reckoning, &rec.truth),
             consistency: consistency(rec),
@@ -192,13 +197,43 @@ impl Metrics {
     }
 }
 
-/// Brings `rec` into the truth's frame as `mode` says: a copy with the estimate (poses,
-/// covariances, map) and dead reckoning transformed, and the transforms used. Each
+/// Where the trajectory is compared with the truth.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum ScoreAt {
+    /// At every pose estimate, the truth interpolated (dense truth: simulation, Vicon).
+    #[default]
+    Estimates,
+    /// At every truth sample within the estimate's span, the estimate interpolated
+    /// (sparse truth such as GPS fixes: no error from interpolating between far fixes).
+    Truth,
+}
+
+/// The recording as it is scored: `rec` itself, or for [`ScoreAt::Truth`] a copy whose
+/// estimates are the estimate interpolated at the truth's stamps (each with the
+/// covariance of the estimate before it).
+pub fn scored_at(rec: &Recording, at: ScoreAt) -> Recording {
+    let mut out = rec.clone();
+    if at == ScoreAt::Truth {
+        let poses: Vec<StampedPose> = rec.estimates.iter().map(|e| e.pose).collect();
+        out.estimates = (rec.truth.iter())
+            .filter_map(|t| {
+                let pose = interpolate(&poses, t.stamp_ns)?;
+                let before = poses.partition_point(|p| p.stamp_ns <= t.stamp_ns);
+                let covariance = rec.estimates[before.checked_sub(1)?].covariance;
+                Some(Estimate { pose, covariance })
+            })
+            .collect();
+    }
+    out
+}
+
+/// The transforms that bring `rec` into the truth's frame as `mode` says. Each
 /// trajectory is fitted to the truth at its own stamps; one that cannot be fitted (fewer
-/// than two poses with truth) stays as it is.
-pub fn align(rec: &Recording, mode: AlignMode) -> (Recording, Alignment) {
+/// than two poses with truth) keeps the identity.
+pub fn fit_alignment(rec: &Recording, mode: AlignMode) -> Alignment {
     if mode == AlignMode::None {
-        return (rec.clone(), Alignment::default());
+        return Alignment::default();
     }
     let fit = |poses: &mut dyn Iterator<Item = &StampedPose>| {
         let (est, truth): (Vec<_>, Vec<_>) = poses
@@ -206,29 +241,35 @@ pub fn align(rec: &Recording, mode: AlignMode) -> (Recording, Alignment) {
             .unzip();
         umeyama_se2(&est, &truth).unwrap_or(Se2::IDENTITY)
     };
-    let estimate = fit(&mut rec.estimates.iter().map(|e| &e.pose));
-    let dead_reckoning = fit(&mut rec.dead_reckoning.iter());
-    let mut out = rec.clone();
-    for e in &mut out.estimates {
-        *e = Estimate {
-            pose: estimate.apply_pose(&e.pose),
-            covariance: estimate.apply_covariance(&e.covariance),
-        };
-    }
-    for p in &mut out.dead_reckoning {
-        *p = dead_reckoning.apply_pose(p);
-    }
-    for l in &mut out.map {
-        (l.x, l.y) = estimate.apply(l.x, l.y);
-        (l.cov_xx, l.cov_xy, l.cov_yy) =
-            estimate.apply_point_covariance(l.cov_xx, l.cov_xy, l.cov_yy);
-    }
-    let alignment = Alignment {
+    Alignment {
         method: mode,
-        estimate,
-        dead_reckoning,
-    };
-    (out, alignment)
+        estimate: fit(&mut rec.estimates.iter().map(|e| &e.pose)),
+        dead_reckoning: fit(&mut rec.dead_reckoning.iter()),
+    }
+}
+
+impl Alignment {
+    /// A copy of `rec` with the estimate (poses, covariances, map) and dead reckoning
+    /// transformed into the truth's frame.
+    pub fn apply(&self, rec: &Recording) -> Recording {
+        let mut out = rec.clone();
+        for e in &mut out.estimates {
+            *e = Estimate {
+                pose: self.estimate.apply_pose(&e.pose),
+                covariance: self.estimate.apply_covariance(&e.covariance),
+            };
+        }
+        for p in &mut out.dead_reckoning {
+            *p = self.dead_reckoning.apply_pose(p);
+        }
+        for l in &mut out.map {
+            (l.x, l.y) = self.estimate.apply(l.x, l.y);
+            (l.cov_xx, l.cov_xy, l.cov_yy) = self
+                .estimate
+                .apply_point_covariance(l.cov_xx, l.cov_xy, l.cov_yy);
+        }
+        out
+    }
 }
 
 /// The pose of `track` (sorted by stamp) at `stamp_ns`, linearly interpolated between
@@ -521,6 +562,35 @@ mod tests {
     }
 
     #[test]
+    fn scoring_at_sparse_truth_compares_at_each_fix_inside_the_estimate() {
+        // Truth on a curve, fixes every 10 stamps; the estimate follows it exactly at
+        // every stamp 5..=35, so only the fixes 10, 20, 30 lie inside it.
+        let curve = |t: u64| pose(t, t as f64, (t as f64 * 0.3).sin() * 4.0, 0.0);
+        let cov = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+        let rec = Recording {
+            truth: (0..5).map(|k| curve(10 * k)).collect(),
+            estimates: (5..=35)
+                .map(|t| crate::recording::Estimate {
+                    pose: curve(t),
+                    covariance: cov,
+                })
+                .collect(),
+            ..Default::default()
+        };
+        let at_truth = Metrics::compute(&rec, true, Alignment::default(), ScoreAt::Truth);
+        assert_eq!(at_truth.estimate.poses, 3);
+        assert!(
+            at_truth.estimate.ate_rmse_m < 1e-12,
+            "{:?}",
+            at_truth.estimate
+        );
+        // At the estimates, the truth interpolated between far fixes is off the curve.
+        let at_estimates = Metrics::compute(&rec, true, Alignment::default(), ScoreAt::Estimates);
+        assert_eq!(at_estimates.estimate.poses, 31);
+        assert!(at_estimates.estimate.ate_rmse_m > 0.1);
+    }
+
+    #[test]
     fn se2_alignment_removes_a_frame_offset_and_moves_the_map_with_it() {
         // The estimate is the truth seen from a rotated, shifted frame.
         let frame = Se2 {
@@ -554,10 +624,10 @@ mod tests {
             truth,
             ..Default::default()
         };
-        let unaligned = Metrics::compute(&rec, true, Alignment::default());
+        let unaligned = Metrics::compute(&rec, true, Alignment::default(), ScoreAt::Estimates);
         assert!(unaligned.estimate.ate_rmse_m > 1.0);
-        let (aligned_rec, alignment) = align(&rec, AlignMode::Se2);
-        let m = Metrics::compute(&aligned_rec, true, alignment);
+        let alignment = fit_alignment(&rec, AlignMode::Se2);
+        let m = Metrics::compute(&alignment.apply(&rec), true, alignment, ScoreAt::Estimates);
         assert!(m.estimate.ate_rmse_m < 1e-9, "{:?}", m.estimate);
         assert!(m.estimate.heading_rmse_rad < 1e-9);
         assert!(m.map.rmse_m < 1e-9 && m.map.matched == 1, "{:?}", m.map);

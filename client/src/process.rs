@@ -3,7 +3,7 @@
 //! line on stdout a few times a second (see [`crate::progress`]).
 
 use crate::latency::LatencyMatcher;
-use crate::metrics::{AlignMode, align, interpolate};
+use crate::metrics::{AlignMode, ScoreAt, fit_alignment, interpolate, scored_at};
 use crate::progress::{LiveAte, Progress};
 use crate::resources::ProcessMonitor;
 use crate::{Metrics, Recording, report};
@@ -42,6 +42,10 @@ pub struct Args {
     /// is the true frame) or se2 (external data: least-squares rigid alignment).
     #[arg(long, value_enum, default_value_t = AlignMode::None)]
     pub align: AlignMode,
+    /// Compare with the truth at every pose estimate (estimates) or at every truth sample
+    /// (truth: for sparse truth such as GPS fixes; the estimate is interpolated there).
+    #[arg(long, value_enum, default_value_t = ScoreAt::Estimates)]
+    pub score_at: ScoreAt,
 }
 
 /// Records until every stream has ended (or a signal arrives), then writes the run folder.
@@ -170,8 +174,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     rec.latencies = latency.latencies().to_vec();
     rec.processes = monitor.usage();
 
-    let (rec, alignment) = align(&rec, args.align);
-    let metrics = Metrics::compute(&rec, ended == Ended::Done, alignment);
+    let alignment = fit_alignment(&scored_at(&rec, args.score_at), args.align);
+    let rec = alignment.apply(&rec);
+    let metrics = Metrics::compute(&rec, ended == Ended::Done, alignment, args.score_at);
     report::write(&args.out, &rec, &metrics)?;
     tracing::info!(
         folder = %args.out.display(), complete = metrics.complete,

@@ -106,7 +106,7 @@ def main():
     parser.add_argument("--duration-s", type=float, default=63.0, help="simulated time")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--wait-subscribers", type=int, default=1,
-                        help="start once this many processes take odometry "
+                        help="start once this many processes take odometry and observations "
                              "(1: the service; 2: the service and a client)")
     parser.add_argument("--unknown-ids", action="store_true", help="publish ids as -1")
     args = parser.parse_args()
@@ -128,9 +128,11 @@ def main():
                         fp.ObservationsHeader)
     eos = Port(node, args.prefix, fp.END_OF_STREAM, fp.EndOfStream)
     # Consumers subscribe to end_of_stream first and to the topic their producer waits on
-    # last: once these are there, nothing published is lost.
+    # last: once these are there, nothing published is lost. Count every consumer on both
+    # sensor topics (a client takes observations too, so one could stand in for a service
+    # that is still starting).
     while (odometry.subscribers() < args.wait_subscribers
-           or observations.subscribers() < 1
+           or observations.subscribers() < args.wait_subscribers
            or truth.subscribers() < min(args.wait_subscribers - 1, 1)):
         node.wait(iox.Duration.from_millis(5))
 

@@ -63,10 +63,12 @@ fn schedule(data: &DataSet) -> Vec<(u64, Next)> {
 /// Opens the player's publishers, waits for its consumers, then plays `data`.
 ///
 /// `consumers` counts the processes that take the sensor streams: 1 = the service alone,
-/// 2 = the service and the client. Play starts once odometry has that many subscribers,
-/// the observations at least one and, with a client, the ground truth at least one. Each
-/// consumer subscribes to end-of-stream first and to the topic its producer waits on
-/// last, so by then every subscription exists and nothing published is lost.
+/// 2 = the service and the client. Play starts once odometry and the observations have
+/// that many subscribers (the client takes observations too, for latency: counting one
+/// would let the client's subscription stand in for a service that is still starting)
+/// and, with a client, the ground truth at least one. Each consumer subscribes to
+/// end-of-stream first and to the topic its producer waits on last, so by then every
+/// subscription exists and nothing published is lost.
 ///
 /// # Errors
 /// IPC failures, a timeout waiting for consumers, or a shutdown signal.
@@ -79,7 +81,7 @@ pub fn play(ipc: &Ipc, data: &DataSet, pacing: Pacing, consumers: usize) -> Resu
         eos: ipc.publisher(&topics::END_OF_STREAM)?,
     };
     out.odometry.wait_for_subscribers(ipc, consumers)?;
-    out.observations.wait_for_subscribers(ipc, 1)?;
+    out.observations.wait_for_subscribers(ipc, consumers)?;
     out.truth
         .wait_for_subscribers(ipc, usize::from(consumers > 1))?;
     let order = schedule(data);
