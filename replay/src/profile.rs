@@ -5,7 +5,6 @@
 
 use crate::dataset::SensorSpec;
 use serde::Deserialize;
-use std::path::Path;
 
 /// Profiles shipped with the stack: (name, file contents).
 pub const BUILT_IN: &[(&str, &str)] = &[
@@ -72,20 +71,14 @@ impl Profile {
     /// # Errors
     /// [`ProfileError`] when it cannot be found, parsed or validated.
     pub fn load(name_or_path: &str) -> Result<Self, ProfileError> {
-        let text = match BUILT_IN.iter().find(|(n, _)| *n == name_or_path) {
-            Some((_, text)) => (*text).to_string(),
-            None => std::fs::read_to_string(Path::new(name_or_path)).map_err(|e| {
+        let text =
+            fastslam_protocol::cli::built_in_or_file(name_or_path, BUILT_IN).map_err(|e| {
                 ProfileError::NotFound {
                     name: name_or_path.to_string(),
-                    built_in: BUILT_IN
-                        .iter()
-                        .map(|(n, _)| *n)
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                    reason: e.to_string(),
+                    built_in: e.built_in,
+                    reason: e.reason,
                 }
-            })?,
-        };
+            })?;
         let invalid = |reason: String| ProfileError::Invalid {
             name: name_or_path.to_string(),
             reason,

@@ -3,7 +3,6 @@
 //! any other file is found by path.
 
 use serde::Deserialize;
-use std::path::Path;
 
 /// Scenarios shipped with the stack: (name, file contents).
 pub const BUILT_IN: &[(&str, &str)] = &[
@@ -281,20 +280,14 @@ impl Scenario {
     /// # Errors
     /// [`ScenarioError`] when it cannot be found, parsed or validated.
     pub fn load(name_or_path: &str) -> Result<Self, ScenarioError> {
-        let text = match BUILT_IN.iter().find(|(n, _)| *n == name_or_path) {
-            Some((_, text)) => (*text).to_string(),
-            None => std::fs::read_to_string(Path::new(name_or_path)).map_err(|e| {
+        let text =
+            fastslam_protocol::cli::built_in_or_file(name_or_path, BUILT_IN).map_err(|e| {
                 ScenarioError::NotFound {
                     name: name_or_path.to_string(),
-                    built_in: BUILT_IN
-                        .iter()
-                        .map(|(n, _)| *n)
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                    reason: e.to_string(),
+                    built_in: e.built_in,
+                    reason: e.reason,
                 }
-            })?,
-        };
+            })?;
         Self::parse(name_or_path, &text)
     }
 

@@ -106,3 +106,33 @@ pub fn finish<E: std::fmt::Display>(result: Result<(), E>) -> Result<(), E> {
 pub fn in_process_span<T>(process: &'static str, f: impl FnOnce() -> T) -> T {
     tracing::info_span!("process", name = process).in_scope(f)
 }
+
+/// Why [`built_in_or_file`] found nothing: the built-in names (comma-separated, for the
+/// user to pick from) and the reason the file could not be read.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NotBuiltInOrFile {
+    /// The built-in names, comma-separated.
+    pub built_in: String,
+    /// Why reading `name_or_path` as a file failed.
+    pub reason: String,
+}
+
+/// The text of the built-in `(name, text)` called `name_or_path`, else the file at that
+/// path: how scenarios and replay profiles are named on the command line.
+///
+/// # Errors
+/// [`NotBuiltInOrFile`] when it is neither.
+pub fn built_in_or_file(
+    name_or_path: &str,
+    built_in: &[(&str, &str)],
+) -> Result<String, NotBuiltInOrFile> {
+    match built_in.iter().find(|(n, _)| *n == name_or_path) {
+        Some((_, text)) => Ok((*text).to_string()),
+        None => std::fs::read_to_string(name_or_path).map_err(|e| NotBuiltInOrFile {
+            built_in: (built_in.iter().map(|(n, _)| *n))
+                .collect::<Vec<_>>()
+                .join(", "),
+            reason: e.to_string(),
+        }),
+    }
+}
