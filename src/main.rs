@@ -5,6 +5,7 @@
 //! The same binary also *is* each process (hidden subcommands), so a single
 //! `cargo run --release -- run` builds and starts everything.
 
+mod bench;
 mod compare;
 mod extraction_report;
 mod monte_carlo;
@@ -53,6 +54,13 @@ enum Command {
     /// Offline Monte Carlo comparison in process (no IPC): optimisers × proposals ×
     /// particle counts × seeds on a scenario, scored by the client's metrics.
     MonteCarlo(monte_carlo::MonteCarloArgs),
+    /// Performance figures, printed with the machine: filter step time over particles ×
+    /// landmarks per optimiser with growth ratios, end-to-end latency at the real-time
+    /// rate (median, p99, p99.9), multi-process against in-process throughput (the IPC
+    /// overhead), CPU time and peak memory per process. See BENCHMARKS.md.
+    ///
+    /// The full step grid takes minutes; `--quick` runs a subset in well under a minute.
+    Bench(bench::BenchArgs),
     /// The truth simulator process (started by `run`).
     #[command(hide = true)]
     TruthSim(truth::Args),
@@ -107,6 +115,10 @@ fn main() -> anyhow::Result<()> {
         Command::ExtractionReport(args) => extraction_report::run(&args),
         Command::Ungm(a) => ungm::run(&a),
         Command::MonteCarlo(a) => monte_carlo::run(&a),
+        Command::Bench(a) => {
+            fastslam_protocol::cli::init_logging("bench");
+            bench::run(&a)
+        }
         Command::TruthSim(a) => run_process("truth-sim", a, truth::run),
         Command::OdometrySim(a) => run_process("odometry-sim", a, odometry::run),
         Command::LidarSim(a) => run_process("lidar-sim", a, lidar::run),

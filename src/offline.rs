@@ -29,6 +29,8 @@ pub struct RunOutcome {
     pub metrics: Metrics,
     /// Time spent in the filter (prediction and update calls), simulation excluded.
     pub filter_time: Duration,
+    /// Simulated time covered: the stamp of the last pose estimate.
+    pub simulated: Duration,
     /// What the optimiser's moves did (`None` without an optimiser).
     pub moves: Option<MoveStats>,
 }
@@ -56,8 +58,9 @@ pub fn run_in_process(
     let mut apply = |sequencer: &mut Sequencer, recording: &mut Recording| {
         while let Some(input) = sequencer.release() {
             let started = Instant::now();
-            let step = slam.apply(input);
+            let step = slam.apply(&input);
             filter_time += started.elapsed();
+            sequencer.recycle(input);
             if let Ok(Some(step)) = step {
                 recording.add_estimate(&step.pose);
                 last_pose = Some(step.pose.header);
@@ -101,6 +104,7 @@ pub fn run_in_process(
     Ok(RunOutcome {
         metrics: Metrics::compute(&recording, true, Alignment::default(), ScoreAt::Estimates),
         filter_time,
+        simulated: Duration::from_nanos(stamp_ns),
         moves: slam.move_stats(),
     })
 }

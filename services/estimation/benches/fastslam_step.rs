@@ -1,112 +1,24 @@
 //! Cost of one FastSLAM step (predict + update with unknown association) against the
 //! number of particles N and the map size M, and with each optimiser (and FastSLAM 2.0's
-//! proposal) at N = 100.
+//! proposal) at N = 100, on the synthetic workload of
+//! [`fastslam_estimation::workload`]: each measured step starts from the same cloned
+//! filter (clone and drop not timed).
 //!
-//! The world grows with M at a fixed landmark density (one per 100 m², jittered grid), so
-//! the robot — in the middle, Bailey's 30 m front half-plane sensor — sees about 14
-//! landmarks whatever M is: the benchmark isolates the cost of the map's size. Every
-//! particle starts with the whole map (shared), `neff_ratio = 1` makes every step
-//! resample, and each measured step starts from the same cloned filter.
-//!
-//! After the criterion groups it prints growth ratios of the median step time: at N = 100
-//! when M grows 10× (the requirement: < 2×), at M = 1000 when N grows 10× (≈ 10× expected:
-//! the work is per particle), and each optimiser's step against plain FastSLAM's.
+//! After the criterion groups it prints the machine and growth ratios of the median step
+//! time: at N = 100 when M grows 10× (the target: ≤ 1.5×), at M = 1000 when N
+//! grows 10× (≈ 10× expected: the work is per particle), and each optimiser's step against
+//! plain FastSLAM's. `fastslam-stack bench` prints the same figures for the full grid.
 
 use criterion::{BatchSize, BenchmarkId, Criterion};
-use fastslam_estimation::Pose2;
-use fastslam_estimation::fastslam::{
-    FastSlam, FastSlamConfig, MapLandmark, OptimiserRefiner, PoseRefiner, Proposal,
-};
-use fastslam_estimation::motion::{Control, MotionModel};
-use fastslam_estimation::moves::MoveConfig;
-use fastslam_estimation::observation::{Observation, Sensor, measure};
-use fastslam_estimation::optimise::{OptimiserConfig, OptimiserKind};
-use fastslam_estimation::rng::seeded;
-use nalgebra::{Matrix2, Vector2};
-use rand::RngExt;
-use rand_distr::StandardNormal;
+use fastslam_estimation::fastslam::Proposal;
+use fastslam_estimation::optimise::OptimiserKind;
+use fastslam_estimation::workload::Workload;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
-/// Landmark spacing of the jittered grid (m).
-const SPACING: f64 = 10.0;
-/// Odometry / scan period of one step (s).
-const DT: f64 = 0.2;
-const CONTROL: Control = Control {
-    v: 3.0,
-    omega: 0.0,
-    steering: 0.05,
-};
-
-/// A filter with `n` particles sharing a map of `m` landmarks, and the scan the robot
-/// takes after one step.
-fn scenario(n: usize, m: usize) -> (FastSlam, Vec<Observation>) {
-    scenario_with(n, m, Proposal::Motion)
-}
-
-/// [`scenario`] with the given proposal.
-fn scenario_with(n: usize, m: usize, proposal: Proposal) -> (FastSlam, Vec<Observation>) {
-    let mut rng = seeded(m as u64);
-    let side = (m as f64).sqrt().ceil() as usize;
-    let half = side as f64 * SPACING / 2.0;
-    let world: Vec<MapLandmark> = (0..m)
-        .map(|k| MapLandmark {
-            id: k as u64,
-            mean: Vector2::new(
-                (k % side) as f64 * SPACING - half + rng.random_range(0.0..SPACING),
-                (k / side) as f64 * SPACING - half + rng.random_range(0.0..SPACING),
-            ),
-            covariance: Matrix2::identity() * 0.05,
-            hits: 10,
-        })
-        .collect();
-    let mut config = FastSlamConfig {
-        particles: n,
-        proposal,
-        ..FastSlamConfig::default()
-    };
-    config.resampling.neff_ratio = 1.0;
-    let sensor = Sensor::default();
-    let truth = MotionModel::default().propagate(&Pose2::default(), &CONTROL, DT);
-    let scan = world
-        .iter()
-        .map(|l| measure(&truth, &l.mean))
-        .filter(|z| sensor.sees(z, 0.0, 0.0))
-        .map(|z| Observation {
-            range: z[0] + sensor.sigma_range * rng.sample::<f64, _>(StandardNormal),
-            bearing: z[1] + sensor.sigma_bearing * rng.sample::<f64, _>(StandardNormal),
-            id: None,
-        })
-        .collect();
-    let slam = FastSlam::with_prior_map(config, Pose2::default(), &world).expect("valid scenario");
-    (slam, scan)
-}
-
-fn step(slam: FastSlam, scan: &[Observation]) -> FastSlam {
-    step_with(slam, scan, None)
-}
-
-/// One step with `refiner` as step 2.
-fn step_with(
-    mut slam: FastSlam,
-    scan: &[Observation],
-    refiner: Option<&mut OptimiserRefiner>,
-) -> FastSlam {
-    slam.predict(&CONTROL, DT).expect("finite control");
-    let sensor = slam.config().sensor.clone();
-    let refiner = refiner.map(|r| r as &mut dyn PoseRefiner);
-    slam.update_with(scan, &sensor, refiner)
-        .expect("usable weights");
-    slam
-}
-
-/// The refiner of optimiser `kind` with the default K and move settings.
-fn refiner(kind: OptimiserKind) -> Option<OptimiserRefiner> {
-    let config = OptimiserConfig {
-        kind,
-        ..OptimiserConfig::default()
-    };
-    OptimiserRefiner::new(&config, MoveConfig::default(), 1).expect("valid optimiser")
+/// The workload of `n` particles, `m` landmarks, `proposal` and optimiser `kind`.
+fn workload(n: usize, m: usize, proposal: Proposal, kind: OptimiserKind) -> Workload {
+    Workload::new(n, m, proposal, kind).expect("valid workload")
 }
 
 fn bench_step(c: &mut Criterion) {
@@ -117,11 +29,15 @@ fn bench_step(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(2));
     for n in [10, 100, 1000] {
         for m in [10, 100, 1000, 10_000] {
-            let (slam, scan) = scenario(n, m);
+            let mut w = workload(n, m, Proposal::Motion, OptimiserKind::None);
+            let start = w.filter.clone();
             group.bench_with_input(BenchmarkId::new(format!("N={n}"), m), &m, |b, _| {
                 b.iter_batched(
-                    || slam.clone(),
-                    |s| step(s, black_box(&scan)),
+                    || start.clone(),
+                    |mut f| {
+                        w.step(&mut f).expect("usable weights");
+                        f
+                    },
                     BatchSize::SmallInput,
                 )
             });
@@ -140,12 +56,15 @@ fn bench_optimisers(c: &mut Criterion) {
         .warm_up_time(Duration::from_millis(500))
         .measurement_time(Duration::from_secs(3));
     for (label, proposal, kind) in optimiser_cases() {
-        let (slam, scan) = scenario_with(100, M_FIXED, proposal);
-        let mut refiner = refiner(kind);
+        let mut w = workload(100, M_FIXED, proposal, kind);
+        let start = w.filter.clone();
         group.bench_function(BenchmarkId::new("N=100", label), |b| {
             b.iter_batched(
-                || slam.clone(),
-                |s| step_with(s, black_box(&scan), refiner.as_mut()),
+                || start.clone(),
+                |mut f| {
+                    w.step(&mut f).expect("usable weights");
+                    f
+                },
                 BatchSize::SmallInput,
             )
         });
@@ -171,8 +90,8 @@ fn optimiser_cases() -> Vec<(String, Proposal, OptimiserKind)> {
     cases
 }
 
-/// A filter, its scan and its refiner: one case of the growth measurements.
-type Case = (String, FastSlam, Vec<Observation>, Option<OptimiserRefiner>);
+/// A label and its workload: one case of the growth measurements.
+type Case = (String, Workload);
 
 /// Median wall time (s) of one step of each case, the cases interleaved run by run so that
 /// background load affects all alike; each step starts from the same filter (clone and drop
@@ -180,12 +99,12 @@ type Case = (String, FastSlam, Vec<Observation>, Option<OptimiserRefiner>);
 fn medians(cases: &mut [Case], runs: usize) -> Vec<f64> {
     let mut times = vec![Vec::with_capacity(runs); cases.len()];
     for _ in 0..runs {
-        for ((_, slam, scan, refiner), t) in cases.iter_mut().zip(&mut times) {
-            let input = slam.clone();
+        for ((_, w), t) in cases.iter_mut().zip(&mut times) {
+            let mut filter = w.filter.clone();
             let start = Instant::now();
-            let out = step_with(input, black_box(scan), refiner.as_mut());
+            w.step(black_box(&mut filter)).expect("usable weights");
             t.push(start.elapsed());
-            drop(black_box(out));
+            drop(black_box(filter));
         }
     }
     times
@@ -201,7 +120,7 @@ fn medians(cases: &mut [Case], runs: usize) -> Vec<f64> {
 fn print_ratios(title: &str, cases: &mut [Case], runs: usize, base: impl Fn(usize) -> usize) {
     let t = medians(cases, runs);
     println!("\n{title} (median of {runs} interleaved steps):");
-    for (k, (label, _, scan, _)) in cases.iter().enumerate() {
+    for (k, (label, w)) in cases.iter().enumerate() {
         let ratio = if base(k) == k {
             String::new()
         } else {
@@ -210,16 +129,13 @@ fn print_ratios(title: &str, cases: &mut [Case], runs: usize, base: impl Fn(usiz
         println!(
             "  {label:<22} {:>10.1} µs ({} observations){ratio}",
             t[k] * 1e6,
-            scan.len()
+            w.scan.len()
         );
     }
 }
 
 fn print_growth() {
-    let case = |label: String, n, m, proposal, kind| {
-        let (slam, scan) = scenario_with(n, m, proposal);
-        (label, slam, scan, refiner(kind))
-    };
+    let case = |label: String, n, m, proposal, kind| (label, workload(n, m, proposal, kind));
     let mut by_m: Vec<Case> = [100, 1000, 10_000]
         .into_iter()
         .map(|m| {
@@ -233,7 +149,7 @@ fn print_growth() {
         })
         .collect();
     print_ratios(
-        "FastSLAM step against M (requirement: < 2x for 10x M)",
+        "FastSLAM step against M (target: <= 1.5x for 10x M)",
         &mut by_m,
         201,
         |k| k.saturating_sub(1),
@@ -260,7 +176,21 @@ fn print_growth() {
     );
 }
 
+/// The CPU model, logical cores and kernel, from `/proc`.
+fn machine() -> String {
+    let read = |p: &str| std::fs::read_to_string(p).unwrap_or_default();
+    let cpuinfo = read("/proc/cpuinfo");
+    let model = cpuinfo
+        .lines()
+        .find_map(|l| l.strip_prefix("model name"))
+        .map_or("unknown CPU", |m| m.trim_start_matches([' ', '\t', ':']));
+    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
+    let kernel = read("/proc/sys/kernel/osrelease");
+    format!("{model}, {cores} logical cores, Linux {}", kernel.trim())
+}
+
 fn main() {
+    println!("machine: {}", machine());
     let mut criterion = Criterion::default().configure_from_args();
     bench_step(&mut criterion);
     bench_optimisers(&mut criterion);

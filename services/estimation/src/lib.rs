@@ -23,6 +23,7 @@ pub mod scan;
 pub mod stats;
 pub mod ungm;
 pub mod weights;
+pub mod workload;
 
 pub use error::{Error, Result};
 pub use pose::{Pose2, wrap_angle};

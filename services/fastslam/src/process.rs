@@ -322,10 +322,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 scan_end.saw(header.header.seq);
                 let check = validate::observations(&header, s.payload());
                 match admit(check, &mut scan_order, header.header.stamp_ns) {
-                    Ok(()) => sequencer.push_scan(Scan {
-                        header,
-                        observations: s.payload().to_vec(),
-                    }),
+                    Ok(()) => {
+                        let observations = sequencer.copy_observations(s.payload());
+                        sequencer.push_scan(Scan {
+                            header,
+                            observations,
+                        });
+                    }
                     Err(r) => health.reject("observations", header.header.seq, r.kind(), &r),
                 }
             })?,
@@ -334,10 +337,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 scan_end.saw(header.header.seq);
                 let check = validate::laser_scan(&header, s.payload());
                 match admit(check, &mut scan_order, header.header.stamp_ns) {
-                    Ok(()) => sequencer.push_raw_scan(RawScan {
-                        header,
-                        ranges: header.ranges_of(s.payload()).to_vec(),
-                    }),
+                    Ok(()) => {
+                        let ranges = sequencer.copy_ranges(header.ranges_of(s.payload()));
+                        sequencer.push_raw_scan(RawScan { header, ranges });
+                    }
                     Err(r) => health.reject("scan", header.header.seq, r.kind(), &r),
                 }
             })?,
@@ -355,7 +358,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         while let Some(input) = sequencer.release() {
             let started = Instant::now();
-            match slam.apply(input) {
+            let applied = slam.apply(&input);
+            sequencer.recycle(input);
+            match applied {
                 Ok(Some(step)) => {
                     let status = health.status(&step, started.elapsed(), &slam, &sequencer);
                     out.pose(step.pose)?;

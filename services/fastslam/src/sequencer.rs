@@ -78,11 +78,20 @@ impl<T> Lane<T> {
 }
 
 /// Merges odometry and scans into stamp order.
+///
+/// A scan is copied out of shared memory once, into a buffer that is handed back with
+/// [`Sequencer::recycle`] after the filter has used it: in steady state no step allocates.
+/// (The copy releases the sample at once, so a publisher that waits for free samples never
+/// waits on the filter, and an out-of-order scan can wait here for its odometry.)
 #[derive(Debug, Clone, Default)]
 pub struct Sequencer {
     odometry: Lane<Odometry>,
     /// The lidar lane: [`Input::Scan`] or [`Input::RawScan`].
     scans: Lane<Input>,
+    /// Emptied observation buffers, ready for the next scan.
+    spare_observations: Vec<Vec<Observation>>,
+    /// Emptied range buffers, ready for the next raw scan.
+    spare_ranges: Vec<Vec<f32>>,
 }
 
 impl Sequencer {
@@ -100,6 +109,35 @@ impl Sequencer {
     /// Queues a raw scan (on the same lane as observations: one lidar stream).
     pub fn push_raw_scan(&mut self, s: RawScan) {
         self.scans.push(s.header.header.stamp_ns, Input::RawScan(s));
+    }
+
+    /// A copy of `observations` in a recycled buffer (allocates only when none is spare).
+    pub fn copy_observations(&mut self, observations: &[Observation]) -> Vec<Observation> {
+        let mut buffer = self.spare_observations.pop().unwrap_or_default();
+        buffer.extend_from_slice(observations);
+        buffer
+    }
+
+    /// A copy of `ranges` in a recycled buffer (allocates only when none is spare).
+    pub fn copy_ranges(&mut self, ranges: &[f32]) -> Vec<f32> {
+        let mut buffer = self.spare_ranges.pop().unwrap_or_default();
+        buffer.extend_from_slice(ranges);
+        buffer
+    }
+
+    /// Takes back a released input's buffer for a later scan.
+    pub fn recycle(&mut self, input: Input) {
+        match input {
+            Input::Odometry(_) => {}
+            Input::Scan(mut s) => {
+                s.observations.clear();
+                self.spare_observations.push(s.observations);
+            }
+            Input::RawScan(mut s) => {
+                s.ranges.clear();
+                self.spare_ranges.push(s.ranges);
+            }
+        }
     }
 
     /// The odometry stream has ended: nothing more will come.
@@ -223,6 +261,33 @@ mod tests {
         assert!(!seq.finished());
         seq.end_odometry();
         assert!(seq.finished());
+    }
+
+    #[test]
+    fn recycled_buffers_are_reused_for_later_scans() {
+        let mut seq = Sequencer::default();
+        let obs = Observation {
+            range: 5.0,
+            ..Default::default()
+        };
+        let first = seq.copy_observations(&[obs; 3]);
+        let storage = first.as_ptr();
+        seq.push_scan(Scan {
+            header: scan(10).header,
+            observations: first,
+        });
+        seq.end_odometry();
+        let input = seq.release().unwrap();
+        seq.recycle(input);
+        let second = seq.copy_observations(&[obs]);
+        assert_eq!(second, vec![obs]);
+        assert_eq!(
+            second.as_ptr(),
+            storage,
+            "the same buffer, no new allocation"
+        );
+        let ranges = seq.copy_ranges(&[1.0, 2.0]);
+        assert_eq!(ranges, vec![1.0, 2.0]);
     }
 
     #[test]

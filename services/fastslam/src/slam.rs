@@ -5,7 +5,9 @@
 use crate::config::ServiceConfig;
 use crate::sequencer::{Input, RawScan};
 use fastslam_estimation::Pose2;
-use fastslam_estimation::fastslam::{FastSlam, OptimiserRefiner, PoseRefiner, StepReport};
+use fastslam_estimation::fastslam::{
+    FastSlam, OptimiserRefiner, PoseRefiner, Proposal, StepReport,
+};
 use fastslam_estimation::features::{ExtractorConfig, extract};
 use fastslam_estimation::grid::GridMapper;
 use fastslam_estimation::motion::Control;
@@ -13,7 +15,7 @@ use fastslam_estimation::moves::MoveStats;
 use fastslam_estimation::observation::{Observation, Sensor};
 use fastslam_estimation::scan::RangeScan;
 use fastslam_protocol::{
-    Header, LandmarkMapHeader, MapLandmark, OccupancyGridHeader, PoseEstimate,
+    Header, LandmarkMapHeader, MapLandmark, ObservationsHeader, OccupancyGridHeader, PoseEstimate,
 };
 use std::f64::consts::TAU;
 
@@ -25,6 +27,9 @@ pub struct Slam {
     last_odometry_ns: Option<u64>,
     extractor: ExtractorConfig,
     mapper: GridMapper,
+    /// The current scan's observations in the filter's type, reused from scan to scan so
+    /// a step allocates no buffer of its own.
+    observations: Vec<Observation>,
 }
 
 /// What an observation step produced.
@@ -49,12 +54,19 @@ impl Slam {
         config.features.validate()?;
         let refiner =
             OptimiserRefiner::new(&config.optimizer, config.moves.clone(), config.filter.seed)?;
+        // Plain FastSLAM 1.0 never reads the motion prior: skip propagating it.
+        let filter = if refiner.is_none() && filter.config().proposal == Proposal::Motion {
+            filter.without_motion_prior()?
+        } else {
+            filter
+        };
         Ok(Self {
             filter,
             refiner,
             last_odometry_ns: None,
             extractor: config.features.clone(),
             mapper: GridMapper::new(config.grid.clone())?,
+            observations: Vec::new(),
         })
     }
 
@@ -64,7 +76,7 @@ impl Slam {
     /// # Errors
     /// The filter's error (bad input, degenerate weights); the filter is then unchanged
     /// and the service carries on with the next input.
-    pub fn apply(&mut self, input: Input) -> fastslam_estimation::Result<Option<Step>> {
+    pub fn apply(&mut self, input: &Input) -> fastslam_estimation::Result<Option<Step>> {
         match input {
             Input::Odometry(m) => {
                 let now = m.header.stamp_ns;
@@ -81,22 +93,32 @@ impl Slam {
                 }
                 Ok(None)
             }
-            Input::Scan(scan) => {
-                let observations: Vec<Observation> = scan
-                    .observations
-                    .iter()
-                    .map(|o| Observation {
-                        range: o.range,
-                        bearing: o.bearing,
-                        id: o.known_id(),
-                    })
-                    .collect();
-                let h = &scan.header;
-                let sensor = self.sensor(h.max_range, h.min_bearing, h.max_bearing);
-                self.update(h.header, &observations, &sensor).map(Some)
-            }
-            Input::RawScan(raw) => self.raw_scan(&raw).map(Some),
+            Input::Scan(scan) => self.scan(&scan.header, &scan.observations).map(Some),
+            Input::RawScan(raw) => self.raw_scan(raw).map(Some),
         }
+    }
+
+    /// A scan's observations, straight from the message (a slice of shared memory, or a
+    /// sequenced copy): converted into the reused buffer, then one filter step.
+    ///
+    /// # Errors
+    /// As [`Slam::apply`].
+    pub fn scan(
+        &mut self,
+        header: &ObservationsHeader,
+        observations: &[fastslam_protocol::Observation],
+    ) -> fastslam_estimation::Result<Step> {
+        let mut buffer = std::mem::take(&mut self.observations);
+        buffer.clear();
+        buffer.extend(observations.iter().map(|o| Observation {
+            range: o.range,
+            bearing: o.bearing,
+            id: o.known_id(),
+        }));
+        let sensor = self.sensor(header.max_range, header.min_bearing, header.max_bearing);
+        let step = self.update(header.header, &buffer, &sensor);
+        self.observations = buffer;
+        step
     }
 
     /// A raw scan: poles extracted and used as observations with unknown association,
@@ -232,7 +254,7 @@ impl Slam {
 mod tests {
     use super::*;
     use crate::sequencer::Scan;
-    use fastslam_protocol::{LaserScanHeader, ObservationsHeader, Odometry};
+    use fastslam_protocol::{LaserScanHeader, Odometry};
     use std::f64::consts::PI;
 
     fn odometry(t_ns: u64, v: f64) -> Input {
@@ -251,9 +273,9 @@ mod tests {
         let mut config = ServiceConfig::default();
         config.filter.particles = 20;
         let mut slam = Slam::new(&config).unwrap();
-        assert_eq!(slam.apply(odometry(0, 0.0)).unwrap(), None);
+        assert_eq!(slam.apply(&odometry(0, 0.0)).unwrap(), None);
         for k in 1..=40 {
-            assert_eq!(slam.apply(odometry(k * 25_000_000, 2.0)).unwrap(), None);
+            assert_eq!(slam.apply(&odometry(k * 25_000_000, 2.0)).unwrap(), None);
         }
         let header = ObservationsHeader {
             header: Header {
@@ -273,7 +295,7 @@ mod tests {
             id: -1,
         };
         let step = slam
-            .apply(Input::Scan(Scan {
+            .apply(&Input::Scan(Scan {
                 header,
                 observations: vec![obs],
             }))
@@ -302,7 +324,7 @@ mod tests {
         let mut config = ServiceConfig::default();
         config.filter.particles = 10;
         let mut slam = Slam::new(&config).unwrap();
-        assert_eq!(slam.apply(odometry(0, 0.0)).unwrap(), None);
+        assert_eq!(slam.apply(&odometry(0, 0.0)).unwrap(), None);
         // A full turn of 720 beams: a pole of radius 0.2 m at (4, 0) inside a round wall
         // of radius 8 m.
         let increment = TAU / 720.0;
@@ -328,7 +350,7 @@ mod tests {
             ..Default::default()
         };
         let step = slam
-            .apply(Input::RawScan(RawScan { header, ranges }))
+            .apply(&Input::RawScan(RawScan { header, ranges }))
             .unwrap()
             .unwrap();
         assert_eq!(step.observations, 1, "one pole, no wall");

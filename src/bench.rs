@@ -1,0 +1,410 @@
+//! `fastslam-stack bench`: the performance figures of issue 8, printed with the machine
+//! they were measured on. BENCHMARKS.md records a run of it.
+//!
+//! 1. Filter step time over particles N × landmarks M per optimiser (synthetic workload of
+//!    `fastslam_estimation::workload`), with the growth ratios ×N and ×M.
+//! 2. End-to-end latency through the real processes at the scenario's real-time rate.
+//! 3. As-fast-as-possible throughput of the whole multi-process stack against the
+//!    in-process driver on the same scenario (the ratio is the IPC overhead), with CPU
+//!    time and peak memory per process.
+//! 4. Optionally, peak memory of the service over runs of growing length.
+
+use crate::run::{self, RunArgs};
+use anyhow::{Context, bail};
+use fastslam_estimation::fastslam::Proposal;
+use fastslam_estimation::optimise::OptimiserKind;
+use fastslam_estimation::workload::Workload;
+use fastslam_sensors_sim::Scenario;
+use fastslam_service::config::Overrides;
+use fastslam_stack::{offline, settings};
+use std::hint::black_box;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Flags of `bench`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct BenchArgs {
+    /// A short run: N ∈ {10, 100}, M ∈ {10, 1000}, fewer repetitions, short scenarios.
+    #[arg(long)]
+    pub quick: bool,
+    /// Particle counts of the step-time grid (default 10,30,100,300,1000).
+    #[arg(long, value_delimiter = ',')]
+    pub particles: Vec<usize>,
+    /// Map sizes (landmarks) of the step-time grid (default 10,100,1000,10000).
+    #[arg(long, value_delimiter = ',')]
+    pub landmarks: Vec<usize>,
+    /// Optimisers of the step-time grid, comma-separated: none, fastslam2 (FastSLAM 2.0's
+    /// proposal), coa, icoa, ba, iba, gwo, qpso, pso.
+    #[arg(long, value_delimiter = ',', default_value = "none")]
+    pub optimizers: Vec<String>,
+    /// Measured steps per grid cell (median reported; default 31, quick 11).
+    #[arg(long)]
+    pub steps: Option<usize>,
+    /// Only these parts, comma-separated: step, latency, throughput, memory (default: the
+    /// first three; memory runs long).
+    #[arg(long, value_delimiter = ',', default_value = "step,latency,throughput")]
+    pub parts: Vec<String>,
+    /// Scenario of the latency measurement (real time: its simulated length is the wall
+    /// time it takes).
+    #[arg(long, default_value = "bailey-short")]
+    pub latency_scenario: String,
+    /// Scenario of the throughput comparison.
+    #[arg(long, default_value = "bailey-webmap")]
+    pub throughput_scenario: String,
+    /// Particles of the latency and throughput runs.
+    #[arg(long, default_value_t = 100)]
+    pub stack_particles: usize,
+    /// Route loops of the memory runs (the throughput scenario driven this many times).
+    #[arg(long, value_delimiter = ',', default_value = "2,8,32")]
+    pub memory_loops: Vec<u32>,
+    /// Where the runs' folders go.
+    #[arg(long, default_value = "runs/bench")]
+    pub out: PathBuf,
+}
+
+/// Runs the selected parts and prints their figures.
+///
+/// # Errors
+/// A bad flag, a failed run, or a run folder without metrics.
+pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    println!("machine: {}", machine());
+    println!("(wall times depend on the load: on a shared machine compare ratios within one run)");
+    for part in &args.parts {
+        match part.as_str() {
+            "step" => step_times(args)?,
+            "latency" => latency(args)?,
+            "throughput" => throughput(args)?,
+            "memory" => memory(args)?,
+            other => bail!("unknown part `{other}`: step, latency, throughput or memory"),
+        }
+    }
+    Ok(())
+}
+
+/// The CPU model, logical cores and kernel, from `/proc`.
+fn machine() -> String {
+    let read = |p: &str| std::fs::read_to_string(p).unwrap_or_default();
+    let cpuinfo = read("/proc/cpuinfo");
+    let model = cpuinfo
+        .lines()
+        .find_map(|l| l.strip_prefix("model name"))
+        .map_or("unknown CPU", |m| m.trim_start_matches([' ', '\t', ':']));
+    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
+    let kernel = read("/proc/sys/kernel/osrelease");
+    format!("{model}, {cores} logical cores, Linux {}", kernel.trim())
+}
+
+/// The proposal and optimiser of a `--optimizers` name.
+fn method(name: &str) -> anyhow::Result<(Proposal, OptimiserKind)> {
+    if name == "fastslam2" {
+        return Ok((Proposal::FastSlam2, OptimiserKind::None));
+    }
+    let kind = name
+        .parse::<OptimiserKind>()
+        .map_err(|e| anyhow::anyhow!("optimizer `{name}`: {e}"))?;
+    Ok((Proposal::Motion, kind))
+}
+
+/// Median wall time (s) of `steps` steps of `w`, each from a clone of its filter (clone and
+/// drop not timed).
+fn median_step(w: &mut Workload, steps: usize) -> anyhow::Result<f64> {
+    let mut times = Vec::with_capacity(steps);
+    for _ in 0..steps {
+        let mut filter = w.filter.clone();
+        let start = Instant::now();
+        w.step(black_box(&mut filter))?;
+        times.push(start.elapsed().as_secs_f64());
+        drop(black_box(filter));
+    }
+    times.sort_by(f64::total_cmp);
+    Ok(times[steps / 2])
+}
+
+/// Part 1: the step-time grid and its growth ratios.
+fn step_times(args: &BenchArgs) -> anyhow::Result<()> {
+    let or = |given: &[usize], full: &[usize], quick: &[usize]| match given {
+        [] if args.quick => quick.to_vec(),
+        [] => full.to_vec(),
+        g => g.to_vec(),
+    };
+    let ns = or(&args.particles, &[10, 30, 100, 300, 1000], &[10, 100]);
+    let ms = or(&args.landmarks, &[10, 100, 1000, 10_000], &[10, 1000]);
+    let steps = args
+        .steps
+        .unwrap_or(if args.quick { 11 } else { 31 })
+        .max(1);
+    let threads = std::env::var("RAYON_NUM_THREADS").unwrap_or_else(|_| "all".into());
+    for name in &args.optimizers {
+        let (proposal, kind) = method(name)?;
+        println!(
+            "\n[step] filter step (predict + update) of `{name}`, median of {steps} (ms), \
+             {threads} rayon threads; rows N, columns M"
+        );
+        let mut table = vec![vec![f64::NAN; ms.len()]; ns.len()];
+        let mut seen = vec![0; ms.len()];
+        for (i, &n) in ns.iter().enumerate() {
+            for (j, &m) in ms.iter().enumerate() {
+                let mut w = Workload::new(n, m, proposal, kind)?;
+                seen[j] = w.scan.len();
+                table[i][j] = median_step(&mut w, steps)? * 1e3;
+            }
+        }
+        let header: String = ms
+            .iter()
+            .map(|m| format!("{:>12}", format!("M={m}")))
+            .collect();
+        println!("  {:>8}{header}", "");
+        let obs: String = seen
+            .iter()
+            .map(|k| format!("{:>12}", format!("({k} obs)")))
+            .collect();
+        println!("  {:>8}{obs}", "");
+        for (n, row) in ns.iter().zip(&table) {
+            let cells: String = row.iter().map(|t| format!("{t:>12.3}")).collect();
+            println!("  {:>8}{cells}", format!("N={n}"));
+        }
+        println!("  growth with M (time ratio to the previous column):");
+        for (n, row) in ns.iter().zip(&table) {
+            let ratios: Vec<String> = row
+                .windows(2)
+                .zip(ms.windows(2))
+                .map(|(t, m)| format!("x{:.0} M: {:.2}x", m[1] as f64 / m[0] as f64, t[1] / t[0]))
+                .collect();
+            println!("    N={n:<6} {}", ratios.join("   "));
+        }
+        println!("  growth with N (time ratio to the previous row):");
+        for (j, m) in ms.iter().enumerate() {
+            let ratios: Vec<String> = table
+                .windows(2)
+                .zip(ns.windows(2))
+                .map(|(t, n)| {
+                    let grow = n[1] as f64 / n[0] as f64;
+                    format!("x{grow:.0} N: {:.2}x", t[1][j] / t[0][j])
+                })
+                .collect();
+            println!("    M={m:<6} {}", ratios.join("   "));
+        }
+    }
+    Ok(())
+}
+
+/// Runs the whole stack and returns its `metrics.json`.
+fn stack_run(
+    args: &BenchArgs,
+    scenario: &str,
+    label: &str,
+    realtime: bool,
+) -> anyhow::Result<(serde_json::Value, Duration)> {
+    let out = args.out.join(label);
+    let run_args = RunArgs {
+        scenario: scenario.to_string(),
+        seed: None,
+        choice: Default::default(),
+        particles: Some(args.stack_particles),
+        config: None,
+        out: Some(out.clone()),
+        runs_dir: args.out.clone(),
+        realtime,
+        timeout_s: None,
+        prefix: None,
+    };
+    let started = Instant::now();
+    let code = run::run(run_args)?;
+    let wall = started.elapsed();
+    if code != 0 {
+        bail!("the {label} run exited with code {code}");
+    }
+    Ok((read_metrics(&out)?, wall))
+}
+
+fn read_metrics(folder: &Path) -> anyhow::Result<serde_json::Value> {
+    let path = folder.join("metrics.json");
+    let text =
+        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+    Ok(serde_json::from_str(&text)?)
+}
+
+/// A number of `metrics.json` at `pointer` (NaN when missing).
+fn num(m: &serde_json::Value, pointer: &str) -> f64 {
+    m.pointer(pointer)
+        .and_then(serde_json::Value::as_f64)
+        .unwrap_or(f64::NAN)
+}
+
+/// Prints a spread of `metrics.json` (median, p99, p99.9, max in ms).
+fn print_spread(m: &serde_json::Value, what: &str, key: &str) {
+    let v = |k: &str| num(m, &format!("/cost/{key}/{k}"));
+    println!(
+        "  {what:<22} median {:.3} ms   p99 {:.3} ms   p99.9 {:.3} ms   max {:.3} ms   ({} samples)",
+        v("median"),
+        v("p99"),
+        v("p999"),
+        v("max"),
+        v("samples")
+    );
+}
+
+/// Prints the cost section: CPU time and peak memory per process.
+fn print_processes(m: &serde_json::Value) {
+    println!(
+        "  {:<18} {:>10} {:>10} {:>10} {:>14}",
+        "process", "CPU s", "user s", "sys s", "peak RSS MiB"
+    );
+    for p in m
+        .pointer("/cost/processes")
+        .and_then(|p| p.as_array())
+        .into_iter()
+        .flatten()
+    {
+        println!(
+            "  {:<18} {:>10.3} {:>10.2} {:>10.2} {:>14.1}",
+            p["name"].as_str().unwrap_or("?"),
+            num(p, "/cpu_s"),
+            num(p, "/cpu_user_s"),
+            num(p, "/cpu_system_s"),
+            num(p, "/peak_rss_mib")
+        );
+    }
+    println!("  {:<18} {:>10.3}", "all", num(m, "/cost/stack_cpu_s"));
+}
+
+/// Part 2: end-to-end latency at the real-time rate.
+fn latency(args: &BenchArgs) -> anyhow::Result<()> {
+    let scenario = if args.quick {
+        "indoor-loop"
+    } else {
+        &args.latency_scenario
+    };
+    println!(
+        "\n[latency] {scenario}, N = {}, real time, through the processes",
+        args.stack_particles
+    );
+    let (m, wall) = stack_run(args, scenario, "latency", true)?;
+    println!("  wall time {:.1} s", wall.as_secs_f64());
+    print_spread(&m, "observation -> pose", "latency_ms");
+    print_spread(&m, "filter step", "step_time_ms");
+    print_processes(&m);
+    Ok(())
+}
+
+/// Part 3: as-fast-as-possible throughput, multi-process against in-process.
+fn throughput(args: &BenchArgs) -> anyhow::Result<()> {
+    let name = if args.quick {
+        "bailey-short"
+    } else {
+        &args.throughput_scenario
+    };
+    let scenario = Scenario::load(name)?;
+    let overrides = Overrides {
+        particles: Some(args.stack_particles),
+        seed: Some(scenario.seed),
+        ..Overrides::default()
+    };
+    let config = settings::service_config(&scenario, None, &overrides)?;
+    println!(
+        "\n[throughput] {name}, N = {}, {}, as fast as possible",
+        args.stack_particles,
+        config.method()
+    );
+    let cpu_before = own_cpu_s();
+    let started = Instant::now();
+    let offline = offline::run_in_process(&scenario, scenario.seed, &config)?;
+    let in_wall = started.elapsed().as_secs_f64();
+    let in_cpu = own_cpu_s() - cpu_before;
+    let simulated = offline.simulated.as_secs_f64();
+    let (m, wall) = stack_run(args, name, "throughput", false)?;
+    let multi_wall = wall.as_secs_f64();
+    let service_cpu = num(&m, "/cost/service_cpu_s");
+    println!("  simulated {simulated:.1} s");
+    println!(
+        "  in process    {:>8.3} s wall  {:>8.1} sim s / wall s   CPU {:.3} s (filter alone {:.3} s wall)",
+        in_wall,
+        simulated / in_wall,
+        in_cpu,
+        offline.filter_time.as_secs_f64()
+    );
+    println!(
+        "  multi-process {:>8.3} s wall  {:>8.1} sim s / wall s   service CPU {:.3} s, stack CPU {:.3} s (launch included)",
+        multi_wall,
+        simulated / multi_wall,
+        service_cpu,
+        num(&m, "/cost/stack_cpu_s")
+    );
+    println!(
+        "  IPC overhead: wall {:.2}x, service CPU against in-process CPU {:.2}x (targets: in-process < 1 s CPU, ratio <= 1.2x)",
+        multi_wall / in_wall,
+        service_cpu / in_cpu
+    );
+    println!(
+        "  same metrics as in process: ATE {:.3} m (in process {:.3} m)",
+        num(&m, "/estimate/ate_rmse_m"),
+        offline.metrics.estimate.ate_rmse_m
+    );
+    print_processes(&m);
+    Ok(())
+}
+
+/// CPU time (s) this process has used so far (user + system, from `/proc/self/stat`).
+fn own_cpu_s() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // Fields after the command name (which may hold spaces): utime is the 12th, stime 13th.
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = |k: usize| {
+        fields
+            .get(k)
+            .and_then(|f| f.parse::<f64>().ok())
+            .unwrap_or(0.0)
+    };
+    let hz = nix::unistd::sysconf(nix::unistd::SysconfVar::CLK_TCK)
+        .ok()
+        .flatten()
+        .map_or(100.0, |t| t as f64);
+    (ticks(11) + ticks(12)) / hz
+}
+
+/// Part 4: the service's peak memory over runs of growing length.
+fn memory(args: &BenchArgs) -> anyhow::Result<()> {
+    let name = &args.throughput_scenario;
+    let source = fastslam_sensors_sim::scenario::BUILT_IN
+        .iter()
+        .find(|(n, _)| n == name)
+        .map(|(_, t)| t.to_string())
+        .map_or_else(|| std::fs::read_to_string(name), Ok)
+        .with_context(|| format!("reading scenario {name}"))?;
+    let mut doc: toml::Table = toml::from_str(&source)?;
+    println!(
+        "\n[memory] {name}, N = {}, as fast as possible: service peak RSS against run length",
+        args.stack_particles
+    );
+    std::fs::create_dir_all(&args.out)?;
+    for &loops in &args.memory_loops {
+        if let Some(route) = doc.get_mut("route").and_then(toml::Value::as_table_mut) {
+            route.insert("loops".into(), toml::Value::Integer(loops.into()));
+        }
+        let file = args.out.join(format!("{name}-{loops}loops.toml"));
+        std::fs::write(&file, toml::to_string(&doc)?)?;
+        let (m, wall) = stack_run(
+            args,
+            &file.display().to_string(),
+            &format!("memory-{loops}"),
+            false,
+        )?;
+        let service = m
+            .pointer("/cost/processes")
+            .and_then(|p| p.as_array())
+            .into_iter()
+            .flatten()
+            .find(|p| p["name"] == "fastslam-service")
+            .map_or(f64::NAN, |p| num(p, "/peak_rss_mib"));
+        println!(
+            "  {loops:>3} loops: {:>7} filter steps, {:>6.1} s wall, service peak RSS {service:.1} MiB, \
+             service CPU {:.2} s, {} landmarks in the map",
+            num(&m, "/filter/steps"),
+            wall.as_secs_f64(),
+            num(&m, "/cost/service_cpu_s"),
+            num(&m, "/map/estimated")
+        );
+    }
+    Ok(())
+}
