@@ -32,12 +32,13 @@ const HEADER_LEN: usize = 28;
 #[non_exhaustive]
 pub enum CheckpointError {
     /// The file could not be read, written or renamed.
-    #[error("checkpoint {path}: {source}")]
+    #[error("checkpoint {path}: {error}")]
     Io {
         /// The file.
         path: PathBuf,
-        /// The operating system's reason.
-        source: std::io::Error,
+        /// The operating system's reason (in the message, not a separate cause, so the
+        /// error reads as one line).
+        error: std::io::Error,
     },
     /// The file does not start with [`MAGIC`].
     #[error("checkpoint {path}: not a FastSLAM checkpoint (bad magic bytes)")]
@@ -178,9 +179,9 @@ impl Checkpoint {
     /// # Errors
     /// [`CheckpointError::Io`] when a step fails; the previous file is then untouched.
     pub fn write(&self, path: &Path) -> Result<(), CheckpointError> {
-        write_atomically(path, &self.encode()).map_err(|source| CheckpointError::Io {
+        write_atomically(path, &self.encode()).map_err(|error| CheckpointError::Io {
             path: path.to_path_buf(),
-            source,
+            error,
         })
     }
 
@@ -189,9 +190,9 @@ impl Checkpoint {
     /// # Errors
     /// As [`decode`](Self::decode), and [`CheckpointError::Io`] when it cannot be read.
     pub fn read(path: &Path) -> Result<Self, CheckpointError> {
-        let bytes = std::fs::read(path).map_err(|source| CheckpointError::Io {
+        let bytes = std::fs::read(path).map_err(|error| CheckpointError::Io {
             path: path.to_path_buf(),
-            source,
+            error,
         })?;
         Self::decode(&bytes, path)
     }

@@ -26,12 +26,13 @@ pub const HEADER: &str = "id,x,y,cov_xx,cov_xy,cov_yy,observations";
 #[non_exhaustive]
 pub enum MapFileError {
     /// The file could not be read or written.
-    #[error("map {path}: {source}")]
+    #[error("map {path}: {error}")]
     Io {
         /// The file.
         path: PathBuf,
-        /// The operating system's reason.
-        source: std::io::Error,
+        /// The operating system's reason (in the message, not a separate cause, so the
+        /// error reads as one line).
+        error: std::io::Error,
     },
     /// A line is not a landmark of this format.
     #[error("map {path}, line {line}: {reason}")]
@@ -113,9 +114,9 @@ pub fn from_csv(text: &str, path: &Path) -> Result<Vec<MapLandmark>, MapFileErro
 /// # Errors
 /// [`MapFileError::Io`] when the file cannot be written.
 pub fn save(path: &Path, map: &[MapLandmark]) -> Result<(), MapFileError> {
-    write_atomically(path, to_csv(map).as_bytes()).map_err(|source| MapFileError::Io {
+    write_atomically(path, to_csv(map).as_bytes()).map_err(|error| MapFileError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     })
 }
 
@@ -124,9 +125,9 @@ pub fn save(path: &Path, map: &[MapLandmark]) -> Result<(), MapFileError> {
 /// # Errors
 /// [`MapFileError::Io`] when it cannot be read, [`MapFileError::Parse`] as [`from_csv`].
 pub fn load(path: &Path) -> Result<Vec<MapLandmark>, MapFileError> {
-    let text = std::fs::read_to_string(path).map_err(|source| MapFileError::Io {
+    let text = std::fs::read_to_string(path).map_err(|error| MapFileError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     })?;
     from_csv(&text, path)
 }
