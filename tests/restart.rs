@@ -19,8 +19,7 @@ fn service_pid(prefix: &str) -> Option<i32> {
     std::fs::read_dir("/proc").ok()?.flatten().find_map(|e| {
         let cmdline = std::fs::read(e.path().join("cmdline")).ok()?;
         let args: Vec<&[u8]> = cmdline.split(|&b| b == 0).collect();
-        let ours = args.get(1) == Some(&b"service".as_slice())
-            && args.iter().any(|a| *a == prefix.as_bytes());
+        let ours = args.get(1) == Some(&b"service".as_slice()) && args.contains(&prefix.as_bytes());
         ours.then(|| e.file_name().to_string_lossy().parse().ok())
             .flatten()
     })
@@ -40,7 +39,7 @@ fn sigterm_stops_the_service_cleanly_with_its_checkpoint_and_map() {
     let prefix = prefix("sigterm");
     let dir = folder(&prefix);
     let (ckpt, map) = (dir.join("run.ckpt"), dir.join("map.csv"));
-    let mut launcher = Command::new(LAUNCHER)
+    let launcher = Command::new(LAUNCHER)
         .args(["run", "--scenario", SCENARIO, "--prefix", &prefix])
         .args(["--timeout-s", "120", "--out"])
         .arg(dir.join("run"))
