@@ -207,6 +207,7 @@ fn stack_run(
         realtime,
         timeout_s: None,
         prefix: None,
+        service_flags: Vec::new(),
     };
     let started = Instant::now();
     let code = run::run(run_args)?;

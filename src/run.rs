@@ -46,6 +46,10 @@ pub struct RunArgs {
     /// removed with its shared-memory files at the end).
     #[arg(long)]
     pub prefix: Option<String>,
+    /// An extra flag for the FastSLAM service, passed through as is (repeatable), e.g.
+    /// `--service-flag=--save-map=map.csv` or `--service-flag=--checkpoint=run.ckpt`.
+    #[arg(long = "service-flag", value_name = "FLAG", allow_hyphen_values = true)]
+    pub service_flags: Vec<String>,
 }
 
 /// Runs the stack; returns the process exit code (0 finished, 1 failed, 130 interrupted).
@@ -102,6 +106,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     if let Some(c) = &service_config {
         service.extend(["--config".into(), c.display().to_string()]);
     }
+    service.extend(args.service_flags.iter().cloned());
     let mut client = stack_flags.clone();
     client.extend(["--out".into(), out.display().to_string()]);
     let mut truth = sim_flags(3); // odometry-sim, lidar-sim, client

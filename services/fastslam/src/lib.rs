@@ -4,9 +4,13 @@
 //!
 //! The pieces read top to bottom: [`config`] (what to run), [`sequencer`] (inputs of
 //! two streams in stamp order, deterministic whatever the scheduling), [`slam`] (inputs
-//! to filter calls, filter results to messages), [`process`] (the IPC wiring).
+//! to filter calls, filter results to messages), [`process`] (the IPC wiring);
+//! [`persist`] with [`checkpoint`] and [`map_file`] keep the state across runs.
 
+pub mod checkpoint;
 pub mod config;
+pub mod map_file;
+pub mod persist;
 pub mod process;
 pub mod sequencer;
 pub mod slam;

@@ -1,10 +1,11 @@
 //! The service process: odometry and the lidar (landmark observations or raw scans) in;
 //! pose estimates, landmark maps, occupancy grids and status out.
 
+use crate::checkpoint::{Checkpoint, ResumeFloor};
 use crate::config::{EstimatorChoice, LidarInput, Overrides, ServiceConfig};
+use crate::persist::PersistArgs;
 use crate::sequencer::{RawScan, Scan, Sequencer};
 use crate::slam::{Slam, Step};
-use anyhow::Context;
 use fastslam_protocol::ipc::{Flow, Ipc, Pub, Sub};
 use fastslam_protocol::status::{RejectionKind, ServiceStatus, flags};
 use fastslam_protocol::stream::StreamEnd;
@@ -53,6 +54,9 @@ pub struct Args {
     /// seconds.
     #[arg(long, default_value_t = 60.0)]
     pub wait_timeout_s: f64,
+    /// Checkpoints and saved maps.
+    #[command(flatten)]
+    pub persist: PersistArgs,
 }
 
 impl Args {
@@ -113,6 +117,27 @@ impl Outputs {
             last_grid: None,
             last_status: None,
         })
+    }
+
+    /// Continues the sequence numbers of the run a checkpoint was taken from.
+    fn resume(&mut self, checkpoint: &Checkpoint) {
+        let header = |seq: Option<u64>| seq.map(|seq| Header { stamp_ns: 0, seq });
+        let [pose, map, grid, status] = checkpoint.last_seq;
+        self.last_pose = header(pose);
+        self.last_map = header(map);
+        self.last_grid = header(grid);
+        self.last_status = header(status);
+    }
+
+    /// Sequence numbers last published: pose, map, grid, status.
+    fn last_seq(&self) -> [Option<u64>; 4] {
+        [
+            self.last_pose,
+            self.last_map,
+            self.last_grid,
+            self.last_status,
+        ]
+        .map(|h| h.map(|h| h.seq))
     }
 
     fn pose(&mut self, mut pose: PoseEstimate) -> anyhow::Result<()> {
@@ -177,6 +202,15 @@ struct Health {
 }
 
 impl Health {
+    /// The counters of a run continued from `checkpoint`.
+    fn resumed(checkpoint: Option<&Checkpoint>) -> Self {
+        Self {
+            steps: checkpoint.map_or(0, |c| c.steps),
+            resamplings: checkpoint.map_or(0, |c| c.resamplings),
+            ..Self::default()
+        }
+    }
+
     /// Counts a rejected input and says why, once per input (the reason names the field).
     fn reject(
         &mut self,
@@ -280,11 +314,14 @@ fn admit(
 /// Configuration or IPC errors, with their reason.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let config = args.config()?;
-    let mut slam = Slam::new(&config).context("building the filter")?;
+    let (mut slam, resumed) = args.persist.start(&config)?;
     let timeout = Duration::from_secs_f64(args.wait_timeout_s.max(0.0));
     let ipc = Ipc::open(&args.stack.stack(), "fastslam-service", timeout)?;
     // Publishers first, then subscribers (which wait for publishers): no wait cycles.
     let mut out = Outputs::open(&ipc)?;
+    if let Some(checkpoint) = &resumed {
+        out.resume(checkpoint);
+    }
     // End-of-stream before the inputs: a sensor starts once its subscribers are there, and
     // a short stream may end before a later subscription exists.
     let eos_in = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
@@ -299,7 +336,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
 
     let mut sequencer = Sequencer::default();
-    let mut health = Health::default();
+    let mut health = Health::resumed(resumed.as_ref());
+    let mut floor = ResumeFloor::of(resumed.as_ref());
+    let checkpoint = |slam: &Slam, health: &Health, seq: &Sequencer, out: &Outputs| Checkpoint {
+        seed: config.filter.seed,
+        filter: slam.state(),
+        last_odometry_ns: slam.last_odometry_ns(),
+        processed_ns: seq.released(),
+        steps: health.steps,
+        resamplings: health.resamplings,
+        last_seq: out.last_seq(),
+    };
     let (mut odo_order, mut scan_order) = (StampOrder::default(), StampOrder::default());
     let (mut odo_end, mut scan_end) = (StreamEnd::default(), StreamEnd::default());
     let lidar_listener = match &lidar {
@@ -311,6 +358,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         odometry.drain(|s| {
             let m = *s.payload();
             odo_end.saw(m.header.seq);
+            if !floor.admits(0, m.header.stamp_ns) {
+                return;
+            }
             match admit(validate::odometry(&m), &mut odo_order, m.header.stamp_ns) {
                 Ok(()) => sequencer.push_odometry(m),
                 Err(r) => health.reject("odometry", m.header.seq, r.kind(), &r),
@@ -320,6 +370,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Lidar::Observations(sub) => sub.drain(|s| {
                 let header = *s.user_header();
                 scan_end.saw(header.header.seq);
+                if !floor.admits(1, header.header.stamp_ns) {
+                    return;
+                }
                 let check = validate::observations(&header, s.payload());
                 match admit(check, &mut scan_order, header.header.stamp_ns) {
                     Ok(()) => {
@@ -335,6 +388,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Lidar::Scans(sub) => sub.drain(|s| {
                 let header = *s.user_header();
                 scan_end.saw(header.header.seq);
+                if !floor.admits(1, header.header.stamp_ns) {
+                    return;
+                }
                 let check = validate::laser_scan(&header, s.payload());
                 match admit(check, &mut scan_order, header.header.stamp_ns) {
                     Ok(()) => {
@@ -373,6 +429,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                         out.grid(&mut slam, stamp_ns)?;
                     }
                     out.status(status)?;
+                    if args.persist.checkpoint_due(health.steps) {
+                        let write = args
+                            .persist
+                            .write_checkpoint(|| checkpoint(&slam, &health, &sequencer, &out));
+                        if let Err(e) = write {
+                            tracing::warn!("{e:#}");
+                        }
+                    }
                 }
                 Ok(None) => {}
                 Err(e) => health.reject("input", 0, RejectionKind::Filter, &e),
@@ -385,6 +449,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         })
     })?;
 
+    // Stopped by a signal or finished: the state goes to disk before anyone is told.
+    args.persist
+        .write_checkpoint(|| checkpoint(&slam, &health, &sequencer, &out))?;
+    args.persist.save_map(&slam)?;
     let last_ns = out.last_pose.map_or(0, |h| h.stamp_ns);
     out.map(&slam, last_ns)?;
     out.grid(&mut slam, last_ns)?;
@@ -395,6 +463,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         resamplings = health.resamplings,
         moves_proposed = moves.proposed,
         moves_accepted = moves.accepted,
+        skipped_before_checkpoint = floor.skipped(),
         "inputs finished"
     );
     Ok(())

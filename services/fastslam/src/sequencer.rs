@@ -44,6 +44,7 @@ pub enum Input {
 struct Lane<T> {
     queue: VecDeque<(u64, T)>,
     watermark: Option<u64>,
+    released: Option<u64>,
     ended: bool,
 }
 
@@ -52,6 +53,7 @@ impl<T> Default for Lane<T> {
         Self {
             queue: VecDeque::new(),
             watermark: None,
+            released: None,
             ended: false,
         }
     }
@@ -73,7 +75,9 @@ impl<T> Lane<T> {
     }
 
     fn pop(&mut self) -> Option<T> {
-        self.queue.pop_front().map(|(_, item)| item)
+        let (stamp, item) = self.queue.pop_front()?;
+        self.released = Some(stamp);
+        Some(item)
     }
 }
 
@@ -177,6 +181,14 @@ impl Sequencer {
         ]
     }
 
+    /// Stamp of the last input released per stream (odometry, scans), 0 before the first.
+    pub fn released(&self) -> [u64; 2] {
+        [
+            self.odometry.released.unwrap_or(0),
+            self.scans.released.unwrap_or(0),
+        ]
+    }
+
     /// True when both streams have ended and everything was released.
     pub fn finished(&self) -> bool {
         self.odometry.ended
@@ -241,6 +253,7 @@ mod tests {
             vec![('o', 20), ('s', 20)],
             "equal stamps: odometry first"
         );
+        assert_eq!(seq.released(), [20, 20]);
     }
 
     #[test]

@@ -6,7 +6,7 @@ use crate::config::ServiceConfig;
 use crate::sequencer::{Input, RawScan};
 use fastslam_estimation::Pose2;
 use fastslam_estimation::fastslam::{
-    FastSlam, OptimiserRefiner, PoseRefiner, Proposal, StepReport,
+    self, FastSlam, FilterState, OptimiserRefiner, PoseRefiner, Proposal, StepReport,
 };
 use fastslam_estimation::features::{ExtractorConfig, extract};
 use fastslam_estimation::grid::GridMapper;
@@ -17,6 +17,7 @@ use fastslam_estimation::scan::RangeScan;
 use fastslam_protocol::{
     Header, LandmarkMapHeader, MapLandmark, ObservationsHeader, OccupancyGridHeader, PoseEstimate,
 };
+use nalgebra::{Matrix2, Vector2};
 use std::f64::consts::TAU;
 
 /// The filter, its optimiser, and the service's bookkeeping around them.
@@ -50,7 +51,51 @@ impl Slam {
     /// # Errors
     /// When the filter, optimiser or move configuration is invalid.
     pub fn new(config: &ServiceConfig) -> fastslam_estimation::Result<Self> {
-        let filter = FastSlam::new(config.filter_config(), Pose2::default())?;
+        Self::around(
+            config,
+            FastSlam::new(config.filter_config(), Pose2::default())?,
+        )
+    }
+
+    /// Like [`new`](Self::new), every particle starting with `map` (a saved map, in the
+    /// frame of the run that made it: the start pose is its origin).
+    ///
+    /// # Errors
+    /// As [`new`](Self::new), and when a landmark is not finite, has a covariance that is
+    /// not symmetric positive definite, or repeats an id.
+    pub fn with_map(
+        config: &ServiceConfig,
+        map: &[MapLandmark],
+    ) -> fastslam_estimation::Result<Self> {
+        let prior: Vec<fastslam::MapLandmark> = map
+            .iter()
+            .map(|l| fastslam::MapLandmark {
+                id: l.id,
+                mean: Vector2::new(l.x, l.y),
+                covariance: Matrix2::new(l.cov_xx, l.cov_xy, l.cov_xy, l.cov_yy),
+                hits: u32::try_from(l.observations).unwrap_or(u32::MAX),
+            })
+            .collect();
+        let filter = FastSlam::with_prior_map(config.filter_config(), Pose2::default(), &prior)?;
+        Self::around(config, filter)
+    }
+
+    /// The filter continuing from `state`, the last odometry stamp being
+    /// `last_odometry_ns` (a checkpoint's contents).
+    ///
+    /// # Errors
+    /// As [`new`](Self::new), and when the state does not fit the configuration.
+    pub fn resume(
+        config: &ServiceConfig,
+        state: &FilterState,
+        last_odometry_ns: Option<u64>,
+    ) -> fastslam_estimation::Result<Self> {
+        let mut slam = Self::around(config, FastSlam::from_state(config.filter_config(), state)?)?;
+        slam.last_odometry_ns = last_odometry_ns;
+        Ok(slam)
+    }
+
+    fn around(config: &ServiceConfig, filter: FastSlam) -> fastslam_estimation::Result<Self> {
         config.features.validate()?;
         let refiner =
             OptimiserRefiner::new(&config.optimizer, config.moves.clone(), config.filter.seed)?;
@@ -68,6 +113,21 @@ impl Slam {
             mapper: GridMapper::new(config.grid.clone())?,
             observations: Vec::new(),
         })
+    }
+
+    /// Localisation only from now on: the map stays as it is, only the pose is estimated.
+    pub fn fix_map(&mut self) {
+        self.filter.fix_map();
+    }
+
+    /// The filter's state, for a checkpoint.
+    pub fn state(&self) -> FilterState {
+        self.filter.state()
+    }
+
+    /// Stamp of the odometry the filter last predicted to (ns), for a checkpoint.
+    pub fn last_odometry_ns(&self) -> Option<u64> {
+        self.last_odometry_ns
     }
 
     /// Applies one input: odometry predicts over the interval since the previous odometry

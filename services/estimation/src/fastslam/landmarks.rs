@@ -128,6 +128,17 @@ impl LandmarkMap {
         id
     }
 
+    /// The id the next [`allocate_id`](Self::allocate_id) returns.
+    pub fn next_id(&self) -> u64 {
+        self.next_id
+    }
+
+    /// Makes later [`allocate_id`](Self::allocate_id) calls return `next_id` or above
+    /// (restoring a saved map: ids of removed landmarks are never reused).
+    pub fn reserve_ids_below(&mut self, next_id: u64) {
+        self.next_id = self.next_id.max(next_id);
+    }
+
     /// Inserts `landmark`, replacing any landmark with the same id. Later
     /// [`allocate_id`](Self::allocate_id) calls return ids above it.
     ///

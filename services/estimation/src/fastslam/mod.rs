@@ -26,6 +26,7 @@ pub mod landmarks;
 mod particle;
 pub mod proposal;
 pub mod refine;
+pub mod snapshot;
 pub mod trail;
 
 pub use crate::moves::WeightBasis;
@@ -38,6 +39,7 @@ pub use landmarks::{Landmark, LandmarkMap};
 pub use particle::{MotionPrior, Particle};
 pub use proposal::Proposal;
 pub use refine::OptimiserRefiner;
+pub use snapshot::FilterState;
 pub use trail::Trail;
 
 use crate::motion::Control;
@@ -132,6 +134,8 @@ pub struct FastSlam {
     step: u64,
     /// Whether [`predict`](Self::predict) propagates every particle's [`MotionPrior`].
     motion_prior: bool,
+    /// Localisation only: the maps are read, never written ([`FastSlam::fix_map`]).
+    map_fixed: bool,
 }
 
 impl FastSlam {
@@ -207,6 +211,7 @@ impl FastSlam {
             config,
             step: 0,
             motion_prior: true,
+            map_fixed: false,
         })
     }
 
@@ -232,6 +237,12 @@ impl FastSlam {
         }
         self.motion_prior = false;
         Ok(self)
+    }
+
+    /// Localisation only from now on: updates weigh the particles against their maps but
+    /// neither update, create nor remove landmarks (a surveyed or saved map stays as it is).
+    pub fn fix_map(&mut self) {
+        self.map_fixed = true;
     }
 
     /// The configuration the filter runs with.
@@ -411,13 +422,18 @@ impl FastSlam {
         // settled: the next step's motion prior starts from it.
         let evidence = &self.config.negative_evidence;
         let floor = self.config.prior_floor.covariance();
+        let map_fixed = self.map_fixed;
         let changes: Vec<MapChanges> = self
             .particles
             .par_iter_mut()
             .zip(&associations)
             .map(|(p, a)| {
                 p.prior = MotionPrior::settled(p.pose, &floor);
-                p.apply(&scan, a, evidence)
+                if map_fixed {
+                    MapChanges::default()
+                } else {
+                    p.apply(&scan, a, evidence)
+                }
             })
             .collect();
 
@@ -503,5 +519,39 @@ impl FastSlam {
         let mut landmarks: Vec<MapLandmark> = best.map.iter().map(MapLandmark::from).collect();
         landmarks.sort_unstable_by_key(|l| l.id);
         landmarks
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_fixed_map_is_neither_updated_nor_extended() {
+        let config = FastSlamConfig {
+            particles: 20,
+            ..FastSlamConfig::default()
+        };
+        let prior = [MapLandmark {
+            id: 4,
+            mean: nalgebra::Vector2::new(10.0, 0.0),
+            covariance: nalgebra::Matrix2::identity() * 0.5,
+            hits: 3,
+        }];
+        let mut slam = FastSlam::with_prior_map(config, Pose2::default(), &prior).unwrap();
+        slam.fix_map();
+        let seen = Observation {
+            range: 9.5,
+            bearing: 0.05,
+            id: None,
+        };
+        let unknown = Observation {
+            range: 5.0,
+            bearing: -1.0,
+            id: None,
+        };
+        let report = slam.update(&[seen, unknown]).unwrap();
+        assert_eq!((report.matched, report.new_landmarks), (0, 0));
+        assert_eq!(slam.best_map().as_slice(), &prior);
     }
 }

@@ -1,0 +1,370 @@
+//! Checkpoints: the service's state written to a file every so many steps, so a service
+//! that was killed continues with `--resume` where the last checkpoint left it.
+//!
+//! # File format
+//! ```text
+//! offset  size  field
+//! 0       8     magic "FSLMCKPT"
+//! 8       4     format version, u32 little-endian (FORMAT_VERSION)
+//! 12      8     payload length in bytes, u64 little-endian
+//! 20      8     FNV-1a 64 hash of the payload, u64 little-endian
+//! 28      n     payload: a [`Checkpoint`], bincode 2 (standard config, serde)
+//! ```
+//! The file is written atomically: a temporary file in the same folder, flushed to disk,
+//! then renamed over the old checkpoint, so a crash while writing leaves the previous
+//! checkpoint intact. A file that is not a checkpoint, of another version, truncated or
+//! corrupt is refused with a [`CheckpointError`] that says which.
+
+use fastslam_estimation::fastslam::FilterState;
+use serde::{Deserialize, Serialize};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// The first bytes of every checkpoint file.
+pub const MAGIC: [u8; 8] = *b"FSLMCKPT";
+/// The payload layout written by this build; bumped whenever [`Checkpoint`] changes.
+pub const FORMAT_VERSION: u32 = 1;
+/// Bytes before the payload: magic, version, length, hash.
+const HEADER_LEN: usize = 28;
+
+/// Why a checkpoint could not be written or read.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CheckpointError {
+    /// The file could not be read, written or renamed.
+    #[error("checkpoint {path}: {error}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The operating system's reason (in the message, not a separate cause, so the
+        /// error reads as one line).
+        error: std::io::Error,
+    },
+    /// The file does not start with [`MAGIC`].
+    #[error("checkpoint {path}: not a FastSLAM checkpoint (bad magic bytes)")]
+    NotACheckpoint {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The file was written by a build with another [`FORMAT_VERSION`].
+    #[error("checkpoint {path}: format version {found}, this build reads version {expected}")]
+    Version {
+        /// The file.
+        path: PathBuf,
+        /// The version in the file.
+        found: u32,
+        /// [`FORMAT_VERSION`].
+        expected: u32,
+    },
+    /// The file is shorter than its header says.
+    #[error("checkpoint {path}: truncated ({found} bytes, expected {expected})")]
+    Truncated {
+        /// The file.
+        path: PathBuf,
+        /// Bytes in the file.
+        found: usize,
+        /// Bytes the header announces.
+        expected: usize,
+    },
+    /// The payload does not match its hash or does not decode.
+    #[error("checkpoint {path}: corrupt ({reason})")]
+    Corrupt {
+        /// The file.
+        path: PathBuf,
+        /// What did not match.
+        reason: String,
+    },
+}
+
+/// Everything the service needs to continue a run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Checkpoint {
+    /// The filter's seed (a resumed run must use the same one to be reproducible).
+    pub seed: u64,
+    /// Particles, weights, maps and the step counter (the random state).
+    pub filter: FilterState,
+    /// Stamp of the last odometry the filter predicted to (ns), if any.
+    pub last_odometry_ns: Option<u64>,
+    /// Stamps of the last inputs processed (ns): odometry, lidar. Older inputs after a
+    /// resume are skipped.
+    pub processed_ns: [u64; 2],
+    /// Observation steps taken.
+    pub steps: u64,
+    /// Resamplings done.
+    pub resamplings: u64,
+    /// Sequence numbers last published: pose, map, grid, status (so they continue).
+    pub last_seq: [Option<u64>; 4],
+}
+
+/// FNV-1a, 64 bits: a cheap hash that catches flipped or lost bytes.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+impl Checkpoint {
+    /// The file contents: header and payload.
+    ///
+    /// # Panics
+    /// Never in practice: encoding plain data into a `Vec` cannot fail.
+    pub fn encode(&self) -> Vec<u8> {
+        let payload = bincode::serde::encode_to_vec(self, bincode::config::standard())
+            .expect("encoding plain data into memory");
+        let mut bytes = Vec::with_capacity(HEADER_LEN + payload.len());
+        bytes.extend_from_slice(&MAGIC);
+        bytes.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+        bytes.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        bytes.extend_from_slice(&fnv1a(&payload).to_le_bytes());
+        bytes.extend_from_slice(&payload);
+        bytes
+    }
+
+    /// Decodes file contents; `path` only names the file in errors.
+    ///
+    /// # Errors
+    /// [`CheckpointError::NotACheckpoint`], [`CheckpointError::Version`],
+    /// [`CheckpointError::Truncated`] or [`CheckpointError::Corrupt`].
+    pub fn decode(bytes: &[u8], path: &Path) -> Result<Self, CheckpointError> {
+        let path = path.to_path_buf();
+        if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
+            return Err(CheckpointError::NotACheckpoint { path });
+        }
+        let truncated = |expected| CheckpointError::Truncated {
+            path: path.clone(),
+            found: bytes.len(),
+            expected,
+        };
+        if bytes.len() < HEADER_LEN {
+            return Err(truncated(HEADER_LEN));
+        }
+        let word = |at: usize| u64::from_le_bytes(bytes[at..at + 8].try_into().expect("8 bytes"));
+        let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+        if version != FORMAT_VERSION {
+            return Err(CheckpointError::Version {
+                path,
+                found: version,
+                expected: FORMAT_VERSION,
+            });
+        }
+        let expected = usize::try_from(word(12))
+            .unwrap_or(usize::MAX)
+            .saturating_add(HEADER_LEN);
+        if bytes.len() < expected {
+            return Err(truncated(expected));
+        }
+        let corrupt = |reason: String| CheckpointError::Corrupt {
+            path: path.clone(),
+            reason,
+        };
+        let payload = &bytes[HEADER_LEN..];
+        if payload.len() + HEADER_LEN != expected {
+            return Err(corrupt(format!(
+                "{} bytes after the announced end",
+                bytes.len() - expected
+            )));
+        }
+        if fnv1a(payload) != word(20) {
+            return Err(corrupt("payload hash mismatch".into()));
+        }
+        let (checkpoint, _) =
+            bincode::serde::decode_from_slice(payload, bincode::config::standard())
+                .map_err(|e| corrupt(e.to_string()))?;
+        Ok(checkpoint)
+    }
+
+    /// Writes the checkpoint to `path` atomically (temporary file in the same folder,
+    /// `fsync`, rename, `fsync` of the folder).
+    ///
+    /// # Errors
+    /// [`CheckpointError::Io`] when a step fails; the previous file is then untouched.
+    pub fn write(&self, path: &Path) -> Result<(), CheckpointError> {
+        write_atomically(path, &self.encode()).map_err(|error| CheckpointError::Io {
+            path: path.to_path_buf(),
+            error,
+        })
+    }
+
+    /// Reads and decodes the checkpoint at `path`.
+    ///
+    /// # Errors
+    /// As [`decode`](Self::decode), and [`CheckpointError::Io`] when it cannot be read.
+    pub fn read(path: &Path) -> Result<Self, CheckpointError> {
+        let bytes = std::fs::read(path).map_err(|error| CheckpointError::Io {
+            path: path.to_path_buf(),
+            error,
+        })?;
+        Self::decode(&bytes, path)
+    }
+}
+
+/// Replaces `path` by `bytes` so that a reader sees the old or the new contents, never a
+/// mixture: write a temporary sibling, flush it to disk, rename it over `path`, flush the
+/// folder (the rename itself).
+///
+/// # Errors
+/// The first failing file operation; the temporary file is removed then.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let folder = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let name = path.file_name().ok_or_else(|| {
+        std::io::Error::new(std::io::ErrorKind::InvalidInput, "the path names no file")
+    })?;
+    let temporary = folder.join(format!(
+        ".{}.{}.tmp",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    let written = (|| {
+        let mut file = std::fs::File::create(&temporary)?;
+        file.write_all(bytes)?;
+        file.sync_all()?;
+        std::fs::rename(&temporary, path)
+    })();
+    if written.is_err() {
+        let _ = std::fs::remove_file(&temporary);
+    }
+    written?;
+    std::fs::File::open(folder)?.sync_all()
+}
+
+/// Skips inputs a resumed run has already processed: those stamped at or before the
+/// checkpoint's [`Checkpoint::processed_ns`] on their stream. They are counted, not
+/// treated as errors.
+#[derive(Debug, Clone, Default)]
+pub struct ResumeFloor {
+    floor: Option<[u64; 2]>,
+    skipped: u64,
+}
+
+impl ResumeFloor {
+    /// The floor of a run resumed from `checkpoint` (none for a fresh run).
+    pub fn of(checkpoint: Option<&Checkpoint>) -> Self {
+        Self {
+            floor: checkpoint.map(|c| c.processed_ns),
+            skipped: 0,
+        }
+    }
+
+    /// True when the input stamped `stamp_ns` on `lane` (0 odometry, 1 lidar) is new;
+    /// counts it as skipped otherwise.
+    pub fn admits(&mut self, lane: usize, stamp_ns: u64) -> bool {
+        let stale = self.floor.is_some_and(|f| stamp_ns <= f[lane]);
+        self.skipped += u64::from(stale);
+        !stale
+    }
+
+    /// Inputs skipped so far.
+    pub fn skipped(&self) -> u64 {
+        self.skipped
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fastslam_estimation::Pose2;
+    use fastslam_estimation::fastslam::{FastSlam, FastSlamConfig};
+
+    fn checkpoint() -> Checkpoint {
+        let config = FastSlamConfig {
+            particles: 5,
+            ..FastSlamConfig::default()
+        };
+        let observation = fastslam_estimation::observation::Observation {
+            range: 5.0,
+            bearing: 0.1,
+            id: None,
+        };
+        let mut slam = FastSlam::new(config, Pose2::default()).unwrap();
+        slam.update(&[observation]).unwrap();
+        Checkpoint {
+            seed: 7,
+            filter: slam.state(),
+            last_odometry_ns: Some(900),
+            processed_ns: [900, 1000],
+            steps: 1,
+            resamplings: 0,
+            last_seq: [Some(0), Some(0), None, Some(0)],
+        }
+    }
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("fastslam-ckpt-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir.join(name)
+    }
+
+    #[test]
+    fn a_checkpoint_survives_the_file_round_trip() {
+        let path = scratch("roundtrip.ckpt");
+        let c = checkpoint();
+        assert_eq!(c.filter.maps[0].landmarks.len(), 1);
+        c.write(&path).unwrap();
+        assert_eq!(Checkpoint::read(&path).unwrap(), c);
+        let mut later = c.clone();
+        later.steps = 2;
+        later.write(&path).unwrap();
+        assert_eq!(Checkpoint::read(&path).unwrap().steps, 2, "replaced");
+        let leftover = std::fs::read_dir(path.parent().unwrap())
+            .unwrap()
+            .any(|e| e.unwrap().file_name().to_string_lossy().ends_with(".tmp"));
+        assert!(!leftover, "no temporary file left behind");
+        std::fs::remove_file(&path).unwrap();
+    }
+
+    #[test]
+    fn truncated_or_flipped_files_are_refused_with_their_reason() {
+        let bytes = checkpoint().encode();
+        let path = Path::new("x.ckpt");
+        for cut in [4, 20, bytes.len() - 1] {
+            let err = Checkpoint::decode(&bytes[..cut], path).unwrap_err();
+            let expected = if cut < MAGIC.len() {
+                matches!(err, CheckpointError::NotACheckpoint { .. })
+            } else {
+                matches!(err, CheckpointError::Truncated { .. })
+            };
+            assert!(expected, "cut at {cut}: {err}");
+        }
+        let mut flipped = bytes.clone();
+        let last = flipped.len() - 3;
+        flipped[last] ^= 0x40;
+        let err = Checkpoint::decode(&flipped, path).unwrap_err();
+        assert!(err.to_string().contains("corrupt"), "{err}");
+        let err = Checkpoint::decode(b"id,x,y\n1,2,3\n", path).unwrap_err();
+        assert!(
+            matches!(err, CheckpointError::NotACheckpoint { .. }),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn another_format_version_is_refused() {
+        let mut bytes = checkpoint().encode();
+        bytes[8..12].copy_from_slice(&(FORMAT_VERSION + 1).to_le_bytes());
+        let err = Checkpoint::decode(&bytes, Path::new("old.ckpt")).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            format!(
+                "checkpoint old.ckpt: format version {}, this build reads version {FORMAT_VERSION}",
+                FORMAT_VERSION + 1
+            )
+        );
+    }
+
+    #[test]
+    fn the_resume_floor_skips_and_counts_processed_inputs() {
+        let c = checkpoint();
+        let mut floor = ResumeFloor::of(Some(&c));
+        assert!(!floor.admits(0, 900));
+        assert!(floor.admits(0, 901));
+        assert!(!floor.admits(1, 1000));
+        assert!(floor.admits(1, 1100));
+        assert_eq!(floor.skipped(), 2);
+        let mut fresh = ResumeFloor::of(None);
+        assert!(fresh.admits(0, 0));
+        assert_eq!(fresh.skipped(), 0);
+    }
+}
