@@ -5,8 +5,14 @@
 //! The pieces read top to bottom: [`config`] (what to run), [`sequencer`] (inputs of
 //! two streams in stamp order, deterministic whatever the scheduling), [`slam`] (inputs
 //! to filter calls, filter results to messages), [`process`] (the IPC wiring).
+//! Around them: [`admit`] (input checks with their per-stream state), [`health`]
+//! (rejection counters, their rate-limited log, the status) and [`deadline`] (sensors
+//! that went quiet).
 
+pub mod admit;
 pub mod config;
+pub mod deadline;
+pub mod health;
 pub mod process;
 pub mod sequencer;
 pub mod slam;
