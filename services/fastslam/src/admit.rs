@@ -12,6 +12,27 @@ pub struct Admission {
     lidar: StreamCheck,
     last_odometry: Option<Odometry>,
     limits: MotionLimits,
+    max_jump_ns: u64,
+}
+
+/// A stream's first message has no history to be checked against: it may not lie
+/// further than the stamp-jump limit ahead of the other stream's newest stamp.
+fn first_near(
+    own: &StreamCheck,
+    other: &StreamCheck,
+    h: Header,
+    max_jump_ns: u64,
+) -> Result<(), Rejection> {
+    match (own.last(), other.last()) {
+        (None, Some(previous_ns)) if h.stamp_ns.saturating_sub(previous_ns) > max_jump_ns => {
+            Err(Rejection::StampJump {
+                stamp_ns: h.stamp_ns,
+                previous_ns,
+                max_ns: max_jump_ns,
+            })
+        }
+        _ => Ok(()),
+    }
 }
 
 impl Admission {
@@ -22,6 +43,7 @@ impl Admission {
             lidar: StreamCheck::new(max_jump_ns),
             last_odometry: None,
             limits,
+            max_jump_ns,
         }
     }
 
@@ -32,6 +54,7 @@ impl Admission {
     /// The first [`Rejection`]; the streams' state is then unchanged.
     pub fn odometry(&mut self, m: &Odometry) -> Result<(), Rejection> {
         validate::odometry(m)?;
+        first_near(&self.odometry, &self.lidar, m.header, self.max_jump_ns)?;
         let mut order = self.odometry.clone();
         let previous = match order.accept(m.header)? {
             Continuity::Continues => self.last_odometry.as_ref(),
@@ -52,6 +75,7 @@ impl Admission {
     /// `check`'s rejection, or the stream-order one.
     pub fn lidar(&mut self, check: Result<(), Rejection>, h: Header) -> Result<(), Rejection> {
         check?;
+        first_near(&self.lidar, &self.odometry, h, self.max_jump_ns)?;
         if self.lidar.accept(h)? == Continuity::Restarted {
             tracing::info!(seq = h.seq, "lidar publisher restarted");
         }
@@ -102,5 +126,13 @@ mod tests {
         // Restarted: seq 0 again, stamp later, dead reckoning from the origin again.
         assert_eq!(a.odometry(&odo(3.0, 0, -40.0)), Ok(()));
         assert_eq!(a.odometry(&odo(3.1, 1, -39.9)), Ok(()));
+        let far = Header {
+            stamp_ns: u64::MAX / 2,
+            seq: 0,
+        };
+        assert!(
+            matches!(a.lidar(Ok(()), far), Err(Rejection::StampJump { .. })),
+            "a first lidar stamp far ahead of the odometry"
+        );
     }
 }
