@@ -453,7 +453,7 @@ pub fn odometry_motion(
         let dt = m.header.stamp_ns.saturating_sub(p.header.stamp_ns) as f64 * 1e-9;
         let step = (m.x - p.x).hypot(m.y - p.y);
         let limit = limits.max_speed * dt + limits.pose_slack;
-        if !(step <= limit) {
+        if step.is_nan() || step > limit {
             return Err(Rejection::Teleport {
                 field: "pose_step",
                 value: step,

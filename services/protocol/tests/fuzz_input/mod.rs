@@ -27,7 +27,7 @@ impl Words<'_> {
             0 => f64::NAN,
             1 => f64::INFINITY * if w & 8 == 0 { 1.0 } else { -1.0 },
             2 => 0.0,
-            3 | 4 | 5 => ((w >> 8) % 200_000) as f64 / 1000.0 - 100.0,
+            3..=5 => ((w >> 8) % 200_000) as f64 / 1000.0 - 100.0,
             _ => f64::from_bits(w),
         }
     }
@@ -40,7 +40,7 @@ impl Words<'_> {
     /// A count: mostly small, sometimes anything.
     pub fn count(&mut self) -> u32 {
         let w = self.word();
-        if w % 4 == 0 {
+        if w.is_multiple_of(4) {
             (w >> 32) as u32
         } else {
             ((w >> 8) % 40) as u32
@@ -51,12 +51,12 @@ impl Words<'_> {
     pub fn header(&mut self) -> Header {
         let w = self.word();
         Header {
-            stamp_ns: if w % 5 == 0 {
+            stamp_ns: if w.is_multiple_of(5) {
                 self.word()
             } else {
                 (w >> 8) % 20_000_000_000
             },
-            seq: if w % 7 == 0 {
+            seq: if w.is_multiple_of(7) {
                 self.word()
             } else {
                 (w >> 16) % 100
@@ -102,7 +102,7 @@ pub fn observations(w: &mut Words) -> (ObservationsHeader, Vec<Observation>) {
             id: w.word() as i64,
         })
         .collect();
-    let count = if w.word() % 3 == 0 {
+    let count = if w.word().is_multiple_of(3) {
         w.count()
     } else {
         len as u32
@@ -155,7 +155,7 @@ pub fn landmark_map(w: &mut Words) -> (LandmarkMapHeader, Vec<MapLandmark>) {
             observations: w.word(),
         })
         .collect();
-    let count = if w.word() % 3 == 0 {
+    let count = if w.word().is_multiple_of(3) {
         w.count()
     } else {
         len as u32
