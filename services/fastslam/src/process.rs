@@ -365,7 +365,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 _ => {}
             }
             match stream {
-                Stream::Odometry => sequencer.set_odometry_quiet(quiet),
+                Stream::Odometry => {
+                    sequencer.set_odometry_quiet(quiet);
+                    slam.set_coasting(quiet);
+                }
                 Stream::Lidar => sequencer.set_scans_quiet(quiet),
             }
             health.set_quiet(stream, quiet);

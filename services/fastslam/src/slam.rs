@@ -23,6 +23,11 @@ pub struct Slam {
     filter: FastSlam,
     refiner: Option<OptimiserRefiner>,
     last_odometry_ns: Option<u64>,
+    /// The last odometry's control, for coasting.
+    last_control: Option<Control>,
+    /// Odometry is quiet: scans first predict with the last control (see
+    /// [`Slam::set_coasting`]).
+    coasting: bool,
     extractor: ExtractorConfig,
     mapper: GridMapper,
 }
@@ -53,6 +58,8 @@ impl Slam {
             filter,
             refiner,
             last_odometry_ns: None,
+            last_control: None,
+            coasting: false,
             extractor: config.features.clone(),
             mapper: GridMapper::new(config.grid.clone())?,
         })
@@ -78,10 +85,12 @@ impl Slam {
                     if dt > 0.0 {
                         self.filter.predict(&control, dt)?;
                     }
+                    self.last_control = Some(control);
                 }
                 Ok(None)
             }
             Input::Scan(scan) => {
+                self.coast_to(scan.header.header.stamp_ns)?;
                 let observations: Vec<Observation> = scan
                     .observations
                     .iter()
@@ -95,12 +104,38 @@ impl Slam {
                 let sensor = self.sensor(h.max_range, h.min_bearing, h.max_bearing);
                 self.update(h.header, &observations, &sensor).map(Some)
             }
-            Input::RawScan(raw) => self.raw_scan(&raw).map(Some),
+            Input::RawScan(raw) => {
+                self.coast_to(raw.header.header.stamp_ns)?;
+                self.raw_scan(&raw).map(Some)
+            }
         }
     }
 
     /// A raw scan: poles extracted and used as observations with unknown association,
     /// then the scan offered to the grid mapper as a keyframe.
+    /// Odometry went quiet (`true`) or is back: while quiet, every scan first predicts
+    /// from the last odometry (or coasted) stamp to its own with the last control, so the
+    /// estimate keeps moving as the vehicle did (constant velocity); the odometry that
+    /// returns then predicts only from there.
+    pub fn set_coasting(&mut self, on: bool) {
+        self.coasting = on;
+    }
+
+    /// While coasting, predicts up to `stamp_ns` with the last control.
+    fn coast_to(&mut self, stamp_ns: u64) -> fastslam_estimation::Result<()> {
+        if !self.coasting {
+            return Ok(());
+        }
+        if let (Some(previous), Some(control)) = (self.last_odometry_ns, self.last_control) {
+            let dt = stamp_ns.saturating_sub(previous) as f64 * 1e-9;
+            if dt > 0.0 {
+                self.filter.predict(&control, dt)?;
+                self.last_odometry_ns = Some(stamp_ns);
+            }
+        }
+        Ok(())
+    }
+
     fn raw_scan(&mut self, raw: &RawScan) -> fastslam_estimation::Result<Step> {
         let h = &raw.header;
         let scan = RangeScan {
