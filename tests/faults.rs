@@ -6,7 +6,7 @@ mod common;
 use common::*;
 use fastslam_protocol::ipc::{Ipc, StackConfig};
 use fastslam_protocol::status::{RejectionKind, ServiceStatus, flags};
-use fastslam_protocol::{Header, Odometry, topics};
+use fastslam_protocol::{EndOfStream, Header, Odometry, StreamId, topics};
 use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
 use std::path::{Path, PathBuf};
@@ -165,6 +165,12 @@ struct HandStack {
     dir: PathBuf,
     scenario: PathBuf,
     children: Vec<(&'static str, Child)>,
+    /// Pace the truth in real time (else as fast as the stack goes).
+    realtime: bool,
+    /// Subscribers the truth waits for (odometry, lidar, client).
+    truth_subscribers: usize,
+    /// Extra flags of the service.
+    service_flags: Vec<String>,
 }
 
 impl HandStack {
@@ -179,6 +185,9 @@ impl HandStack {
             dir,
             scenario,
             children: Vec::new(),
+            realtime: true,
+            truth_subscribers: 3,
+            service_flags: Vec::new(),
         }
     }
 
@@ -203,11 +212,16 @@ impl HandStack {
         };
         match name {
             "truth-sim" => {
-                args.extend(sim("3"));
-                args.push("--realtime".into());
+                args.extend(sim(&self.truth_subscribers.to_string()));
+                if self.realtime {
+                    args.push("--realtime".into());
+                }
             }
             "odometry-sim" | "lidar-sim" => args.extend(sim("2")),
-            "service" => args.extend(["--seed", "1", "--wait-subscribers", "1"].map(String::from)),
+            "service" => {
+                args.extend(["--seed", "1", "--wait-subscribers", "1"].map(String::from));
+                args.extend(self.service_flags.iter().cloned());
+            }
             "client" => args.extend(["--out".into(), self.out().display().to_string()]),
             other => panic!("unknown process {other}"),
         }
@@ -220,6 +234,17 @@ impl HandStack {
             .spawn()
             .unwrap();
         self.children.push((name, child));
+    }
+
+    /// The process id of the running `name`.
+    fn pid(&self, name: &str) -> u32 {
+        let (_, child) = self
+            .children
+            .iter()
+            .rev()
+            .find(|(n, _)| *n == name)
+            .unwrap();
+        child.id()
     }
 
     /// The client's run folder.
@@ -371,6 +396,118 @@ fn the_service_survives_a_sigkilled_and_restarted_odometry_sensor() {
     // Undisturbed, this drive scores about 1.1 m; the outage (deadline + restart, about
     // 1.5 s at 6 m/s) is coasted at constant velocity.
     assert!(ate < 5.0, "ATE {ate} m after an odometry restart: {m}");
+    let prefix = stack.prefix.clone();
+    drop(stack);
+    assert_eq!(leftovers(&prefix), (vec![], vec![]));
+}
+
+#[test]
+fn sensors_may_start_before_the_service() {
+    let mut stack = HandStack::new("order");
+    stack.realtime = false;
+    // The launcher starts the consumers first; here the publishers go first.
+    for name in [
+        "truth-sim",
+        "lidar-sim",
+        "odometry-sim",
+        "service",
+        "client",
+    ] {
+        stack.start(name);
+    }
+    stack.wait_all(Duration::from_secs(60));
+    let m = metrics(&stack.out());
+    assert_eq!(m["complete"], true, "{m}");
+    let ate = num(&m, "/estimate/ate_rmse_m");
+    assert!(
+        ate < 2.0,
+        "ATE {ate} m (about 1.1 m in the launcher's order): {m}"
+    );
+    let prefix = stack.prefix.clone();
+    drop(stack);
+    assert_eq!(leftovers(&prefix), (vec![], vec![]));
+}
+
+/// Resident memory of process `pid` (kB), from `/proc/<pid>/status`.
+fn vm_rss_kb(pid: u32) -> Option<u64> {
+    let text = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    let line = text.lines().find(|l| l.starts_with("VmRSS:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+#[test]
+fn an_odometry_flood_stays_bounded_and_poses_keep_coming() {
+    let mut stack = HandStack::new("flood");
+    let config = stack.dir.join("service.toml");
+    std::fs::write(&config, "[input]\nmax_queue = 256\n").unwrap();
+    stack.service_flags = vec!["--config".into(), config.display().to_string()];
+    stack.truth_subscribers = 2; // lidar and client: the test is the odometry
+    let ipc = stack.ipc();
+    // Publishers before subscribers (see `Ipc::subscriber`).
+    let odometry = ipc.publisher::<Odometry>(&topics::ODOMETRY).unwrap();
+    let eos = ipc
+        .publisher::<EndOfStream>(&topics::END_OF_STREAM)
+        .unwrap();
+    for name in ["client", "service", "lidar-sim", "truth-sim"] {
+        stack.start(name);
+    }
+    let status = ipc.subscriber::<ServiceStatus>(&topics::STATUS).unwrap();
+    let service = stack.pid("service");
+    odometry.wait_for_subscribers(&ipc, 2).unwrap();
+    // Nominal odometry: 40 Hz, 25 ms apart in stamps. The flood sends 400 Hz whose
+    // stamps also run 10x ahead of the lidar, so the odometry queue overflows.
+    let (period_ns, v) = (25_000_000u64, 3.0);
+    let mut newest = ServiceStatus::default();
+    let mut peak_kb = 0;
+    let mut last = Header::default();
+    for k in 0..1600u64 {
+        last = Header {
+            stamp_ns: k * period_ns,
+            seq: k,
+        };
+        odometry
+            .send(Odometry {
+                header: last,
+                v,
+                x: v * (k * period_ns) as f64 * 1e-9,
+                ..Default::default()
+            })
+            .unwrap();
+        if k % 40 == 0 {
+            status.drain(|s| newest = *s.payload()).unwrap();
+            peak_kb = peak_kb.max(vm_rss_kb(service).unwrap_or(0));
+        }
+        std::thread::sleep(Duration::from_micros(2500)); // the flood's pace
+    }
+    eos.send(EndOfStream::new(StreamId::Odometry, Some(last)))
+        .unwrap();
+    let started = Instant::now();
+    while stack
+        .children
+        .iter_mut()
+        .any(|(_, c)| c.try_wait().unwrap().is_none())
+    {
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "the stack hangs"
+        );
+        status.drain(|s| newest = *s.payload()).unwrap();
+        peak_kb = peak_kb.max(vm_rss_kb(service).unwrap_or(0));
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    stack.wait_all(Duration::from_secs(1));
+    drop((odometry, eos, status, ipc));
+    let overflow = newest.rejections[RejectionKind::Overflow as usize];
+    assert!(overflow > 0, "no overflow counted: {newest:?}");
+    assert!(newest.steps > 20, "poses stopped: {newest:?}");
+    assert!(
+        peak_kb > 0 && peak_kb < 200 * 1024,
+        "service resident memory peaked at {peak_kb} kB"
+    );
+    println!(
+        "flood: {overflow} overflows, {} steps, peak RSS {peak_kb} kB",
+        newest.steps
+    );
     let prefix = stack.prefix.clone();
     drop(stack);
     assert_eq!(leftovers(&prefix), (vec![], vec![]));
