@@ -281,6 +281,39 @@ mod tests {
         })
     }
 
+    /// A scan at 2 s with no landmarks, after odometry at 2 m/s up to 1 s.
+    fn pose_after_a_gap(coasting: bool) -> f64 {
+        let mut config = ServiceConfig::default();
+        config.filter.particles = 20;
+        let mut slam = Slam::new(&config).unwrap();
+        for k in 0..=40 {
+            slam.apply(odometry(k * 25_000_000, 2.0)).unwrap();
+        }
+        slam.set_coasting(coasting);
+        let header = ObservationsHeader {
+            header: Header {
+                stamp_ns: 2_000_000_000,
+                seq: 0,
+            },
+            max_range: 30.0,
+            min_bearing: -1.6,
+            max_bearing: 1.6,
+            ..Default::default()
+        };
+        let scan = Input::Scan(Scan {
+            header,
+            observations: Vec::new(),
+        });
+        slam.apply(scan).unwrap().unwrap().pose.x
+    }
+
+    #[test]
+    fn coasting_keeps_moving_through_an_odometry_gap() {
+        let (still, coasted) = (pose_after_a_gap(false), pose_after_a_gap(true));
+        assert!((still - 2.0).abs() < 0.5, "no prediction past 1 s: {still}");
+        assert!((coasted - 4.0).abs() < 0.5, "2 m/s for 2 s: {coasted}");
+    }
+
     #[test]
     fn odometry_then_a_scan_moves_the_estimate_and_maps_the_landmark() {
         let mut config = ServiceConfig::default();
