@@ -92,13 +92,82 @@ pub struct ServiceConfig {
     pub grid: GridConfig,
 }
 
-/// Which lidar input the service takes.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+/// Which lidar input the service takes, and how it judges its inputs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct InputConfig {
     /// `auto`: whichever of `scan` and `observations` gets a publisher first (a lidar
     /// process publishes one of them); or one of them by name.
     pub lidar: LidarInput,
+    /// A stream that delivered nothing for this long (wall time, s) is *quiet*: the
+    /// service marks itself degraded and stops waiting for it (odometry keeps
+    /// predicting without the lidar; scans are processed without odometry).
+    pub deadline_s: f64,
+    /// Largest step between consecutive stamps of a stream (s); a bigger jump ahead is
+    /// rejected (unless the stream was quiet).
+    pub max_stamp_jump_s: f64,
+    /// Largest plausible odometry speed |v| (m/s).
+    pub max_speed_mps: f64,
+    /// Largest plausible odometry yaw rate |ω| (rad/s).
+    pub max_yaw_rate_rad_s: f64,
+    /// Slack on the dead-reckoned position step beyond `max_speed_mps · dt` (m).
+    pub pose_slack_m: f64,
+    /// Most inputs waiting per stream; beyond it the oldest is dropped and counted as
+    /// overflow, so a flooding publisher cannot grow the service's memory.
+    pub max_queue: usize,
+    /// Rejections of one kind are logged once per this interval (s), then summarised.
+    pub log_interval_s: f64,
+}
+
+impl Default for InputConfig {
+    fn default() -> Self {
+        Self {
+            lidar: LidarInput::default(),
+            deadline_s: 1.0,
+            max_stamp_jump_s: 10.0,
+            max_speed_mps: 30.0,
+            max_yaw_rate_rad_s: 10.0,
+            pose_slack_m: 0.5,
+            max_queue: 4096,
+            log_interval_s: 5.0,
+        }
+    }
+}
+
+impl InputConfig {
+    /// Checks that every limit is a positive finite number.
+    ///
+    /// # Errors
+    /// [`ConfigError::Invalid`] naming the first bad value.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        for (name, v) in [
+            ("input.deadline_s", self.deadline_s),
+            ("input.max_stamp_jump_s", self.max_stamp_jump_s),
+            ("input.max_speed_mps", self.max_speed_mps),
+            ("input.max_yaw_rate_rad_s", self.max_yaw_rate_rad_s),
+            ("input.pose_slack_m", self.pose_slack_m),
+            ("input.log_interval_s", self.log_interval_s),
+            ("input.max_queue", self.max_queue as f64),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(fastslam_estimation::Error::InvalidParameter {
+                    name,
+                    reason: format!("{v} must be a positive finite number"),
+                }
+                .into());
+            }
+        }
+        Ok(())
+    }
+
+    /// The odometry plausibility limits.
+    pub fn motion_limits(&self) -> fastslam_protocol::validate::MotionLimits {
+        fastslam_protocol::validate::MotionLimits {
+            max_speed: self.max_speed_mps,
+            max_yaw_rate: self.max_yaw_rate_rad_s,
+            pose_slack: self.pose_slack_m,
+        }
+    }
 }
 
 /// The lidar topic the service subscribes to.
@@ -262,6 +331,7 @@ impl ServiceConfig {
         self.grid.validate()?;
         self.optimizer.validate()?;
         self.moves.validate()?;
+        self.input.validate()?;
         Ok(())
     }
 

@@ -4,11 +4,17 @@
 //!
 //! The pieces read top to bottom: [`config`] (what to run), [`sequencer`] (inputs of
 //! two streams in stamp order, deterministic whatever the scheduling), [`slam`] (inputs
-//! to filter calls, filter results to messages), [`process`] (the IPC wiring);
-//! [`persist`] with [`checkpoint`] and [`map_file`] keep the state across runs.
+//! to filter calls, filter results to messages), [`process`] (the IPC wiring).
+//! Around them: [`admit`] (input checks with their per-stream state), [`health`]
+//! (rejection counters, their rate-limited log, the status) and [`deadline`] (sensors
+//! that went quiet); [`persist`] with [`checkpoint`] and [`map_file`] keep the state
+//! across runs.
 
+pub mod admit;
 pub mod checkpoint;
 pub mod config;
+pub mod deadline;
+pub mod health;
 pub mod map_file;
 pub mod persist;
 pub mod process;

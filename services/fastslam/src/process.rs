@@ -1,15 +1,18 @@
 //! The service process: odometry and the lidar (landmark observations or raw scans) in;
 //! pose estimates, landmark maps, occupancy grids and status out.
 
+use crate::admit::Admission;
 use crate::checkpoint::{Checkpoint, ResumeFloor};
 use crate::config::{EstimatorChoice, LidarInput, Overrides, ServiceConfig};
+use crate::deadline::{Change, Watchdog};
+use crate::health::{Health, Stream};
 use crate::persist::PersistArgs;
-use crate::sequencer::{RawScan, Scan, Sequencer};
-use crate::slam::{Slam, Step};
+use crate::sequencer::{Pushed, RawScan, Scan, Sequencer};
+use crate::slam::Slam;
 use fastslam_protocol::ipc::{Flow, Ipc, Pub, Sub};
-use fastslam_protocol::status::{RejectionKind, ServiceStatus, flags};
+use fastslam_protocol::status::{RejectionKind, ServiceStatus};
 use fastslam_protocol::stream::StreamEnd;
-use fastslam_protocol::validate::{self, Rejection, StampOrder};
+use fastslam_protocol::validate;
 use fastslam_protocol::{
     EndOfStream, Header, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation,
     ObservationsHeader, OccupancyGridHeader, Odometry, PoseEstimate, StreamId, cli, topics,
@@ -193,68 +196,6 @@ impl Outputs {
     }
 }
 
-/// Counters behind the status message.
-#[derive(Debug, Default)]
-struct Health {
-    steps: u64,
-    resamplings: u64,
-    rejections: [u64; fastslam_protocol::status::REJECTION_KINDS],
-}
-
-impl Health {
-    /// The counters of a run continued from `checkpoint`.
-    fn resumed(checkpoint: Option<&Checkpoint>) -> Self {
-        Self {
-            steps: checkpoint.map_or(0, |c| c.steps),
-            resamplings: checkpoint.map_or(0, |c| c.resamplings),
-            ..Self::default()
-        }
-    }
-
-    /// Counts a rejected input and says why, once per input (the reason names the field).
-    fn reject(
-        &mut self,
-        what: &str,
-        seq: u64,
-        kind: RejectionKind,
-        reason: &dyn std::fmt::Display,
-    ) {
-        self.rejections[kind as usize] += 1;
-        tracing::warn!(seq, %reason, "{what} skipped");
-    }
-
-    /// The status after observation step `step`, which took `took`.
-    fn status(
-        &mut self,
-        step: &Step,
-        took: Duration,
-        slam: &Slam,
-        seq: &Sequencer,
-    ) -> ServiceStatus {
-        self.steps += 1;
-        self.resamplings += u64::from(step.report.resampled);
-        ServiceStatus {
-            header: step.pose.header,
-            steps: self.steps,
-            resamplings: self.resamplings,
-            n_eff: step.report.neff,
-            particles: slam.particles() as u32,
-            distinct_particles: step.report.distinct as u32,
-            landmarks: slam.landmarks() as u64,
-            step_time_ns: took.as_nanos() as u64,
-            queued: seq.queued(),
-            last_input_ns: seq.watermarks(),
-            flags: if step.report.resampled {
-                flags::RESAMPLED
-            } else {
-                0
-            },
-            reserved: 0,
-            rejections: self.rejections,
-        }
-    }
-}
-
 /// The lidar topic the service listens to: landmark observations or raw scans.
 enum Lidar {
     Observations(Sub<[Observation], ObservationsHeader>),
@@ -299,13 +240,23 @@ impl Lidar {
     }
 }
 
-/// Validates an input and its stamp order; the rejection's reason otherwise.
-fn admit(
-    check: Result<(), Rejection>,
-    order: &mut StampOrder,
-    stamp_ns: u64,
-) -> Result<(), Rejection> {
-    check.and_then(|()| order.accept(stamp_ns))
+/// Counts `pushed` if the sequencer dropped or refused an input.
+fn queued(health: &mut Health, now: Instant, what: &str, seq: u64, pushed: Pushed) {
+    match pushed {
+        Pushed::Queued => {}
+        Pushed::Overflowed => {
+            let reason = "queue full: its oldest input was dropped";
+            health
+                .log
+                .reject(now, what, seq, RejectionKind::Overflow, &reason);
+        }
+        Pushed::Late => {
+            let reason = "older than inputs already processed";
+            health
+                .log
+                .reject(now, what, seq, RejectionKind::Late, &reason);
+        }
+    }
 }
 
 /// Runs the service until both input streams have ended (or a signal arrives).
@@ -335,19 +286,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         lidar = ?lidar.stream(), "running"
     );
 
-    let mut sequencer = Sequencer::default();
-    let mut health = Health::resumed(resumed.as_ref());
+    let input = &config.input;
+    let mut sequencer = Sequencer::new(input.max_queue);
+    let mut health = Health::new(Duration::from_secs_f64(input.log_interval_s));
+    if let Some(c) = &resumed {
+        health.resume(c.steps, c.resamplings);
+    }
     let mut floor = ResumeFloor::of(resumed.as_ref());
     let checkpoint = |slam: &Slam, health: &Health, seq: &Sequencer, out: &Outputs| Checkpoint {
         seed: config.filter.seed,
         filter: slam.state(),
         last_odometry_ns: slam.last_odometry_ns(),
         processed_ns: seq.released(),
-        steps: health.steps,
-        resamplings: health.resamplings,
+        steps: health.steps(),
+        resamplings: health.resamplings(),
         last_seq: out.last_seq(),
     };
-    let (mut odo_order, mut scan_order) = (StampOrder::default(), StampOrder::default());
+    let max_jump_ns = (input.max_stamp_jump_s * 1e9) as u64;
+    let mut admission = Admission::new(max_jump_ns, input.motion_limits());
+    let deadline = Duration::from_secs_f64(input.deadline_s);
+    let (mut odo_watch, mut lidar_watch) = (Watchdog::new(deadline), Watchdog::new(deadline));
     let (mut odo_end, mut scan_end) = (StreamEnd::default(), StreamEnd::default());
     let lidar_listener = match &lidar {
         Lidar::Observations(sub) => sub.listener(),
@@ -355,50 +313,70 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let listeners = [odometry.listener(), lidar_listener, eos_in.listener()];
     ipc.wake_loop::<anyhow::Error>(&listeners, None, || {
+        let now = Instant::now();
+        let (mut odo_heard, mut lidar_heard) = (None, None);
         odometry.drain(|s| {
             let m = *s.payload();
             odo_end.saw(m.header.seq);
             if !floor.admits(0, m.header.stamp_ns) {
                 return;
             }
-            match admit(validate::odometry(&m), &mut odo_order, m.header.stamp_ns) {
-                Ok(()) => sequencer.push_odometry(m),
-                Err(r) => health.reject("odometry", m.header.seq, r.kind(), &r),
-            }
+            match admission.odometry(&m) {
+                Ok(()) => {
+                    odo_heard = odo_watch.heard(now).or(odo_heard);
+                    let pushed = sequencer.push_odometry(m);
+                    queued(&mut health, now, "odometry", m.header.seq, pushed);
+                }
+                Err(r) => {
+                    health
+                        .log
+                        .reject(now, "odometry", m.header.seq, r.kind(), &r);
+                }
+            };
         })?;
         match &lidar {
             Lidar::Observations(sub) => sub.drain(|s| {
                 let header = *s.user_header();
-                scan_end.saw(header.header.seq);
+                let seq = header.header.seq;
+                scan_end.saw(seq);
                 if !floor.admits(1, header.header.stamp_ns) {
                     return;
                 }
                 let check = validate::observations(&header, s.payload());
-                match admit(check, &mut scan_order, header.header.stamp_ns) {
+                match admission.lidar(check, header.header) {
                     Ok(()) => {
+                        lidar_heard = lidar_watch.heard(now).or(lidar_heard);
                         let observations = sequencer.copy_observations(s.payload());
-                        sequencer.push_scan(Scan {
+                        let pushed = sequencer.push_scan(Scan {
                             header,
                             observations,
                         });
+                        queued(&mut health, now, "observations", seq, pushed);
                     }
-                    Err(r) => health.reject("observations", header.header.seq, r.kind(), &r),
-                }
+                    Err(r) => {
+                        health.log.reject(now, "observations", seq, r.kind(), &r);
+                    }
+                };
             })?,
             Lidar::Scans(sub) => sub.drain(|s| {
                 let header = *s.user_header();
-                scan_end.saw(header.header.seq);
+                let seq = header.header.seq;
+                scan_end.saw(seq);
                 if !floor.admits(1, header.header.stamp_ns) {
                     return;
                 }
                 let check = validate::laser_scan(&header, s.payload());
-                match admit(check, &mut scan_order, header.header.stamp_ns) {
+                match admission.lidar(check, header.header) {
                     Ok(()) => {
+                        lidar_heard = lidar_watch.heard(now).or(lidar_heard);
                         let ranges = sequencer.copy_ranges(header.ranges_of(s.payload()));
-                        sequencer.push_raw_scan(RawScan { header, ranges });
+                        let pushed = sequencer.push_raw_scan(RawScan { header, ranges });
+                        queued(&mut health, now, "scan", seq, pushed);
                     }
-                    Err(r) => health.reject("scan", header.header.seq, r.kind(), &r),
-                }
+                    Err(r) => {
+                        health.log.reject(now, "scan", seq, r.kind(), &r);
+                    }
+                };
             })?,
         };
         eos_in.drain(|s| match StreamId::from_u32(s.payload().stream) {
@@ -412,16 +390,50 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         if scan_end.finished() {
             sequencer.end_scans();
         }
+        // Sensor deadlines: a quiet stream is not waited for; its return ends that.
+        let odo_change = odo_heard.or_else(|| odo_watch.check(now));
+        let lidar_change = lidar_heard.or_else(|| lidar_watch.check(now));
+        for (stream, change) in [
+            (Stream::Odometry, odo_change),
+            (Stream::Lidar, lidar_change),
+        ] {
+            let Some(change) = change else { continue };
+            let quiet = change == Change::WentQuiet;
+            if quiet {
+                tracing::warn!(
+                    ?stream,
+                    ?deadline,
+                    "input quiet beyond its deadline: degraded"
+                );
+            } else {
+                tracing::info!(?stream, "input back: recovered");
+            }
+            match stream {
+                Stream::Odometry if quiet => admission.resync_odometry(),
+                Stream::Lidar if quiet => admission.resync_lidar(),
+                _ => {}
+            }
+            match stream {
+                Stream::Odometry => {
+                    sequencer.set_odometry_quiet(quiet);
+                    slam.set_coasting(quiet);
+                }
+                Stream::Lidar => sequencer.set_scans_quiet(quiet),
+            }
+            health.set_quiet(stream, quiet);
+            out.status(health.now(&sequencer))?;
+        }
+        health.log.flush(now);
         while let Some(input) = sequencer.release() {
             let started = Instant::now();
             let applied = slam.apply(&input);
             sequencer.recycle(input);
             match applied {
                 Ok(Some(step)) => {
-                    let status = health.status(&step, started.elapsed(), &slam, &sequencer);
+                    let status = health.step(&step, started.elapsed(), &slam, &sequencer);
                     out.pose(step.pose)?;
                     let stamp_ns = step.pose.header.stamp_ns;
-                    let due = |every: u64| every > 0 && health.steps.is_multiple_of(every);
+                    let due = |every: u64| every > 0 && health.steps().is_multiple_of(every);
                     if due(config.output.map_every) {
                         out.map(&slam, stamp_ns)?;
                     }
@@ -429,7 +441,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                         out.grid(&mut slam, stamp_ns)?;
                     }
                     out.status(status)?;
-                    if args.persist.checkpoint_due(health.steps) {
+                    if args.persist.checkpoint_due(health.steps()) {
                         let write = args
                             .persist
                             .write_checkpoint(|| checkpoint(&slam, &health, &sequencer, &out));
@@ -439,7 +451,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     }
                 }
                 Ok(None) => {}
-                Err(e) => health.reject("input", 0, RejectionKind::Filter, &e),
+                Err(e) => {
+                    let kind = RejectionKind::Filter;
+                    health.log.reject(Instant::now(), "input", 0, kind, &e);
+                }
             }
         }
         Ok(if sequencer.finished() {
@@ -459,8 +474,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     out.finish(&ipc)?;
     let moves = slam.move_stats().unwrap_or_default();
     tracing::info!(
-        steps = health.steps,
-        resamplings = health.resamplings,
+        steps = health.steps(),
+        rejections = ?health.log.counts(),
         moves_proposed = moves.proposed,
         moves_accepted = moves.accepted,
         skipped_before_checkpoint = floor.skipped(),

@@ -6,6 +6,11 @@
 //! when the other stream cannot deliver anything older any more (its queue holds a later
 //! input, its watermark has passed, or it has ended). On equal stamps odometry goes
 //! first: the filter predicts up to the scan's time, then updates.
+//!
+//! A stream marked *quiet* (its sensor missed its deadline) is not waited for; an input
+//! that then arrives older than what was already released is refused as late. Queues are
+//! bounded: beyond the limit the oldest input is dropped. With healthy sensors neither
+//! happens, and the order is the deterministic one above.
 
 use fastslam_protocol::{LaserScanHeader, Observation, ObservationsHeader, Odometry};
 use std::collections::VecDeque;
@@ -39,13 +44,29 @@ pub enum Input {
     RawScan(RawScan),
 }
 
-/// One stream: waiting inputs, newest stamp seen, and whether it has ended.
+/// What became of a pushed input.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pushed {
+    /// Queued.
+    Queued,
+    /// Queued, and the lane's oldest input was dropped to keep it within its limit.
+    Overflowed,
+    /// Refused: older than inputs already released (possible only after a quiet stream
+    /// stopped being waited for).
+    Late,
+}
+
+/// Default most inputs waiting per lane.
+pub const DEFAULT_MAX_QUEUE: usize = 4096;
+
+/// One stream: waiting inputs, newest stamp seen, and whether it has ended or is quiet.
 #[derive(Debug, Clone)]
 struct Lane<T> {
     queue: VecDeque<(u64, T)>,
     watermark: Option<u64>,
     released: Option<u64>,
     ended: bool,
+    quiet: bool,
 }
 
 impl<T> Default for Lane<T> {
@@ -55,14 +76,24 @@ impl<T> Default for Lane<T> {
             watermark: None,
             released: None,
             ended: false,
+            quiet: false,
         }
     }
 }
 
 impl<T> Lane<T> {
-    fn push(&mut self, stamp: u64, item: T) {
+    fn push(&mut self, stamp: u64, item: T, released: u64, max_queue: usize) -> Pushed {
+        if stamp < released {
+            return Pushed::Late;
+        }
         self.watermark = Some(self.watermark.map_or(stamp, |w| w.max(stamp)));
         self.queue.push_back((stamp, item));
+        if self.queue.len() > max_queue {
+            self.queue.pop_front();
+            Pushed::Overflowed
+        } else {
+            Pushed::Queued
+        }
     }
 
     fn head(&self) -> Option<u64> {
@@ -71,7 +102,7 @@ impl<T> Lane<T> {
 
     /// True when nothing stamped before `stamp` can still arrive on this stream.
     fn passed(&self, stamp: u64) -> bool {
-        self.ended || self.watermark.is_some_and(|w| w >= stamp)
+        self.ended || self.quiet || self.watermark.is_some_and(|w| w >= stamp)
     }
 
     fn pop(&mut self) -> Option<T> {
@@ -87,7 +118,7 @@ impl<T> Lane<T> {
 /// [`Sequencer::recycle`] after the filter has used it: in steady state no step allocates.
 /// (The copy releases the sample at once, so a publisher that waits for free samples never
 /// waits on the filter, and an out-of-order scan can wait here for its odometry.)
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct Sequencer {
     odometry: Lane<Odometry>,
     /// The lidar lane: [`Input::Scan`] or [`Input::RawScan`].
@@ -96,23 +127,65 @@ pub struct Sequencer {
     spare_observations: Vec<Vec<Observation>>,
     /// Emptied range buffers, ready for the next raw scan.
     spare_ranges: Vec<Vec<f32>>,
+    max_queue: usize,
+}
+
+impl Default for Sequencer {
+    fn default() -> Self {
+        Self::new(DEFAULT_MAX_QUEUE)
+    }
 }
 
 impl Sequencer {
+    /// A sequencer holding at most `max_queue` inputs per stream.
+    pub fn new(max_queue: usize) -> Self {
+        Self {
+            odometry: Lane::default(),
+            scans: Lane::default(),
+            spare_observations: Vec::new(),
+            spare_ranges: Vec::new(),
+            max_queue: max_queue.max(1),
+        }
+    }
+
     /// Queues an odometry message (stamps of one stream must not decrease; the caller
     /// validates that).
-    pub fn push_odometry(&mut self, m: Odometry) {
-        self.odometry.push(m.header.stamp_ns, m);
+    pub fn push_odometry(&mut self, m: Odometry) -> Pushed {
+        self.odometry
+            .push(m.header.stamp_ns, m, self.newest_released(), self.max_queue)
     }
 
     /// Queues a scan's observations.
-    pub fn push_scan(&mut self, s: Scan) {
-        self.scans.push(s.header.header.stamp_ns, Input::Scan(s));
+    pub fn push_scan(&mut self, s: Scan) -> Pushed {
+        let stamp = s.header.header.stamp_ns;
+        self.scans.push(
+            stamp,
+            Input::Scan(s),
+            self.newest_released(),
+            self.max_queue,
+        )
     }
 
     /// Queues a raw scan (on the same lane as observations: one lidar stream).
-    pub fn push_raw_scan(&mut self, s: RawScan) {
-        self.scans.push(s.header.header.stamp_ns, Input::RawScan(s));
+    pub fn push_raw_scan(&mut self, s: RawScan) -> Pushed {
+        let stamp = s.header.header.stamp_ns;
+        self.scans.push(
+            stamp,
+            Input::RawScan(s),
+            self.newest_released(),
+            self.max_queue,
+        )
+    }
+
+    /// Marks the odometry stream quiet (missed its deadline: scans stop waiting for it)
+    /// or back.
+    pub fn set_odometry_quiet(&mut self, quiet: bool) {
+        self.odometry.quiet = quiet;
+    }
+
+    /// Marks the lidar stream quiet (odometry stops waiting for it) or back.
+    pub fn set_scans_quiet(&mut self, quiet: bool) {
+        self.scans.quiet = quiet;
     }
 
     /// A copy of `observations` in a recycled buffer (allocates only when none is spare).
@@ -154,14 +227,24 @@ impl Sequencer {
         self.scans.ended = true;
     }
 
+    /// Newest stamp released on either stream (0 before the first): anything older that
+    /// arrives now is late.
+    fn newest_released(&self) -> u64 {
+        self.odometry.released.max(self.scans.released).unwrap_or(0)
+    }
+
     /// The next input in stamp order, if it can be released now.
     pub fn release(&mut self) -> Option<Input> {
-        match (self.odometry.head(), self.scans.head()) {
-            (Some(o), Some(s)) if o <= s => self.odometry.pop().map(Input::Odometry),
-            (Some(_), Some(_)) => self.scans.pop(),
-            (Some(o), None) if self.scans.passed(o) => self.odometry.pop().map(Input::Odometry),
-            (None, Some(s)) if self.odometry.passed(s) => self.scans.pop(),
-            _ => None,
+        let odometry = match (self.odometry.head(), self.scans.head()) {
+            (Some(o), Some(s)) => o <= s,
+            (Some(o), None) if self.scans.passed(o) => true,
+            (None, Some(s)) if self.odometry.passed(s) => false,
+            _ => return None,
+        };
+        if odometry {
+            self.odometry.pop().map(Input::Odometry)
+        } else {
+            self.scans.pop()
         }
     }
 
@@ -329,6 +412,33 @@ mod tests {
     }
 
     #[test]
+    fn a_quiet_lane_is_not_waited_for_and_late_inputs_are_refused() {
+        let mut seq = Sequencer::default();
+        seq.push_scan(scan(5));
+        seq.push_odometry(odo(10));
+        seq.push_odometry(odo(20));
+        assert_eq!(stamps(&mut seq), vec![('s', 5)], "waits for the lidar");
+        seq.set_scans_quiet(true);
+        assert_eq!(stamps(&mut seq), vec![('o', 10), ('o', 20)]);
+        assert_eq!(seq.push_scan(scan(15)), Pushed::Late);
+        seq.set_scans_quiet(false);
+        assert_eq!(seq.push_scan(scan(25)), Pushed::Queued);
+        seq.set_odometry_quiet(true);
+        assert_eq!(stamps(&mut seq), vec![('s', 25)], "no wait for odometry");
+    }
+
+    #[test]
+    fn a_full_queue_drops_its_oldest_input() {
+        let mut seq = Sequencer::new(2);
+        assert_eq!(seq.push_odometry(odo(1)), Pushed::Queued);
+        assert_eq!(seq.push_odometry(odo(2)), Pushed::Queued);
+        assert_eq!(seq.push_odometry(odo(3)), Pushed::Overflowed);
+        assert_eq!(seq.queued(), [2, 0]);
+        seq.end_scans();
+        assert_eq!(stamps(&mut seq), vec![('o', 2), ('o', 3)]);
+    }
+
+    #[test]
     fn arrival_interleaving_does_not_change_the_output_order() {
         // Each stream arrives in its own order; only the interleaving of the two varies.
         let odos: Vec<Input> = (1..=12).map(|k| Input::Odometry(odo(k * 10))).collect();
@@ -337,11 +447,12 @@ mod tests {
             let mut seq = Sequencer::default();
             let mut out = Vec::new();
             for input in order {
-                match input.clone() {
+                let pushed = match input.clone() {
                     Input::Odometry(o) => seq.push_odometry(o),
                     Input::Scan(s) => seq.push_scan(s),
                     Input::RawScan(s) => seq.push_raw_scan(s),
-                }
+                };
+                assert_eq!(pushed, Pushed::Queued);
                 out.extend(stamps(&mut seq));
             }
             seq.end_odometry();

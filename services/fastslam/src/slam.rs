@@ -26,6 +26,11 @@ pub struct Slam {
     filter: FastSlam,
     refiner: Option<OptimiserRefiner>,
     last_odometry_ns: Option<u64>,
+    /// The last odometry's control, for coasting.
+    last_control: Option<Control>,
+    /// Odometry is quiet: scans first predict with the last control (see
+    /// [`Slam::set_coasting`]).
+    coasting: bool,
     extractor: ExtractorConfig,
     mapper: GridMapper,
     /// The current scan's observations in the filter's type, reused from scan to scan so
@@ -109,6 +114,8 @@ impl Slam {
             filter,
             refiner,
             last_odometry_ns: None,
+            last_control: None,
+            coasting: false,
             extractor: config.features.clone(),
             mapper: GridMapper::new(config.grid.clone())?,
             observations: Vec::new(),
@@ -150,11 +157,18 @@ impl Slam {
                     if dt > 0.0 {
                         self.filter.predict(&control, dt)?;
                     }
+                    self.last_control = Some(control);
                 }
                 Ok(None)
             }
-            Input::Scan(scan) => self.scan(&scan.header, &scan.observations).map(Some),
-            Input::RawScan(raw) => self.raw_scan(raw).map(Some),
+            Input::Scan(scan) => {
+                self.coast_to(scan.header.header.stamp_ns)?;
+                self.scan(&scan.header, &scan.observations).map(Some)
+            }
+            Input::RawScan(raw) => {
+                self.coast_to(raw.header.header.stamp_ns)?;
+                self.raw_scan(raw).map(Some)
+            }
         }
     }
 
@@ -179,6 +193,29 @@ impl Slam {
         let step = self.update(header.header, &buffer, &sensor);
         self.observations = buffer;
         step
+    }
+
+    /// Odometry went quiet (`true`) or is back: while quiet, every scan first predicts
+    /// from the last odometry (or coasted) stamp to its own with the last control, so the
+    /// estimate keeps moving as the vehicle did (constant velocity); the odometry that
+    /// returns then predicts only from there.
+    pub fn set_coasting(&mut self, on: bool) {
+        self.coasting = on;
+    }
+
+    /// While coasting, predicts up to `stamp_ns` with the last control.
+    fn coast_to(&mut self, stamp_ns: u64) -> fastslam_estimation::Result<()> {
+        if !self.coasting {
+            return Ok(());
+        }
+        if let (Some(previous), Some(control)) = (self.last_odometry_ns, self.last_control) {
+            let dt = stamp_ns.saturating_sub(previous) as f64 * 1e-9;
+            if dt > 0.0 {
+                self.filter.predict(&control, dt)?;
+                self.last_odometry_ns = Some(stamp_ns);
+            }
+        }
+        Ok(())
     }
 
     /// A raw scan: poles extracted and used as observations with unknown association,
@@ -326,6 +363,39 @@ mod tests {
             v,
             ..Default::default()
         })
+    }
+
+    /// A scan at 2 s with no landmarks, after odometry at 2 m/s up to 1 s.
+    fn pose_after_a_gap(coasting: bool) -> f64 {
+        let mut config = ServiceConfig::default();
+        config.filter.particles = 20;
+        let mut slam = Slam::new(&config).unwrap();
+        for k in 0..=40 {
+            slam.apply(&odometry(k * 25_000_000, 2.0)).unwrap();
+        }
+        slam.set_coasting(coasting);
+        let header = ObservationsHeader {
+            header: Header {
+                stamp_ns: 2_000_000_000,
+                seq: 0,
+            },
+            max_range: 30.0,
+            min_bearing: -1.6,
+            max_bearing: 1.6,
+            ..Default::default()
+        };
+        let scan = Input::Scan(Scan {
+            header,
+            observations: Vec::new(),
+        });
+        slam.apply(&scan).unwrap().unwrap().pose.x
+    }
+
+    #[test]
+    fn coasting_keeps_moving_through_an_odometry_gap() {
+        let (still, coasted) = (pose_after_a_gap(false), pose_after_a_gap(true));
+        assert!((still - 2.0).abs() < 0.5, "no prediction past 1 s: {still}");
+        assert!((coasted - 4.0).abs() < 0.5, "2 m/s for 2 s: {coasted}");
     }
 
     #[test]

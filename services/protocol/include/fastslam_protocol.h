@@ -222,9 +222,9 @@ typedef struct fastslam_ServiceStatus {
     uint64_t step_time_ns; /* ns: wall-clock time of the last filter update */
     uint32_t queued[2]; /* —: inputs waiting: odometry, observations */
     uint64_t last_input_ns[2]; /* ns: newest accepted stamp: odometry, observations */
-    uint32_t flags; /* —: bit 0: the last step resampled */
+    uint32_t flags; /* —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline); bit 2: odometry quiet; bit 3: lidar quiet */
     uint32_t reserved; /* —: 0 */
-    uint64_t rejections[16]; /* —: rejected inputs by reason: 0 non-finite, 1 out of range, 2 bad count, 3 stamp backwards, 4 refused by the filter */
+    uint64_t rejections[16]; /* —: rejected inputs by reason: 0 non-finite, 1 out of range, 2 bad count, 3 stamp backwards, 4 refused by the filter, 5 duplicate seq, 6 stamp jump, 7 teleporting odometry, 8 queue overflow (oldest dropped), 9 late (after a quiet stream) */
 } fastslam_ServiceStatus;
 _Static_assert(sizeof(fastslam_ServiceStatus) == 224, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(_Alignof(fastslam_ServiceStatus) == 8, "fastslam_ServiceStatus must match the Rust layout");

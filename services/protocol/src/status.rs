@@ -22,15 +22,66 @@ pub enum RejectionKind {
     StampBackwards = 3,
     /// The filter refused the input (degenerate weights, a control it cannot apply).
     Filter = 4,
+    /// The sequence number repeats.
+    Duplicate = 5,
+    /// The stamp jumps too far ahead of the stream's previous one.
+    StampJump = 6,
+    /// Odometry with an implausible speed, yaw rate or pose step.
+    Teleport = 7,
+    /// A queue was full: its oldest input was dropped to keep memory bounded.
+    Overflow = 8,
+    /// The input arrived after the other stream had been released past its stamp
+    /// (possible only while a stream was quiet beyond its deadline).
+    Late = 9,
+}
+
+impl RejectionKind {
+    /// Every kind, in index order.
+    pub const ALL: [Self; 10] = [
+        Self::NonFinite,
+        Self::OutOfRange,
+        Self::BadCount,
+        Self::StampBackwards,
+        Self::Filter,
+        Self::Duplicate,
+        Self::StampJump,
+        Self::Teleport,
+        Self::Overflow,
+        Self::Late,
+    ];
+
+    /// A short snake_case name, for logs and metrics.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::NonFinite => "non_finite",
+            Self::OutOfRange => "out_of_range",
+            Self::BadCount => "bad_count",
+            Self::StampBackwards => "stamp_backwards",
+            Self::Filter => "filter",
+            Self::Duplicate => "duplicate",
+            Self::StampJump => "stamp_jump",
+            Self::Teleport => "teleport",
+            Self::Overflow => "overflow",
+            Self::Late => "late",
+        }
+    }
 }
 
 /// Bit flags of [`ServiceStatus::flags`].
 pub mod flags {
     /// The last observation step resampled the particles.
     pub const RESAMPLED: u32 = 1;
+    /// An input stream is quiet beyond its deadline: the service runs on what it has.
+    pub const DEGRADED: u32 = 2;
+    /// The odometry stream is quiet beyond its deadline (scans are processed without
+    /// prediction).
+    pub const ODOMETRY_QUIET: u32 = 4;
+    /// The lidar stream is quiet beyond its deadline (odometry keeps predicting).
+    pub const LIDAR_QUIET: u32 = 8;
 }
 
-/// Published by the service after every observation step.
+/// Published by the service after every observation step, and whenever an input stream
+/// goes quiet or comes back (then `steps` and the filter fields repeat the last step's).
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
 #[type_name("fastslam::ServiceStatus")]
 #[repr(C)]

@@ -1,0 +1,138 @@
+//! Admission of inputs: the message checks of `fastslam_protocol::validate`, plus the
+//! per-stream state they need (stamp order, sequence numbers, publisher restarts, the
+//! last odometry for the teleport check).
+
+use fastslam_protocol::validate::{self, Continuity, MotionLimits, Rejection, StreamCheck};
+use fastslam_protocol::{Header, Odometry};
+
+/// The state of both input streams' checks.
+#[derive(Debug, Clone)]
+pub struct Admission {
+    odometry: StreamCheck,
+    lidar: StreamCheck,
+    last_odometry: Option<Odometry>,
+    limits: MotionLimits,
+    max_jump_ns: u64,
+}
+
+/// A stream's first message has no history to be checked against: it may not lie
+/// further than the stamp-jump limit ahead of the other stream's newest stamp.
+fn first_near(
+    own: &StreamCheck,
+    other: &StreamCheck,
+    h: Header,
+    max_jump_ns: u64,
+) -> Result<(), Rejection> {
+    match (own.last(), other.last()) {
+        (None, Some(previous_ns)) if h.stamp_ns.saturating_sub(previous_ns) > max_jump_ns => {
+            Err(Rejection::StampJump {
+                stamp_ns: h.stamp_ns,
+                previous_ns,
+                max_ns: max_jump_ns,
+            })
+        }
+        _ => Ok(()),
+    }
+}
+
+impl Admission {
+    /// Checks allowing stamp steps up to `max_jump_ns` and odometry within `limits`.
+    pub fn new(max_jump_ns: u64, limits: MotionLimits) -> Self {
+        Self {
+            odometry: StreamCheck::new(max_jump_ns),
+            lidar: StreamCheck::new(max_jump_ns),
+            last_odometry: None,
+            limits,
+            max_jump_ns,
+        }
+    }
+
+    /// Admits odometry `m`: finite, in stream order, and plausible motion since the
+    /// publisher's previous message (a restarted publisher starts afresh).
+    ///
+    /// # Errors
+    /// The first [`Rejection`]; the streams' state is then unchanged.
+    pub fn odometry(&mut self, m: &Odometry) -> Result<(), Rejection> {
+        validate::odometry(m)?;
+        first_near(&self.odometry, &self.lidar, m.header, self.max_jump_ns)?;
+        let mut order = self.odometry.clone();
+        let previous = match order.accept(m.header)? {
+            Continuity::Continues => self.last_odometry.as_ref(),
+            Continuity::Restarted => {
+                tracing::info!(seq = m.header.seq, "odometry publisher restarted");
+                None
+            }
+        };
+        validate::odometry_motion(m, previous, &self.limits)?;
+        self.odometry = order;
+        self.last_odometry = Some(*m);
+        Ok(())
+    }
+
+    /// Admits a lidar message whose content `check` gave, with header `h`.
+    ///
+    /// # Errors
+    /// `check`'s rejection, or the stream-order one.
+    pub fn lidar(&mut self, check: Result<(), Rejection>, h: Header) -> Result<(), Rejection> {
+        check?;
+        first_near(&self.lidar, &self.odometry, h, self.max_jump_ns)?;
+        if self.lidar.accept(h)? == Continuity::Restarted {
+            tracing::info!(seq = h.seq, "lidar publisher restarted");
+        }
+        Ok(())
+    }
+
+    /// The odometry stream went quiet: let its next message jump ahead.
+    pub fn resync_odometry(&mut self) {
+        self.odometry.resync();
+    }
+
+    /// The lidar stream went quiet: let its next message jump ahead.
+    pub fn resync_lidar(&mut self) {
+        self.lidar.resync();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn odo(t_s: f64, seq: u64, x: f64) -> Odometry {
+        Odometry {
+            header: Header {
+                stamp_ns: (t_s * 1e9) as u64,
+                seq,
+            },
+            v: 1.0,
+            x,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn a_restarted_odometry_publisher_may_restart_its_dead_reckoning() {
+        let mut a = Admission::new(10_000_000_000, MotionLimits::default());
+        assert_eq!(a.odometry(&odo(1.0, 0, 0.0)), Ok(()));
+        assert_eq!(a.odometry(&odo(1.1, 1, 0.1)), Ok(()));
+        assert!(matches!(
+            a.odometry(&odo(1.2, 2, 40.0)),
+            Err(Rejection::Teleport { .. })
+        ));
+        assert!(matches!(
+            a.odometry(&odo(1.2, 1, 0.2)),
+            Err(Rejection::Duplicate { .. })
+        ));
+        assert_eq!(a.odometry(&odo(1.2, 2, 0.2)), Ok(()), "state kept");
+        // Restarted: seq 0 again, stamp later, dead reckoning from the origin again.
+        assert_eq!(a.odometry(&odo(3.0, 0, -40.0)), Ok(()));
+        assert_eq!(a.odometry(&odo(3.1, 1, -39.9)), Ok(()));
+        let far = Header {
+            stamp_ns: u64::MAX / 2,
+            seq: 0,
+        };
+        assert!(
+            matches!(a.lidar(Ok(()), far), Err(Rejection::StampJump { .. })),
+            "a first lidar stamp far ahead of the odometry"
+        );
+    }
+}

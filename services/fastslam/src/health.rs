@@ -1,0 +1,239 @@
+//! The service's bookkeeping of bad input: rejection counters for the status topic, and
+//! a log that says why an input was skipped without flooding the log when a publisher
+//! keeps sending garbage.
+
+use crate::sequencer::Sequencer;
+use crate::slam::{Slam, Step};
+use fastslam_protocol::status::{REJECTION_KINDS, RejectionKind, ServiceStatus, flags};
+use std::time::{Duration, Instant};
+
+/// Which input stream.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stream {
+    /// Odometry.
+    Odometry,
+    /// The lidar (landmark observations or raw scans).
+    Lidar,
+}
+
+impl Stream {
+    /// The stream's status flag while it is quiet.
+    fn quiet_flag(self) -> u32 {
+        match self {
+            Self::Odometry => flags::ODOMETRY_QUIET,
+            Self::Lidar => flags::LIDAR_QUIET,
+        }
+    }
+}
+
+/// Everything behind the status message: step counters, rejections, quiet streams, and
+/// the last step's filter figures (repeated when a status is sent between steps).
+#[derive(Debug)]
+pub struct Health {
+    steps: u64,
+    resamplings: u64,
+    quiet: u32,
+    /// The rejection counters and their log.
+    pub log: RejectionLog,
+    last: ServiceStatus,
+}
+
+impl Health {
+    /// Counters at zero; rejections logged once per kind per `log_interval`.
+    pub fn new(log_interval: Duration) -> Self {
+        Self {
+            steps: 0,
+            resamplings: 0,
+            quiet: 0,
+            log: RejectionLog::new(log_interval),
+            last: ServiceStatus::default(),
+        }
+    }
+
+    /// Continues the counters of a run resumed from a checkpoint.
+    pub fn resume(&mut self, steps: u64, resamplings: u64) {
+        self.steps = steps;
+        self.resamplings = resamplings;
+    }
+
+    /// Observation steps done.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// Times the particles were resampled.
+    pub fn resamplings(&self) -> u64 {
+        self.resamplings
+    }
+
+    /// Marks `stream` quiet or back.
+    pub fn set_quiet(&mut self, stream: Stream, quiet: bool) {
+        if quiet {
+            self.quiet |= stream.quiet_flag();
+        } else {
+            self.quiet &= !stream.quiet_flag();
+        }
+    }
+
+    /// The status after observation step `step`, which took `took`.
+    pub fn step(
+        &mut self,
+        step: &Step,
+        took: Duration,
+        slam: &Slam,
+        seq: &Sequencer,
+    ) -> ServiceStatus {
+        self.steps += 1;
+        self.resamplings += u64::from(step.report.resampled);
+        self.last = ServiceStatus {
+            header: step.pose.header,
+            steps: self.steps,
+            resamplings: self.resamplings,
+            n_eff: step.report.neff,
+            particles: slam.particles() as u32,
+            distinct_particles: step.report.distinct as u32,
+            landmarks: slam.landmarks() as u64,
+            step_time_ns: took.as_nanos() as u64,
+            flags: if step.report.resampled {
+                flags::RESAMPLED
+            } else {
+                0
+            },
+            ..ServiceStatus::default()
+        };
+        self.now(seq)
+    }
+
+    /// The status now: the last step's figures with the current queues, watermarks,
+    /// rejections and quiet streams.
+    pub fn now(&self, seq: &Sequencer) -> ServiceStatus {
+        let degraded = if self.quiet != 0 {
+            flags::DEGRADED | self.quiet
+        } else {
+            0
+        };
+        ServiceStatus {
+            queued: seq.queued(),
+            last_input_ns: seq.watermarks(),
+            flags: (self.last.flags & flags::RESAMPLED) | degraded,
+            rejections: self.log.counts(),
+            ..self.last
+        }
+    }
+}
+
+/// Counts rejected inputs by kind and logs them, once per kind per interval.
+///
+/// The first rejection of a kind is logged with its reason; further ones within the
+/// interval are only counted, and summarised ("n more … in the last 5 s") by the first
+/// rejection or [`RejectionLog::flush`] after the interval has passed.
+#[derive(Debug)]
+pub struct RejectionLog {
+    interval: Duration,
+    counts: [u64; REJECTION_KINDS],
+    last_logged: [Option<Instant>; REJECTION_KINDS],
+    suppressed: [u64; REJECTION_KINDS],
+}
+
+impl RejectionLog {
+    /// A log that speaks at most once per kind per `interval`.
+    pub fn new(interval: Duration) -> Self {
+        Self {
+            interval,
+            counts: [0; REJECTION_KINDS],
+            last_logged: [None; REJECTION_KINDS],
+            suppressed: [0; REJECTION_KINDS],
+        }
+    }
+
+    /// Counts one rejected input of `what` (a stream name) at `now`, logging it if no
+    /// rejection of this kind was logged within the interval. Returns whether it logged.
+    pub fn reject(
+        &mut self,
+        now: Instant,
+        what: &str,
+        seq: u64,
+        kind: RejectionKind,
+        reason: &dyn std::fmt::Display,
+    ) -> bool {
+        let k = kind as usize;
+        self.counts[k] += 1;
+        if self.last_logged[k].is_some_and(|t| now.duration_since(t) < self.interval) {
+            self.suppressed[k] += 1;
+            return false;
+        }
+        self.summarise(k);
+        self.last_logged[k] = Some(now);
+        tracing::warn!(seq, %reason, kind = kind.name(), "{what} skipped");
+        true
+    }
+
+    /// Logs the summary of every kind whose interval has passed with rejections left
+    /// unlogged; call it now and then (the service does on every wake-up).
+    pub fn flush(&mut self, now: Instant) {
+        for k in 0..REJECTION_KINDS {
+            if self.last_logged[k].is_some_and(|t| now.duration_since(t) >= self.interval)
+                && self.suppressed[k] > 0
+            {
+                self.summarise(k);
+                self.last_logged[k] = Some(now);
+            }
+        }
+    }
+
+    /// Rejections so far, indexed by [`RejectionKind`].
+    pub fn counts(&self) -> [u64; REJECTION_KINDS] {
+        self.counts
+    }
+
+    /// Rejections counted but not logged yet, indexed by [`RejectionKind`].
+    pub fn pending(&self) -> [u64; REJECTION_KINDS] {
+        self.suppressed
+    }
+
+    fn summarise(&mut self, k: usize) {
+        let n = std::mem::take(&mut self.suppressed[k]);
+        if n > 0 {
+            let kind = RejectionKind::ALL
+                .get(k)
+                .map_or("other", |kind| kind.name());
+            tracing::warn!(
+                "{n} more {kind} rejections in the last {:.0} s",
+                self.interval.as_secs_f64()
+            );
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn logs_once_per_kind_per_interval_and_counts_everything() {
+        let t0 = Instant::now();
+        let mut log = RejectionLog::new(Duration::from_secs(5));
+        let at = |s: u64| t0 + Duration::from_secs(s);
+        assert!(log.reject(at(0), "odometry", 1, RejectionKind::NonFinite, &"nan"));
+        assert!(!log.reject(at(1), "odometry", 2, RejectionKind::NonFinite, &"nan"));
+        assert!(!log.reject(at(2), "odometry", 3, RejectionKind::NonFinite, &"nan"));
+        assert!(
+            log.reject(at(2), "scan", 4, RejectionKind::Duplicate, &"dup"),
+            "another kind has its own interval"
+        );
+        assert_eq!(log.pending()[RejectionKind::NonFinite as usize], 2);
+        log.flush(at(4));
+        assert_eq!(
+            log.pending()[RejectionKind::NonFinite as usize],
+            2,
+            "too early"
+        );
+        log.flush(at(5));
+        assert_eq!(log.pending(), [0; REJECTION_KINDS], "summarised");
+        assert!(!log.reject(at(6), "odometry", 5, RejectionKind::NonFinite, &"nan"));
+        assert!(log.reject(at(11), "odometry", 6, RejectionKind::NonFinite, &"nan"));
+        let counts = log.counts();
+        assert_eq!(counts[RejectionKind::NonFinite as usize], 5);
+        assert_eq!(counts[RejectionKind::Duplicate as usize], 1);
+    }
+}

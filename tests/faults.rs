@@ -1,0 +1,532 @@
+//! Fault injection through real processes: the launcher runs the whole stack under its
+//! own prefix while the test joins it as one more process and does damage.
+
+mod common;
+
+use common::*;
+use fastslam_protocol::ipc::{Ipc, StackConfig};
+use fastslam_protocol::status::{RejectionKind, ServiceStatus, flags};
+use fastslam_protocol::{EndOfStream, Header, Odometry, StreamId, topics};
+use nix::sys::signal::{Signal, kill};
+use nix::unistd::Pid;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// The stack's iceoryx2 location, as `fastslam-stack run` derives it from the prefix.
+fn stack(prefix: &str) -> StackConfig {
+    StackConfig {
+        prefix: prefix.to_string(),
+        root: Some(
+            std::env::temp_dir()
+                .join("fsl")
+                .join(prefix)
+                .display()
+                .to_string(),
+        ),
+    }
+}
+
+/// Starts `fastslam-stack run` in the background.
+fn launch(prefix: &str, out: &Path, scenario: &str) -> Child {
+    Command::new(LAUNCHER)
+        .args(["run", "--prefix", prefix, "--scenario", scenario, "--out"])
+        .arg(out)
+        .args(["--timeout-s", "120"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("starting the launcher")
+}
+
+/// Odometry no sane publisher sends: non-finite numbers, stamps going back, stamps far
+/// in the future, implausible speeds. `k` picks the flavour.
+fn garbage(k: u64) -> Odometry {
+    let header = Header {
+        stamp_ns: 0,
+        seq: k % 50,
+    };
+    let mut m = Odometry {
+        header,
+        ..Default::default()
+    };
+    match k % 4 {
+        0 => m.v = f64::NAN,
+        1 => m.x = f64::NEG_INFINITY,
+        2 => m.header.stamp_ns = u64::MAX / 2,
+        _ => m.header.stamp_ns = 1,
+    }
+    m
+}
+
+#[test]
+fn a_garbage_publisher_is_counted_and_the_run_still_finishes() {
+    let prefix = prefix("garbage");
+    let dir = folder(&prefix);
+    let out = dir.join("run");
+    let mut launcher = launch(&prefix, &out, "bailey-short");
+    let ipc = Ipc::open(&stack(&prefix), "garbage", Duration::from_secs(60)).unwrap();
+    // Publishers before subscribers (see `Ipc::subscriber`).
+    let bad = ipc.publisher::<Odometry>(&topics::ODOMETRY).unwrap();
+    let status = ipc.subscriber::<ServiceStatus>(&topics::STATUS).unwrap();
+    let mut newest = ServiceStatus::default();
+    // A stream's very first message is trusted (nothing to check it against): start
+    // the damage once the service has processed real input.
+    let first = std::cell::Cell::new(ServiceStatus::default());
+    ipc.wait_until(
+        || "a first status".into(),
+        || {
+            status.drain(|s| first.set(*s.payload())).unwrap();
+            first.get().steps > 0
+        },
+    )
+    .unwrap();
+    let started = Instant::now();
+    let mut k = 0;
+    let exit = loop {
+        if let Some(exit) = launcher.try_wait().unwrap() {
+            break exit;
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(150),
+            "launcher hangs"
+        );
+        for _ in 0..4 {
+            bad.send(garbage(k)).unwrap();
+            k += 1;
+        }
+        status
+            .drain(|s| newest = *s.payload())
+            .expect("receiving status");
+        std::thread::sleep(Duration::from_millis(5)); // the publisher's pace, not a wait
+    };
+    drop((bad, status, ipc));
+    let output = launcher.wait_with_output().unwrap();
+    assert!(
+        exit.success(),
+        "launcher failed: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let rejected = |kind: RejectionKind| newest.rejections[kind as usize];
+    for kind in [
+        RejectionKind::NonFinite,
+        RejectionKind::StampBackwards,
+        RejectionKind::StampJump,
+    ] {
+        assert!(rejected(kind) > 0, "no {kind:?} counted: {newest:?}");
+    }
+    let m = metrics(&out);
+    assert_eq!(m["complete"], true);
+    assert!(num(&m, "/estimate/poses") > 100.0, "{m}");
+    assert!(
+        num(&m, "/estimate/ate_rmse_m") < num(&m, "/dead_reckoning/ate_rmse_m").max(5.0),
+        "garbage spoilt the estimate: {m}"
+    );
+    let log = std::fs::read_to_string(out.join("logs").join("service.log")).unwrap();
+    let logged = log.matches("odometry skipped").count();
+    assert!(
+        logged <= 20 && (logged as u64) < k / 4,
+        "{logged} rejection lines for {k} bad messages: the log is not rate-limited"
+    );
+    remove_stack_files(&prefix, &std::env::temp_dir().join("fsl").join(&prefix));
+    assert_eq!(leftovers(&prefix), (vec![], vec![]));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A short real-time drive (the start of `bailey-short` at 6 m/s: about 12 s simulated),
+/// written to `dir`.
+fn short_scenario(dir: &Path) -> PathBuf {
+    let text = include_str!("../sensors-sim/scenarios/bailey-short.toml");
+    let start = text
+        .find("waypoints = [")
+        .expect("bailey-short has waypoints");
+    let end = start
+        + text[start..]
+            .find("\n]")
+            .expect("the list ends on its own line")
+        + 2;
+    let text = format!(
+        "{}waypoints = [[12.649533, -41.588785], [44.736760, -54.984424]]{}",
+        &text[..start],
+        &text[end..]
+    )
+    .replace("speed_mps = 3.0", "speed_mps = 6.0")
+    .replace("name = \"bailey-short\"", "name = \"fault-short\"");
+    let path = dir.join("fault-short.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// The stack's processes started by hand (the launcher's hidden subcommands), each with
+/// its log file; stopped with SIGTERM (then SIGKILL) and cleaned up on drop (the
+/// folder with the logs stays when the test failed).
+struct HandStack {
+    prefix: String,
+    root: PathBuf,
+    dir: PathBuf,
+    scenario: PathBuf,
+    children: Vec<(&'static str, Child)>,
+    /// Pace the truth in real time (else as fast as the stack goes).
+    realtime: bool,
+    /// Subscribers the truth waits for (odometry, lidar, client).
+    truth_subscribers: usize,
+    /// Extra flags of the service.
+    service_flags: Vec<String>,
+}
+
+impl HandStack {
+    fn new(test: &str) -> Self {
+        let prefix = prefix(test);
+        let dir = folder(&prefix);
+        let scenario = short_scenario(&dir);
+        let root = std::env::temp_dir().join("fsl").join(&prefix);
+        Self {
+            prefix,
+            root,
+            dir,
+            scenario,
+            children: Vec::new(),
+            realtime: true,
+            truth_subscribers: 3,
+            service_flags: Vec::new(),
+        }
+    }
+
+    /// Starts process `name` (a launcher subcommand) with the flags the launcher gives it.
+    fn start(&mut self, name: &'static str) {
+        let mut args: Vec<String> = vec![
+            name.into(),
+            "--prefix".into(),
+            self.prefix.clone(),
+            "--iox-root".into(),
+            self.root.display().to_string(),
+        ];
+        let sim = |subscribers: &str| {
+            vec![
+                "--scenario".to_string(),
+                self.scenario.display().to_string(),
+                "--seed".into(),
+                "1".into(),
+                "--wait-subscribers".into(),
+                subscribers.into(),
+            ]
+        };
+        match name {
+            "truth-sim" => {
+                args.extend(sim(&self.truth_subscribers.to_string()));
+                if self.realtime {
+                    args.push("--realtime".into());
+                }
+            }
+            "odometry-sim" | "lidar-sim" => args.extend(sim("2")),
+            "service" => {
+                args.extend(["--seed", "1", "--wait-subscribers", "1"].map(String::from));
+                args.extend(self.service_flags.iter().cloned());
+            }
+            "client" => args.extend(["--out".into(), self.out().display().to_string()]),
+            other => panic!("unknown process {other}"),
+        }
+        let n = self.children.iter().filter(|(n, _)| *n == name).count();
+        let log = std::fs::File::create(self.dir.join(format!("{name}.{n}.log"))).unwrap();
+        let child = Command::new(LAUNCHER)
+            .args(&args)
+            .stdout(log.try_clone().unwrap())
+            .stderr(log)
+            .spawn()
+            .unwrap();
+        self.children.push((name, child));
+    }
+
+    /// The process id of the running `name`.
+    fn pid(&self, name: &str) -> u32 {
+        let (_, child) = self
+            .children
+            .iter()
+            .rev()
+            .find(|(n, _)| *n == name)
+            .unwrap();
+        child.id()
+    }
+
+    /// The client's run folder.
+    fn out(&self) -> PathBuf {
+        self.dir.join("run")
+    }
+
+    /// SIGKILLs the running `name` and reaps it.
+    fn kill(&mut self, name: &str) {
+        let (_, child) = self
+            .children
+            .iter_mut()
+            .rev()
+            .find(|(n, _)| *n == name)
+            .expect("no such process");
+        child.kill().unwrap();
+        child.wait().unwrap();
+    }
+
+    /// Joins the stack as the test's own process.
+    fn ipc(&self) -> Ipc {
+        Ipc::open(&stack(&self.prefix), "fault-test", Duration::from_secs(30)).unwrap()
+    }
+
+    /// Waits until every process exited; panics naming any that failed or hung.
+    fn wait_all(&mut self, limit: Duration) {
+        let start = Instant::now();
+        for (name, child) in &mut self.children {
+            loop {
+                match child.try_wait().unwrap() {
+                    Some(status) => {
+                        // A SIGKILLed process reports the signal; everyone else must succeed.
+                        assert!(
+                            status.success() || status.code().is_none(),
+                            "{name} failed ({status}); logs in {}",
+                            self.dir.display()
+                        );
+                        break;
+                    }
+                    None if start.elapsed() > limit => {
+                        panic!("{name} still running; logs in {}", self.dir.display())
+                    }
+                    None => std::thread::sleep(Duration::from_millis(20)),
+                }
+            }
+        }
+    }
+}
+
+impl Drop for HandStack {
+    fn drop(&mut self) {
+        for (_, child) in &mut self.children {
+            if child.try_wait().ok().flatten().is_none() {
+                let _ = kill(Pid::from_raw(child.id() as i32), Signal::SIGTERM);
+                std::thread::sleep(Duration::from_millis(200));
+                let _ = child.kill();
+                let _ = child.wait();
+            }
+        }
+        remove_stack_files(&self.prefix, &self.root);
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.dir); // kept with its logs on failure
+        }
+    }
+}
+
+/// Follows the status topic from the test's own process: the newest status, and whether
+/// a degraded one and a later healthy one were seen.
+#[derive(Default)]
+struct StatusWatch {
+    newest: ServiceStatus,
+    degraded: bool,
+    recovered: bool,
+}
+
+impl StatusWatch {
+    fn see(&mut self, s: &ServiceStatus) {
+        if s.flags & flags::DEGRADED != 0 {
+            self.degraded = true;
+            self.recovered = false;
+        } else if self.degraded {
+            self.recovered = true;
+        }
+        self.newest = *s;
+    }
+}
+
+/// Runs the stack by hand, SIGKILLs `sensor` after 10 steps, restarts it once the status
+/// says degraded, and checks that the status recovers (`quiet` flag cleared), the steps
+/// go on and the run completes with an ATE under `max_ate_m`.
+fn survive_a_sensor_restart(sensor: &'static str, quiet: u32, max_ate_m: f64) {
+    let mut stack = HandStack::new(sensor);
+    for name in [
+        "client",
+        "service",
+        "odometry-sim",
+        "lidar-sim",
+        "truth-sim",
+    ] {
+        stack.start(name);
+    }
+    let ipc = stack.ipc();
+    let status = ipc.subscriber::<ServiceStatus>(&topics::STATUS).unwrap();
+    let watch = std::cell::RefCell::new(StatusWatch::default());
+    let follow = || {
+        status
+            .drain(|s| watch.borrow_mut().see(s.payload()))
+            .unwrap();
+    };
+    // Kill the odometry once the filter has run a few steps.
+    ipc.wait_until(
+        || "10 steps".into(),
+        || {
+            follow();
+            watch.borrow().newest.steps >= 10
+        },
+    )
+    .unwrap();
+    stack.kill(sensor);
+    ipc.wait_until(
+        || "a degraded status".into(),
+        || {
+            follow();
+            watch.borrow().degraded
+        },
+    )
+    .unwrap();
+    let steps_before = watch.borrow().newest.steps;
+    stack.start(sensor);
+    ipc.wait_until(
+        || "recovery".into(),
+        || {
+            follow();
+            watch.borrow().recovered
+        },
+    )
+    .unwrap();
+    assert!(
+        watch.borrow().newest.flags & quiet == 0,
+        "{sensor} still quiet"
+    );
+    stack.wait_all(Duration::from_secs(60));
+    follow();
+    drop((status, ipc));
+    let watch = watch.into_inner();
+    assert!(
+        watch.newest.steps > steps_before + 10,
+        "steps continued after the restart: {steps_before} then {:?}",
+        watch.newest
+    );
+    let m = metrics(&stack.out());
+    assert_eq!(m["complete"], true, "{m}");
+    let ate = num(&m, "/estimate/ate_rmse_m");
+    assert!(ate < max_ate_m, "ATE {ate} m after a {sensor} restart: {m}");
+    let prefix = stack.prefix.clone();
+    drop(stack);
+    assert_eq!(leftovers(&prefix), (vec![], vec![]));
+}
+
+#[test]
+fn the_service_survives_a_sigkilled_and_restarted_odometry_sensor() {
+    // Undisturbed, this drive scores about 1.1 m; the outage (deadline + restart, about
+    // 1.5 s at 6 m/s) is coasted at constant velocity.
+    survive_a_sensor_restart("odometry-sim", flags::ODOMETRY_QUIET, 5.0);
+}
+
+#[test]
+fn the_service_survives_a_sigkilled_and_restarted_lidar() {
+    // The restarted lidar numbers its scans from 0 again: taken as a restart, not as
+    // duplicates. Odometry alone carries the estimate through the outage.
+    survive_a_sensor_restart("lidar-sim", flags::LIDAR_QUIET, 3.0);
+}
+
+#[test]
+fn sensors_may_start_before_the_service() {
+    let mut stack = HandStack::new("order");
+    stack.realtime = false;
+    // The launcher starts the consumers first; here the publishers go first.
+    for name in [
+        "truth-sim",
+        "lidar-sim",
+        "odometry-sim",
+        "service",
+        "client",
+    ] {
+        stack.start(name);
+    }
+    stack.wait_all(Duration::from_secs(60));
+    let m = metrics(&stack.out());
+    assert_eq!(m["complete"], true, "{m}");
+    let ate = num(&m, "/estimate/ate_rmse_m");
+    assert!(
+        ate < 2.0,
+        "ATE {ate} m (about 1.1 m in the launcher's order): {m}"
+    );
+    let prefix = stack.prefix.clone();
+    drop(stack);
+    assert_eq!(leftovers(&prefix), (vec![], vec![]));
+}
+
+/// Resident memory of process `pid` (kB), from `/proc/<pid>/status`.
+fn vm_rss_kb(pid: u32) -> Option<u64> {
+    let text = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    let line = text.lines().find(|l| l.starts_with("VmRSS:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+#[test]
+fn an_odometry_flood_stays_bounded_and_poses_keep_coming() {
+    let mut stack = HandStack::new("flood");
+    let config = stack.dir.join("service.toml");
+    std::fs::write(&config, "[input]\nmax_queue = 256\n").unwrap();
+    stack.service_flags = vec!["--config".into(), config.display().to_string()];
+    stack.truth_subscribers = 2; // lidar and client: the test is the odometry
+    let ipc = stack.ipc();
+    // Publishers before subscribers (see `Ipc::subscriber`).
+    let odometry = ipc.publisher::<Odometry>(&topics::ODOMETRY).unwrap();
+    let eos = ipc
+        .publisher::<EndOfStream>(&topics::END_OF_STREAM)
+        .unwrap();
+    for name in ["client", "service", "lidar-sim", "truth-sim"] {
+        stack.start(name);
+    }
+    let status = ipc.subscriber::<ServiceStatus>(&topics::STATUS).unwrap();
+    let service = stack.pid("service");
+    odometry.wait_for_subscribers(&ipc, 2).unwrap();
+    // Nominal odometry: 40 Hz, 25 ms apart in stamps. The flood sends 400 Hz whose
+    // stamps also run 10x ahead of the lidar, so the odometry queue overflows.
+    let (period_ns, v) = (25_000_000u64, 3.0);
+    let mut newest = ServiceStatus::default();
+    let mut peak_kb = 0;
+    let mut last = Header::default();
+    for k in 0..1600u64 {
+        last = Header {
+            stamp_ns: k * period_ns,
+            seq: k,
+        };
+        odometry
+            .send(Odometry {
+                header: last,
+                v,
+                x: v * (k * period_ns) as f64 * 1e-9,
+                ..Default::default()
+            })
+            .unwrap();
+        if k % 40 == 0 {
+            status.drain(|s| newest = *s.payload()).unwrap();
+            peak_kb = peak_kb.max(vm_rss_kb(service).unwrap_or(0));
+        }
+        std::thread::sleep(Duration::from_micros(2500)); // the flood's pace
+    }
+    eos.send(EndOfStream::new(StreamId::Odometry, Some(last)))
+        .unwrap();
+    let started = Instant::now();
+    while stack
+        .children
+        .iter_mut()
+        .any(|(_, c)| c.try_wait().unwrap().is_none())
+    {
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "the stack hangs"
+        );
+        status.drain(|s| newest = *s.payload()).unwrap();
+        peak_kb = peak_kb.max(vm_rss_kb(service).unwrap_or(0));
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    stack.wait_all(Duration::from_secs(1));
+    drop((odometry, eos, status, ipc));
+    let overflow = newest.rejections[RejectionKind::Overflow as usize];
+    assert!(overflow > 0, "no overflow counted: {newest:?}");
+    assert!(newest.steps > 20, "poses stopped: {newest:?}");
+    assert!(
+        peak_kb > 0 && peak_kb < 200 * 1024,
+        "service resident memory peaked at {peak_kb} kB"
+    );
+    println!(
+        "flood: {overflow} overflows, {} steps, peak RSS {peak_kb} kB",
+        newest.steps
+    );
+    let prefix = stack.prefix.clone();
+    drop(stack);
+    assert_eq!(leftovers(&prefix), (vec![], vec![]));
+}
