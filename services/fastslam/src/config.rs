@@ -104,7 +104,9 @@ pub struct InputConfig {
     /// predicting without the lidar; scans are processed without odometry).
     pub deadline_s: f64,
     /// Largest step between consecutive stamps of a stream (s); a bigger jump ahead is
-    /// rejected (unless the stream was quiet).
+    /// rejected (unless the stream was quiet). Default one hour: it catches garbage and
+    /// far-future stamps, while a sensor that legitimately reports nothing for a while
+    /// (MRCLAM robot 1 sees no landmark for 35 s) is not cut off.
     pub max_stamp_jump_s: f64,
     /// Largest plausible odometry speed |v| (m/s).
     pub max_speed_mps: f64,
@@ -124,7 +126,7 @@ impl Default for InputConfig {
         Self {
             lidar: LidarInput::default(),
             deadline_s: 1.0,
-            max_stamp_jump_s: 10.0,
+            max_stamp_jump_s: 3600.0,
             max_speed_mps: 30.0,
             max_yaw_rate_rad_s: 10.0,
             pose_slack_m: 0.5,
