@@ -82,31 +82,46 @@ impl EndOfStream {
     }
 }
 
+/// Sequence numbers a [`StreamEnd`] remembers, to find the announced last message among
+/// the most recent ones.
+const RECENT_SEQS: usize = 1024;
+
 /// Whether one stream has finished, from a receiver's point of view: finished once its
 /// [`EndOfStream`] arrived *and* the announced last message has been processed.
-#[derive(Debug, Clone, Copy, Default)]
+///
+/// It looks for the announced sequence number itself among the recent ones rather than
+/// comparing with the largest seen: a restarted publisher numbers from 0 again, and a bad
+/// publisher may send any number, so "some seq ≥ last" would end a stream early.
+#[derive(Debug, Clone, Default)]
 pub struct StreamEnd {
     announced: Option<Option<u64>>,
-    newest_seq: Option<u64>,
+    recent: std::collections::VecDeque<u64>,
+    last_seen: bool,
 }
 
 impl StreamEnd {
     /// Records that the message with `seq` was processed.
     pub fn saw(&mut self, seq: u64) {
-        self.newest_seq = Some(self.newest_seq.map_or(seq, |s| s.max(seq)));
+        if self.recent.len() == RECENT_SEQS {
+            self.recent.pop_front();
+        }
+        self.recent.push_back(seq);
+        self.last_seen |= self.announced == Some(Some(seq));
     }
 
     /// Records the stream's end-of-stream message.
     pub fn announce(&mut self, eos: &EndOfStream) {
-        self.announced = Some(eos.last_seq());
+        let last = eos.last_seq();
+        self.announced = Some(last);
+        self.last_seen = last.is_some_and(|last| self.recent.contains(&last));
     }
 
-    /// True once the end was announced and everything up to the last message was seen.
+    /// True once the end was announced and its last message was seen.
     pub fn finished(&self) -> bool {
         match self.announced {
             None => false,
             Some(None) => true,
-            Some(Some(last)) => self.newest_seq.is_some_and(|s| s >= last),
+            Some(Some(_)) => self.last_seen,
         }
     }
 }
@@ -130,6 +145,32 @@ mod tests {
         assert!(!end.finished(), "message 5 not seen yet");
         end.saw(5);
         assert!(end.finished());
+    }
+
+    #[test]
+    fn a_larger_seq_from_before_a_restart_does_not_end_the_stream_early() {
+        let mut end = StreamEnd::default();
+        for seq in [0, 1, 500, 0, 1] {
+            end.saw(seq);
+        }
+        let last = |seq| EndOfStream::new(StreamId::Odometry, Some(Header { stamp_ns: 9, seq }));
+        end.announce(&last(3));
+        assert!(
+            !end.finished(),
+            "message 3 of the new publisher not seen yet"
+        );
+        end.saw(2);
+        assert!(!end.finished());
+        end.saw(3);
+        assert!(end.finished());
+        let mut early = StreamEnd::default();
+        early.saw(7);
+        early.saw(u64::MAX - 1);
+        early.announce(&last(7));
+        assert!(
+            early.finished(),
+            "the last message came before its announcement"
+        );
     }
 
     #[test]
