@@ -9,30 +9,10 @@ use fastslam_service::checkpoint::Checkpoint;
 use fastslam_service::map_file;
 use std::path::Path;
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Short drive (300 observation steps) so each test stays well under 30 s.
 const SCENARIO: &str = "bailey-short";
-
-/// Process id of the stack's service, once it runs.
-fn service_pid(prefix: &str) -> Option<i32> {
-    std::fs::read_dir("/proc").ok()?.flatten().find_map(|e| {
-        let cmdline = std::fs::read(e.path().join("cmdline")).ok()?;
-        let args: Vec<&[u8]> = cmdline.split(|&b| b == 0).collect();
-        let ours = args.get(1) == Some(&b"service".as_slice()) && args.contains(&prefix.as_bytes());
-        ours.then(|| e.file_name().to_string_lossy().parse().ok())
-            .flatten()
-    })
-}
-
-/// Polls `ready` every 10 ms for up to `limit`, failing the test with `what`.
-fn wait_for(what: &str, limit: Duration, ready: impl Fn() -> bool) {
-    let start = Instant::now();
-    while !ready() {
-        assert!(start.elapsed() < limit, "timed out waiting for {what}");
-        std::thread::sleep(Duration::from_millis(10));
-    }
-}
 
 #[test]
 fn sigterm_stops_the_service_cleanly_with_its_checkpoint_and_map() {

@@ -6,12 +6,12 @@ use crate::config::{EstimatorChoice, LidarInput, Overrides, ServiceConfig};
 use crate::persist::PersistArgs;
 use crate::sequencer::{RawScan, Scan, Sequencer};
 use crate::slam::{Slam, Step};
-use fastslam_protocol::ipc::{Flow, Ipc, Pub, Sub};
+use fastslam_protocol::ipc::{Flow, Ipc, Pub, SliceServer, Sub};
 use fastslam_protocol::status::{RejectionKind, ServiceStatus, flags};
 use fastslam_protocol::stream::StreamEnd;
 use fastslam_protocol::validate::{self, Rejection, StampOrder};
 use fastslam_protocol::{
-    EndOfStream, Header, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation,
+    EndOfStream, Header, LandmarkMapHeader, LaserScanHeader, MapLandmark, MapRequest, Observation,
     ObservationsHeader, OccupancyGridHeader, Odometry, PoseEstimate, StreamId, cli, topics,
 };
 use std::path::PathBuf;
@@ -83,9 +83,10 @@ impl Args {
     }
 }
 
-/// The service's output ports and the last header sent on each.
+/// The service's output ports (and the `map/get` server) and the last header sent on each.
 struct Outputs {
     pose: Pub<PoseEstimate, ()>,
+    map_get: SliceServer<MapRequest, LandmarkMapHeader, MapLandmark>,
     map: Pub<[MapLandmark], LandmarkMapHeader>,
     grid: Pub<[i8], OccupancyGridHeader>,
     status: Pub<ServiceStatus, ()>,
@@ -108,6 +109,7 @@ impl Outputs {
     fn open(ipc: &Ipc) -> anyhow::Result<Self> {
         Ok(Self {
             pose: ipc.publisher(&topics::POSE)?,
+            map_get: ipc.slice_server(&topics::MAP_GET)?,
             map: ipc.slice_publisher(&topics::MAP)?,
             grid: ipc.slice_publisher(&topics::GRID)?,
             status: ipc.publisher(&topics::STATUS)?,
@@ -152,6 +154,17 @@ impl Outputs {
         let (h, map) = slam.map(header);
         self.map.send(h, &map)?;
         self.last_map = Some(header);
+        Ok(())
+    }
+
+    /// Answers pending `map/get` requests with the best particle's map now, under the
+    /// header of the last pose published (the estimate the map belongs to).
+    fn answer_map_requests(&self, slam: &Slam) -> anyhow::Result<()> {
+        let header = self.last_pose.unwrap_or_default();
+        let answered = self.map_get.answer(|_| slam.map(header))?;
+        if answered > 0 {
+            tracing::debug!(answered, "map requests answered");
+        }
         Ok(())
     }
 
@@ -355,6 +368,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let listeners = [odometry.listener(), lidar_listener, eos_in.listener()];
     ipc.wake_loop::<anyhow::Error>(&listeners, None, || {
+        out.answer_map_requests(&slam)?;
         odometry.drain(|s| {
             let m = *s.payload();
             odo_end.saw(m.header.seq);

@@ -209,6 +209,15 @@ _Static_assert(offsetof(fastslam_MapLandmark, cov_xy) == 32, "fastslam_MapLandma
 _Static_assert(offsetof(fastslam_MapLandmark, cov_yy) == 40, "fastslam_MapLandmark must match the Rust layout");
 _Static_assert(offsetof(fastslam_MapLandmark, observations) == 48, "fastslam_MapLandmark must match the Rust layout");
 
+/* fastslam::MapRequest: a request for the current map (`map/get`) */
+#define FASTSLAM_MAP_REQUEST_TYPE_NAME "fastslam::MapRequest"
+typedef struct fastslam_MapRequest {
+    uint64_t reserved; /* —: 0 */
+} fastslam_MapRequest;
+_Static_assert(sizeof(fastslam_MapRequest) == 8, "fastslam_MapRequest must match the Rust layout");
+_Static_assert(_Alignof(fastslam_MapRequest) == 8, "fastslam_MapRequest must match the Rust layout");
+_Static_assert(offsetof(fastslam_MapRequest, reserved) == 0, "fastslam_MapRequest must match the Rust layout");
+
 /* fastslam::ServiceStatus: the service's filter health and input bookkeeping */
 #define FASTSLAM_SERVICE_STATUS_TYPE_NAME "fastslam::ServiceStatus"
 typedef struct fastslam_ServiceStatus {
