@@ -206,7 +206,7 @@ pub fn service_pid(prefix: &str) -> Option<i32> {
 }
 
 /// Polls `ready` every 10 ms for up to `limit`, failing the test with `what`.
-pub fn wait_for(what: &str, limit: Duration, ready: impl Fn() -> bool) {
+pub fn wait_for(what: &str, limit: Duration, mut ready: impl FnMut() -> bool) {
     let start = Instant::now();
     while !ready() {
         assert!(start.elapsed() < limit, "timed out waiting for {what}");
