@@ -52,6 +52,16 @@ fn sigterm_stops_the_service_cleanly_with_its_checkpoint_and_map() {
     let log = std::fs::read_to_string(dir.join("run/logs/service.log")).unwrap();
     assert!(log.contains("stopped by signal"), "{log}");
     let checkpoint = Checkpoint::read(&ckpt).expect("the checkpoint loads");
+    // The service's final status (before its end-of-stream) reached the client.
+    let client_log = std::fs::read_to_string(dir.join("run/logs/client.log")).unwrap();
+    let final_status = client_log
+        .lines()
+        .find(|l| l.contains("final status of the service"))
+        .unwrap_or_else(|| panic!("no final status in the client's log: {client_log}"));
+    assert!(
+        final_status.contains(&format!("steps={}", checkpoint.steps)),
+        "{final_status}"
+    );
     assert!(
         (20..300).contains(&checkpoint.steps),
         "stopped mid-run: {} steps",

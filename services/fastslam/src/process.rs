@@ -212,6 +212,8 @@ struct Health {
     steps: u64,
     resamplings: u64,
     rejections: [u64; fastslam_protocol::status::REJECTION_KINDS],
+    /// The last status sent after a step.
+    last: ServiceStatus,
 }
 
 impl Health {
@@ -246,7 +248,7 @@ impl Health {
     ) -> ServiceStatus {
         self.steps += 1;
         self.resamplings += u64::from(step.report.resampled);
-        ServiceStatus {
+        self.last = ServiceStatus {
             header: step.pose.header,
             steps: self.steps,
             resamplings: self.resamplings,
@@ -264,6 +266,23 @@ impl Health {
             },
             reserved: 0,
             rejections: self.rejections,
+        };
+        self.last
+    }
+
+    /// The status sent at shutdown: the last step's, with the counters, landmarks,
+    /// queues and stamps as they are now, flagged [`flags::FINAL`].
+    fn final_status(&self, slam: &Slam, seq: &Sequencer) -> ServiceStatus {
+        ServiceStatus {
+            steps: self.steps,
+            resamplings: self.resamplings,
+            particles: slam.particles() as u32,
+            landmarks: slam.landmarks() as u64,
+            queued: seq.queued(),
+            last_input_ns: seq.watermarks(),
+            flags: flags::FINAL,
+            rejections: self.rejections,
+            ..self.last
         }
     }
 }
@@ -470,6 +489,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let last_ns = out.last_pose.map_or(0, |h| h.stamp_ns);
     out.map(&slam, last_ns)?;
     out.grid(&mut slam, last_ns)?;
+    out.status(health.final_status(&slam, &sequencer))?;
     out.finish(&ipc)?;
     let moves = slam.move_stats().unwrap_or_default();
     tracing::info!(

@@ -231,7 +231,7 @@ typedef struct fastslam_ServiceStatus {
     uint64_t step_time_ns; /* ns: wall-clock time of the last filter update */
     uint32_t queued[2]; /* —: inputs waiting: odometry, observations */
     uint64_t last_input_ns[2]; /* ns: newest accepted stamp: odometry, observations */
-    uint32_t flags; /* —: bit 0: the last step resampled */
+    uint32_t flags; /* —: bit 0: the last step resampled; bit 1: final status, sent at shutdown (not a step) */
     uint32_t reserved; /* —: 0 */
     uint64_t rejections[16]; /* —: rejected inputs by reason: 0 non-finite, 1 out of range, 2 bad count, 3 stamp backwards, 4 refused by the filter */
 } fastslam_ServiceStatus;

@@ -220,7 +220,7 @@ class ServiceStatus(ctypes.Structure):
         ("step_time_ns", ctypes.c_uint64),  # ns: wall-clock time of the last filter update
         ("queued", ctypes.c_uint32 * 2),  # —: inputs waiting: odometry, observations
         ("last_input_ns", ctypes.c_uint64 * 2),  # ns: newest accepted stamp: odometry, observations
-        ("flags", ctypes.c_uint32),  # —: bit 0: the last step resampled
+        ("flags", ctypes.c_uint32),  # —: bit 0: the last step resampled; bit 1: final status, sent at shutdown (not a step)
         ("reserved", ctypes.c_uint32),  # —: 0
         ("rejections", ctypes.c_uint64 * 16),  # —: rejected inputs by reason: 0 non-finite, 1 out of range, 2 bad count, 3 stamp backwards, 4 refused by the filter
     ]

@@ -28,6 +28,10 @@ pub enum RejectionKind {
 pub mod flags {
     /// The last observation step resampled the particles.
     pub const RESAMPLED: u32 = 1;
+    /// The service's last status, sent at shutdown just before its end-of-stream: not
+    /// an observation step (the step's fields repeat the last step's), but the final
+    /// counters, landmark count, queues and stamps.
+    pub const FINAL: u32 = 2;
 }
 
 /// Published by the service after every observation step.
