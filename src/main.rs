@@ -8,6 +8,7 @@
 mod bench;
 mod compare;
 mod extraction_report;
+mod map_get;
 mod monte_carlo;
 mod progress;
 mod replay;
@@ -42,6 +43,9 @@ enum Command {
         #[command(subcommand)]
         data_set: replay::DataSet,
     },
+    /// Ask a running stack's FastSLAM service for its current map and write it as CSV
+    /// (the format `--save-map` writes and `--load-map` reads); prints the landmark count.
+    MapGet(map_get::MapGetArgs),
     /// List the built-in scenarios.
     Scenarios,
     /// Run the pole extraction on the Victoria Park raw laser scans and compare it with
@@ -112,6 +116,7 @@ fn main() -> anyhow::Result<()> {
             }
             Ok(())
         }
+        Command::MapGet(args) => map_get::run(&args),
         Command::ExtractionReport(args) => extraction_report::run(&args),
         Command::Ungm(a) => ungm::run(&a),
         Command::MonteCarlo(a) => monte_carlo::run(&a),

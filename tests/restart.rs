@@ -9,30 +9,10 @@ use fastslam_service::checkpoint::Checkpoint;
 use fastslam_service::map_file;
 use std::path::Path;
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Short drive (300 observation steps) so each test stays well under 30 s.
 const SCENARIO: &str = "bailey-short";
-
-/// Process id of the stack's service, once it runs.
-fn service_pid(prefix: &str) -> Option<i32> {
-    std::fs::read_dir("/proc").ok()?.flatten().find_map(|e| {
-        let cmdline = std::fs::read(e.path().join("cmdline")).ok()?;
-        let args: Vec<&[u8]> = cmdline.split(|&b| b == 0).collect();
-        let ours = args.get(1) == Some(&b"service".as_slice()) && args.contains(&prefix.as_bytes());
-        ours.then(|| e.file_name().to_string_lossy().parse().ok())
-            .flatten()
-    })
-}
-
-/// Polls `ready` every 10 ms for up to `limit`, failing the test with `what`.
-fn wait_for(what: &str, limit: Duration, ready: impl Fn() -> bool) {
-    let start = Instant::now();
-    while !ready() {
-        assert!(start.elapsed() < limit, "timed out waiting for {what}");
-        std::thread::sleep(Duration::from_millis(10));
-    }
-}
 
 #[test]
 fn sigterm_stops_the_service_cleanly_with_its_checkpoint_and_map() {
@@ -72,6 +52,16 @@ fn sigterm_stops_the_service_cleanly_with_its_checkpoint_and_map() {
     let log = std::fs::read_to_string(dir.join("run/logs/service.log")).unwrap();
     assert!(log.contains("stopped by signal"), "{log}");
     let checkpoint = Checkpoint::read(&ckpt).expect("the checkpoint loads");
+    // The service's final status (before its end-of-stream) reached the client.
+    let client_log = std::fs::read_to_string(dir.join("run/logs/client.log")).unwrap();
+    let final_status = client_log
+        .lines()
+        .find(|l| l.contains("final status of the service"))
+        .unwrap_or_else(|| panic!("no final status in the client's log: {client_log}"));
+    assert!(
+        final_status.contains(&format!("steps={}", checkpoint.steps)),
+        "{final_status}"
+    );
     assert!(
         (20..300).contains(&checkpoint.steps),
         "stopped mid-run: {} steps",
@@ -166,6 +156,160 @@ fn bad_checkpoints_and_unknown_flags_fail_with_one_line() {
     assert!(line.contains("--load-map"), "{line}");
     let line = service_fails(&prefix, &["--no-such-flag"]);
     assert!(line.contains("--no-such-flag"), "{line}");
+    assert_eq!(leftovers(&prefix), (vec![], vec![]));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The processes of a stack started one by one (as `run` starts them), so a test can
+/// kill and restart one; whatever is still running is killed on drop, and the stack's
+/// iceoryx2 files are removed.
+struct Processes {
+    prefix: String,
+    root: std::path::PathBuf,
+    logs: std::path::PathBuf,
+    running: Vec<(&'static str, std::process::Child)>,
+}
+
+impl Processes {
+    fn new(prefix: &str, logs: std::path::PathBuf) -> Self {
+        std::fs::create_dir_all(&logs).unwrap();
+        Self {
+            prefix: prefix.to_string(),
+            root: std::env::temp_dir().join("fsl").join(prefix),
+            logs,
+            running: Vec::new(),
+        }
+    }
+
+    /// Starts `fastslam-stack <name> --prefix P --iox-root R <flags>`, logging to
+    /// `<logs>/<log>.log`.
+    fn start(&mut self, name: &'static str, log: &str, flags: &[&str]) {
+        let log = std::fs::File::create(self.logs.join(format!("{log}.log"))).unwrap();
+        let child = Command::new(LAUNCHER)
+            .args([name, "--prefix", &self.prefix, "--iox-root"])
+            .arg(&self.root)
+            .args(flags)
+            .stdout(log.try_clone().unwrap())
+            .stderr(log)
+            .spawn()
+            .unwrap();
+        self.running.push((name, child));
+    }
+
+    /// The running process `name`.
+    fn child(&mut self, name: &str) -> &mut std::process::Child {
+        &mut self
+            .running
+            .iter_mut()
+            .find(|(n, _)| *n == name)
+            .expect("started")
+            .1
+    }
+
+    /// SIGKILLs `name` and reaps it.
+    fn kill(&mut self, name: &str) {
+        let i = self.running.iter().position(|(n, _)| *n == name).unwrap();
+        let (_, mut child) = self.running.remove(i);
+        child.kill().unwrap();
+        child.wait().unwrap();
+    }
+
+    /// Waits for every process to exit, up to `limit`; their exit statuses by name.
+    fn wait_all(&mut self, limit: Duration) -> Vec<(&'static str, std::process::ExitStatus)> {
+        let mut statuses = Vec::new();
+        wait_for("every process to finish", limit, || {
+            self.running
+                .iter_mut()
+                .all(|(_, c)| c.try_wait().unwrap().is_some())
+        });
+        for (name, mut child) in self.running.drain(..) {
+            statuses.push((name, child.wait().unwrap()));
+        }
+        statuses
+    }
+}
+
+impl Drop for Processes {
+    fn drop(&mut self) {
+        for (_, child) in &mut self.running {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+        remove_stack_files(&self.prefix, &self.root);
+    }
+}
+
+#[test]
+fn a_sigkilled_service_resumes_from_its_checkpoint_without_a_long_gap() {
+    let prefix = prefix("kill9");
+    let dir = folder(&prefix);
+    let run = dir.join("run");
+    let ckpt = dir.join("run.ckpt").display().to_string();
+    let every = 20;
+    let every_s = every as f64 * 0.2; // bailey-short observes every 0.2 s
+    let service = [
+        "--seed",
+        "1",
+        "--wait-subscribers",
+        "1",
+        "--checkpoint",
+        &ckpt,
+        "--checkpoint-every",
+        "20",
+    ];
+    let sim = |subscribers: &'static str| {
+        [
+            "--scenario",
+            "bailey-short",
+            "--seed",
+            "1",
+            "--wait-subscribers",
+            subscribers,
+        ]
+    };
+    let mut stack = Processes::new(&prefix, dir.join("logs"));
+    stack.start("client", "client", &["--out", &run.display().to_string()]);
+    stack.start("service", "service", &service);
+    stack.start("odometry-sim", "odometry-sim", &sim("2"));
+    stack.start("lidar-sim", "lidar-sim", &sim("2"));
+    // Real time: the sensors do not run ahead, so what the dead service held is short.
+    let mut truth = sim("3").to_vec();
+    truth.push("--realtime");
+    stack.start("truth-sim", "truth-sim", &truth);
+
+    wait_for("the first checkpoint", Duration::from_secs(30), || {
+        Path::new(&ckpt).is_file()
+    });
+    stack.kill("service");
+    assert!(stack.child("truth-sim").try_wait().unwrap().is_none());
+    let mut resumed = service.to_vec();
+    resumed.extend(["--resume", &ckpt]);
+    stack.start("service", "service-resumed", &resumed);
+    let statuses = stack.wait_all(Duration::from_secs(150));
+    for (name, status) in &statuses {
+        assert!(
+            status.success(),
+            "{name} failed ({status}); logs in {}",
+            dir.join("logs").display()
+        );
+    }
+
+    let tum = std::fs::read_to_string(run.join("estimate.tum")).unwrap();
+    let stamps: Vec<f64> = tum
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .filter_map(|l| l.split_whitespace().next()?.parse().ok())
+        .collect();
+    assert!(stamps.len() > 200, "{} poses", stamps.len());
+    let gap = stamps.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
+    assert!(
+        gap <= every_s,
+        "longest gap {gap:.2} s, checkpoint interval {every_s} s"
+    );
+    let ate = num(&metrics(&run), "/estimate/ate_rmse_m");
+    eprintln!("resumed run: longest gap {gap:.2} s, ATE {ate:.3} m");
+    assert!(ate < 3.0, "ATE {ate} m");
+    drop(stack);
     assert_eq!(leftovers(&prefix), (vec![], vec![]));
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -104,8 +104,19 @@ impl Recording {
         });
     }
 
-    /// Adds a status message.
+    /// Adds the status message of an observation step; the service's final status (sent
+    /// at shutdown, not a step) is only logged.
     pub fn add_status(&mut self, m: &ServiceStatus) {
+        if m.flags & status::flags::FINAL != 0 {
+            tracing::info!(
+                steps = m.steps,
+                resamplings = m.resamplings,
+                landmarks = m.landmarks,
+                rejected = m.rejections.iter().sum::<u64>(),
+                "final status of the service"
+            );
+            return;
+        }
         self.status.push(StatusSample {
             stamp_ns: m.header.stamp_ns,
             n_eff: m.n_eff,

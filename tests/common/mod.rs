@@ -6,6 +6,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use std::time::{Duration, Instant};
 
 /// The launcher binary cargo built for these tests.
 pub const LAUNCHER: &str = env!("CARGO_BIN_EXE_fastslam-stack");
@@ -191,4 +192,24 @@ pub fn remove_stack_files(prefix: &str, root: &Path) {
         }
     }
     let _ = std::fs::remove_dir_all(root);
+}
+
+/// Process id of the stack's service, once it runs.
+pub fn service_pid(prefix: &str) -> Option<i32> {
+    std::fs::read_dir("/proc").ok()?.flatten().find_map(|e| {
+        let cmdline = std::fs::read(e.path().join("cmdline")).ok()?;
+        let args: Vec<&[u8]> = cmdline.split(|&b| b == 0).collect();
+        let ours = args.get(1) == Some(&b"service".as_slice()) && args.contains(&prefix.as_bytes());
+        ours.then(|| e.file_name().to_string_lossy().parse().ok())
+            .flatten()
+    })
+}
+
+/// Polls `ready` every 10 ms for up to `limit`, failing the test with `what`.
+pub fn wait_for(what: &str, limit: Duration, mut ready: impl FnMut() -> bool) {
+    let start = Instant::now();
+    while !ready() {
+        assert!(start.elapsed() < limit, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(10));
+    }
 }

@@ -104,6 +104,18 @@ impl Health {
         self.now(seq)
     }
 
+    /// The status sent at shutdown: [`Health::now`], flagged [`flags::FINAL`] (not a step)
+    /// and with the landmark count as it is now.
+    pub fn final_status(&self, slam: &Slam, seq: &Sequencer) -> ServiceStatus {
+        let now = self.now(seq);
+        ServiceStatus {
+            particles: slam.particles() as u32,
+            landmarks: slam.landmarks() as u64,
+            flags: now.flags | flags::FINAL,
+            ..now
+        }
+    }
+
     /// The status now: the last step's figures with the current queues, watermarks,
     /// rejections and quiet streams.
     pub fn now(&self, seq: &Sequencer) -> ServiceStatus {

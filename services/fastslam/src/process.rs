@@ -9,12 +9,12 @@ use crate::health::{Health, Stream};
 use crate::persist::PersistArgs;
 use crate::sequencer::{Pushed, RawScan, Scan, Sequencer};
 use crate::slam::Slam;
-use fastslam_protocol::ipc::{Flow, Ipc, Pub, Sub};
+use fastslam_protocol::ipc::{Flow, Ipc, Pub, SliceServer, Sub};
 use fastslam_protocol::status::{RejectionKind, ServiceStatus};
 use fastslam_protocol::stream::StreamEnd;
 use fastslam_protocol::validate;
 use fastslam_protocol::{
-    EndOfStream, Header, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation,
+    EndOfStream, Header, LandmarkMapHeader, LaserScanHeader, MapLandmark, MapRequest, Observation,
     ObservationsHeader, OccupancyGridHeader, Odometry, PoseEstimate, StreamId, cli, topics,
 };
 use std::path::PathBuf;
@@ -86,9 +86,10 @@ impl Args {
     }
 }
 
-/// The service's output ports and the last header sent on each.
+/// The service's output ports (and the `map/get` server) and the last header sent on each.
 struct Outputs {
     pose: Pub<PoseEstimate, ()>,
+    map_get: SliceServer<MapRequest, LandmarkMapHeader, MapLandmark>,
     map: Pub<[MapLandmark], LandmarkMapHeader>,
     grid: Pub<[i8], OccupancyGridHeader>,
     status: Pub<ServiceStatus, ()>,
@@ -111,6 +112,7 @@ impl Outputs {
     fn open(ipc: &Ipc) -> anyhow::Result<Self> {
         Ok(Self {
             pose: ipc.publisher(&topics::POSE)?,
+            map_get: ipc.slice_server(&topics::MAP_GET)?,
             map: ipc.slice_publisher(&topics::MAP)?,
             grid: ipc.slice_publisher(&topics::GRID)?,
             status: ipc.publisher(&topics::STATUS)?,
@@ -155,6 +157,17 @@ impl Outputs {
         let (h, map) = slam.map(header);
         self.map.send(h, &map)?;
         self.last_map = Some(header);
+        Ok(())
+    }
+
+    /// Answers pending `map/get` requests with the best particle's map now, under the
+    /// header of the last pose published (the estimate the map belongs to).
+    fn answer_map_requests(&self, slam: &Slam) -> anyhow::Result<()> {
+        let header = self.last_pose.unwrap_or_default();
+        let answered = self.map_get.answer(|_| slam.map(header))?;
+        if answered > 0 {
+            tracing::debug!(answered, "map requests answered");
+        }
         Ok(())
     }
 
@@ -315,6 +328,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     ipc.wake_loop::<anyhow::Error>(&listeners, None, || {
         let now = Instant::now();
         let (mut odo_heard, mut lidar_heard) = (None, None);
+        out.answer_map_requests(&slam)?;
         odometry.drain(|s| {
             let m = *s.payload();
             odo_end.saw(m.header.seq);
@@ -471,6 +485,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let last_ns = out.last_pose.map_or(0, |h| h.stamp_ns);
     out.map(&slam, last_ns)?;
     out.grid(&mut slam, last_ns)?;
+    out.status(health.final_status(&slam, &sequencer))?;
     out.finish(&ipc)?;
     let moves = slam.move_stats().unwrap_or_default();
     tracing::info!(

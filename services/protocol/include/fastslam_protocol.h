@@ -209,6 +209,15 @@ _Static_assert(offsetof(fastslam_MapLandmark, cov_xy) == 32, "fastslam_MapLandma
 _Static_assert(offsetof(fastslam_MapLandmark, cov_yy) == 40, "fastslam_MapLandmark must match the Rust layout");
 _Static_assert(offsetof(fastslam_MapLandmark, observations) == 48, "fastslam_MapLandmark must match the Rust layout");
 
+/* fastslam::MapRequest: a request for the current map (`map/get`) */
+#define FASTSLAM_MAP_REQUEST_TYPE_NAME "fastslam::MapRequest"
+typedef struct fastslam_MapRequest {
+    uint64_t reserved; /* —: 0 */
+} fastslam_MapRequest;
+_Static_assert(sizeof(fastslam_MapRequest) == 8, "fastslam_MapRequest must match the Rust layout");
+_Static_assert(_Alignof(fastslam_MapRequest) == 8, "fastslam_MapRequest must match the Rust layout");
+_Static_assert(offsetof(fastslam_MapRequest, reserved) == 0, "fastslam_MapRequest must match the Rust layout");
+
 /* fastslam::ServiceStatus: the service's filter health and input bookkeeping */
 #define FASTSLAM_SERVICE_STATUS_TYPE_NAME "fastslam::ServiceStatus"
 typedef struct fastslam_ServiceStatus {
@@ -222,7 +231,7 @@ typedef struct fastslam_ServiceStatus {
     uint64_t step_time_ns; /* ns: wall-clock time of the last filter update */
     uint32_t queued[2]; /* —: inputs waiting: odometry, observations */
     uint64_t last_input_ns[2]; /* ns: newest accepted stamp: odometry, observations */
-    uint32_t flags; /* —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline); bit 2: odometry quiet; bit 3: lidar quiet */
+    uint32_t flags; /* —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline); bit 2: odometry quiet; bit 3: lidar quiet; bit 4: final status, sent at shutdown (not a step) */
     uint32_t reserved; /* —: 0 */
     uint64_t rejections[16]; /* —: rejected inputs by reason: 0 non-finite, 1 out of range, 2 bad count, 3 stamp backwards, 4 refused by the filter, 5 duplicate seq, 6 stamp jump, 7 teleporting odometry, 8 queue overflow (oldest dropped), 9 late (after a quiet stream) */
 } fastslam_ServiceStatus;

@@ -192,6 +192,20 @@ class MapLandmark(ctypes.Structure):
         return "fastslam::MapLandmark"
 
 
+class MapRequest(ctypes.Structure):
+    """`fastslam::MapRequest` (8 bytes, alignment 8): a request for the current map (`map/get`)."""
+
+    _fields_ = [
+        ("reserved", ctypes.c_uint64),  # —: 0
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::MapRequest"
+
+
 class ServiceStatus(ctypes.Structure):
     """`fastslam::ServiceStatus` (224 bytes, alignment 8): the service's filter health and input bookkeeping."""
 
@@ -206,7 +220,7 @@ class ServiceStatus(ctypes.Structure):
         ("step_time_ns", ctypes.c_uint64),  # ns: wall-clock time of the last filter update
         ("queued", ctypes.c_uint32 * 2),  # —: inputs waiting: odometry, observations
         ("last_input_ns", ctypes.c_uint64 * 2),  # ns: newest accepted stamp: odometry, observations
-        ("flags", ctypes.c_uint32),  # —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline); bit 2: odometry quiet; bit 3: lidar quiet
+        ("flags", ctypes.c_uint32),  # —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline); bit 2: odometry quiet; bit 3: lidar quiet; bit 4: final status, sent at shutdown (not a step)
         ("reserved", ctypes.c_uint32),  # —: 0
         ("rejections", ctypes.c_uint64 * 16),  # —: rejected inputs by reason: 0 non-finite, 1 out of range, 2 bad count, 3 stamp backwards, 4 refused by the filter, 5 duplicate seq, 6 stamp jump, 7 teleporting odometry, 8 queue overflow (oldest dropped), 9 late (after a quiet stream)
     ]
@@ -285,6 +299,7 @@ LAYOUTS = {
     PoseEstimate: (112, 8, {"header": 0, "x": 16, "y": 24, "theta": 32, "covariance": 40}),
     LandmarkMapHeader: (24, 8, {"header": 0, "count": 16, "reserved": 20}),
     MapLandmark: (56, 8, {"id": 0, "x": 8, "y": 16, "cov_xx": 24, "cov_xy": 32, "cov_yy": 40, "observations": 48}),
+    MapRequest: (8, 8, {"reserved": 0}),
     ServiceStatus: (224, 8, {"header": 0, "steps": 16, "resamplings": 24, "n_eff": 32, "particles": 40, "distinct_particles": 44, "landmarks": 48, "step_time_ns": 56, "queued": 64, "last_input_ns": 72, "flags": 88, "reserved": 92, "rejections": 96}),
     EndOfStream: (24, 8, {"header": 0, "stream": 16, "reserved": 20}),
     LaserScanHeader: (48, 8, {"header": 0, "angle_min": 16, "angle_increment": 20, "time_increment": 24, "scan_time": 28, "range_min": 32, "range_max": 36, "ranges": 40, "intensities": 44}),

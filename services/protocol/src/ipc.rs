@@ -6,12 +6,13 @@
 //! publishers retry until a full subscriber buffer has room ("as fast as possible, lose
 //! nothing"), giving up only when the process is asked to shut down.
 
-use crate::topics::{self, Topic};
+use crate::topics::{self, RequestResponse, Topic};
 use iceoryx2::port::ReceiveError;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::publisher::PublisherCreateError;
+use iceoryx2::port::server::Server;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::port::{BackpressureAction, BackpressureInfo};
@@ -22,6 +23,7 @@ use iceoryx2::service::builder::publish_subscribe::{
 };
 use iceoryx2::service::port_factory::PortFactory as _;
 use iceoryx2::service::port_factory::publish_subscribe::PortFactory;
+use iceoryx2::service::port_factory::request_response::PortFactory as RequestResponsePortFactory;
 use iceoryx2::waitset::WaitSetRunResult;
 use std::fmt::Debug;
 use std::time::{Duration, Instant};
@@ -324,6 +326,94 @@ impl Ipc {
         }
     }
 
+    /// Offers the request–response service `rr`: requests `Q`, responses a header `H`
+    /// plus a slice of `T`. Poll it with [`SliceServer::answer`].
+    ///
+    /// # Errors
+    /// [`IpcError::Iceoryx`] when the service or the server cannot be created.
+    pub fn slice_server<Q, H, T>(&self, rr: &RequestResponse) -> Result<SliceServer<Q, H, T>>
+    where
+        Q: Debug + ZeroCopySend + 'static,
+        H: Debug + ZeroCopySend + 'static,
+        T: Debug + ZeroCopySend + Copy + 'static,
+    {
+        let server = self
+            .request_response::<Q, H, T>(rr)?
+            .server_builder()
+            .initial_max_slice_len(rr.initial_slice_len)
+            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .create()
+            .map_err(iox_err(format!("create server on {}", rr.name)))?;
+        Ok(SliceServer {
+            server,
+            name: rr.name,
+        })
+    }
+
+    /// Sends `request` to the request–response service `rr` and returns the first
+    /// response (header and a copy of the slice).
+    ///
+    /// # Errors
+    /// [`IpcError::Timeout`] when no server is there or none answers within the wait
+    /// timeout, [`IpcError::Shutdown`] on a signal, [`IpcError::Iceoryx`] when sending or
+    /// receiving fails.
+    pub fn request_slice<Q, H, T>(&self, rr: &RequestResponse, request: Q) -> Result<(H, Vec<T>)>
+    where
+        Q: Debug + ZeroCopySend + 'static,
+        H: Debug + ZeroCopySend + Copy + 'static,
+        T: Debug + ZeroCopySend + Copy + 'static,
+    {
+        let service = self.request_response::<Q, H, T>(rr)?;
+        let full = topics::service_name(&self.prefix, rr.name);
+        self.wait_until(
+            || format!("a server of {full}"),
+            || service.dynamic_config().number_of_servers() > 0,
+        )?;
+        let client = service
+            .client_builder()
+            .create()
+            .map_err(iox_err(format!("create client on {}", rr.name)))?;
+        let pending = client
+            .send_copy(request)
+            .map_err(iox_err(format!("request on {}", rr.name)))?;
+        let start = Instant::now();
+        loop {
+            if let Some(response) = pending
+                .receive()
+                .map_err(iox_err(format!("response on {}", rr.name)))?
+            {
+                return Ok((*response.user_header(), response.payload().to_vec()));
+            }
+            if start.elapsed() > self.wait_timeout {
+                return Err(IpcError::Timeout {
+                    what: format!("an answer from {full}"),
+                    waited: start.elapsed(),
+                });
+            }
+            self.sleep(Duration::from_millis(2))?;
+        }
+    }
+
+    fn request_response<Q, H, T>(
+        &self,
+        rr: &RequestResponse,
+    ) -> Result<RequestResponsePortFactory<Service, Q, (), [T], H>>
+    where
+        Q: Debug + ZeroCopySend + 'static,
+        H: Debug + ZeroCopySend + 'static,
+        T: Debug + ZeroCopySend + 'static,
+    {
+        let name = topics::service_name(&self.prefix, rr.name);
+        let service_name =
+            ServiceName::new(&name).map_err(iox_err(format!("service name {name}")))?;
+        self.node
+            .service_builder(&service_name)
+            .request_response::<Q, [T]>()
+            .response_user_header::<H>()
+            .open_or_create()
+            .map_err(iox_err(format!("open service {name}")))
+    }
+
     fn pubsub<P, H>(&self, topic: &Topic) -> Result<PortFactory<Service, P, H>>
     where
         P: Wire + ?Sized,
@@ -594,6 +684,51 @@ where
             .send()
             .map_err(iox_err(format!("send on {}", self.topic)))?;
         self.notify()
+    }
+}
+
+/// The server side of a request–response service whose responses are a header `H` plus
+/// a slice of `T`; see [`Ipc::slice_server`].
+pub struct SliceServer<Q, H, T>
+where
+    Q: Debug + ZeroCopySend + 'static,
+    H: Debug + ZeroCopySend + 'static,
+    T: Debug + ZeroCopySend + 'static,
+{
+    server: Server<Service, Q, (), [T], H>,
+    name: &'static str,
+}
+
+impl<Q, H, T> SliceServer<Q, H, T>
+where
+    Q: Debug + ZeroCopySend + 'static,
+    H: Debug + ZeroCopySend + Default + 'static,
+    T: Debug + ZeroCopySend + Copy + 'static,
+{
+    /// Answers every pending request with what `respond` returns for it (without
+    /// blocking); returns how many were answered. A client that left before its answer
+    /// was sent is skipped.
+    ///
+    /// # Errors
+    /// [`IpcError::Iceoryx`] when receiving a request or loaning the response fails.
+    pub fn answer(&self, mut respond: impl FnMut(&Q) -> (H, Vec<T>)) -> Result<usize> {
+        let mut n = 0;
+        while let Some(request) = self
+            .server
+            .receive()
+            .map_err(iox_err(format!("receive request on {}", self.name)))?
+        {
+            let (header, items) = respond(request.payload());
+            let mut response = request
+                .loan_slice_uninit(items.len())
+                .map_err(iox_err(format!("loan response on {}", self.name)))?;
+            *response.user_header_mut() = header;
+            if let Err(e) = response.write_from_slice(&items).send() {
+                tracing::debug!(error = ?e, "answer on {} not delivered", self.name);
+            }
+            n += 1;
+        }
+        Ok(n)
     }
 }
 

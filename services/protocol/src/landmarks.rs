@@ -82,3 +82,13 @@ pub struct MapLandmark {
     /// How many times the landmark was observed (0 for a true map).
     pub observations: u64,
 }
+
+/// A request for the current map, sent to the `map/get` request–response service; the
+/// response is a [`LandmarkMapHeader`] plus a slice of [`MapLandmark`]s, as on `map`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[type_name("fastslam::MapRequest")]
+#[repr(C)]
+pub struct MapRequest {
+    /// Reserved, must be 0.
+    pub reserved: u64,
+}

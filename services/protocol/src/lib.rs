@@ -23,7 +23,7 @@ pub mod validate;
 
 pub use grid::OccupancyGridHeader;
 pub use header::Header;
-pub use landmarks::{LandmarkMapHeader, MapLandmark, Observation, ObservationsHeader};
+pub use landmarks::{LandmarkMapHeader, MapLandmark, MapRequest, Observation, ObservationsHeader};
 pub use odometry::Odometry;
 pub use pose::{GroundTruth, PoseEstimate};
 pub use scan::LaserScanHeader;

@@ -78,6 +78,10 @@ pub mod flags {
     pub const ODOMETRY_QUIET: u32 = 4;
     /// The lidar stream is quiet beyond its deadline (odometry keeps predicting).
     pub const LIDAR_QUIET: u32 = 8;
+    /// The service's last status, sent at shutdown just before its end-of-stream: not
+    /// an observation step (the step's fields repeat the last step's), but the final
+    /// counters, landmark count, queues and stamps.
+    pub const FINAL: u32 = 16;
 }
 
 /// Published by the service after every observation step, and whenever an input stream

@@ -98,6 +98,22 @@ pub const END_OF_STREAM: Topic = Topic {
     initial_slice_len: 1,
 };
 
+/// A request–response service (as opposed to a publish–subscribe [`Topic`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RequestResponse {
+    /// Service name below the prefix.
+    pub name: &'static str,
+    /// First guess of the response's slice length (it grows by powers of two).
+    pub initial_slice_len: usize,
+}
+
+/// `MapRequest` → `LandmarkMapHeader` + `[MapLandmark]`: the best particle's map now,
+/// answered by the FastSLAM service.
+pub const MAP_GET: RequestResponse = RequestResponse {
+    name: "map/get",
+    initial_slice_len: 64,
+};
+
 /// The full service name of `topic` under `prefix`.
 pub fn service_name(prefix: &str, topic: &str) -> String {
     format!("{prefix}/{topic}")

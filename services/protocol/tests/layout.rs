@@ -37,6 +37,7 @@ fn rust_layouts() -> Vec<Layout> {
         layout!(PoseEstimate: header.stamp_ns, header.seq, x, y, theta, covariance),
         layout!(LandmarkMapHeader: header.stamp_ns, header.seq, count, reserved),
         layout!(MapLandmark: id, x, y, cov_xx, cov_xy, cov_yy, observations),
+        layout!(MapRequest: reserved),
         layout!(ServiceStatus: header.stamp_ns, header.seq, steps, resamplings, n_eff, particles,
             distinct_particles, landmarks, step_time_ns, queued, last_input_ns, flags, reserved, rejections),
         layout!(EndOfStream: header.stamp_ns, header.seq, stream, reserved),
