@@ -7,8 +7,8 @@ use crate::config::{EstimatorChoice, LidarInput, Overrides, ServiceConfig};
 use crate::deadline::{Change, Watchdog};
 use crate::health::{Health, Stream};
 use crate::persist::PersistArgs;
-use crate::sequencer::{Pushed, RawScan, Scan, Sequencer};
-use crate::slam::Slam;
+use crate::sequencer::{Input, Pushed, RawScan, Scan, Sequencer};
+use crate::slam::{Slam, Step};
 use fastslam_protocol::ipc::{Flow, Ipc, Pub, SliceServer, Sub};
 use fastslam_protocol::status::{RejectionKind, ServiceStatus};
 use fastslam_protocol::stream::StreamEnd;
@@ -253,6 +253,112 @@ impl Lidar {
     }
 }
 
+/// The service's state between wake-ups: the filter, its counters, the input queue and
+/// the output ports.
+struct Core {
+    slam: Slam,
+    health: Health,
+    sequencer: Sequencer,
+    out: Outputs,
+    /// Scans applied straight from shared memory / all scans applied.
+    direct_scans: u64,
+    scans: u64,
+}
+
+impl Core {
+    /// The checkpoint of the state now.
+    fn checkpoint(&self, seed: u64) -> Checkpoint {
+        Checkpoint {
+            seed,
+            filter: self.slam.state(),
+            last_odometry_ns: self.slam.last_odometry_ns(),
+            processed_ns: self.sequencer.released(),
+            steps: self.health.steps(),
+            resamplings: self.health.resamplings(),
+            last_seq: self.out.last_seq(),
+        }
+    }
+
+    /// Applies every input the sequencer can release now, in stamp order.
+    fn release_queued(
+        &mut self,
+        config: &ServiceConfig,
+        persist: &PersistArgs,
+    ) -> anyhow::Result<()> {
+        while let Some(input) = self.sequencer.release() {
+            let started = Instant::now();
+            self.scans += u64::from(!matches!(input, Input::Odometry(_)));
+            let applied = self.slam.apply(&input);
+            self.sequencer.recycle(input);
+            self.after(applied, started, config, persist)?;
+        }
+        Ok(())
+    }
+
+    /// Applies a scan stamped `stamp` that the sequencer would release next
+    /// ([`Sequencer::takes_directly`]) straight from shared memory: first the odometry up
+    /// to its stamp, then `step` on the sample's own slice (no copy).
+    fn direct(
+        &mut self,
+        stamp: u64,
+        step: impl FnOnce(&mut Slam) -> fastslam_estimation::Result<Step>,
+        config: &ServiceConfig,
+        persist: &PersistArgs,
+    ) -> anyhow::Result<()> {
+        while let Some(m) = self.sequencer.odometry_through(stamp) {
+            let started = Instant::now();
+            let applied = self.slam.apply(&Input::Odometry(m));
+            self.after(applied, started, config, persist)?;
+        }
+        self.sequencer.took_directly(stamp);
+        self.direct_scans += 1;
+        self.scans += 1;
+        let started = Instant::now();
+        let applied = step(&mut self.slam).map(Some);
+        self.after(applied, started, config, persist)
+    }
+
+    /// Publishes what an applied input produced (pose, map and grid when due, status,
+    /// checkpoint when due), or counts the filter's refusal.
+    fn after(
+        &mut self,
+        applied: fastslam_estimation::Result<Option<Step>>,
+        started: Instant,
+        config: &ServiceConfig,
+        persist: &PersistArgs,
+    ) -> anyhow::Result<()> {
+        match applied {
+            Ok(Some(step)) => {
+                let status =
+                    self.health
+                        .step(&step, started.elapsed(), &self.slam, &self.sequencer);
+                self.out.pose(step.pose)?;
+                let stamp_ns = step.pose.header.stamp_ns;
+                let due = |every: u64| every > 0 && self.health.steps().is_multiple_of(every);
+                if due(config.output.map_every) {
+                    self.out.map(&self.slam, stamp_ns)?;
+                }
+                if due(config.output.grid_every) {
+                    self.out.grid(&mut self.slam, stamp_ns)?;
+                }
+                self.out.status(status)?;
+                if persist.checkpoint_due(self.health.steps()) {
+                    let write = persist.write_checkpoint(|| self.checkpoint(config.filter.seed));
+                    if let Err(e) = write {
+                        tracing::warn!("{e:#}");
+                    }
+                }
+            }
+            Ok(None) => {}
+            Err(e) => {
+                let kind = RejectionKind::Filter;
+                self.health.log.reject(Instant::now(), "input", 0, kind, &e);
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Counts `pushed` if the sequencer dropped or refused an input.
 fn queued(health: &mut Health, now: Instant, what: &str, seq: u64, pushed: Pushed) {
     match pushed {
@@ -278,7 +384,7 @@ fn queued(health: &mut Health, now: Instant, what: &str, seq: u64, pushed: Pushe
 /// Configuration or IPC errors, with their reason.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let config = args.config()?;
-    let (mut slam, resumed) = args.persist.start(&config)?;
+    let (slam, resumed) = args.persist.start(&config)?;
     let timeout = Duration::from_secs_f64(args.wait_timeout_s.max(0.0));
     let ipc = Ipc::open(&args.stack.stack(), "fastslam-service", timeout)?;
     // Publishers first, then subscribers (which wait for publishers): no wait cycles.
@@ -300,21 +406,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
 
     let input = &config.input;
-    let mut sequencer = Sequencer::new(input.max_queue);
+    let sequencer = Sequencer::new(input.max_queue);
     let mut health = Health::new(Duration::from_secs_f64(input.log_interval_s));
     if let Some(c) = &resumed {
         health.resume(c.steps, c.resamplings);
     }
-    let mut floor = ResumeFloor::of(resumed.as_ref());
-    let checkpoint = |slam: &Slam, health: &Health, seq: &Sequencer, out: &Outputs| Checkpoint {
-        seed: config.filter.seed,
-        filter: slam.state(),
-        last_odometry_ns: slam.last_odometry_ns(),
-        processed_ns: seq.released(),
-        steps: health.steps(),
-        resamplings: health.resamplings(),
-        last_seq: out.last_seq(),
+    let persist = &args.persist;
+    let mut core = Core {
+        slam,
+        health,
+        sequencer,
+        out,
+        direct_scans: 0,
+        scans: 0,
     };
+    let mut floor = ResumeFloor::of(resumed.as_ref());
     let max_jump_ns = (input.max_stamp_jump_s * 1e9) as u64;
     let mut admission = Admission::new(max_jump_ns, input.motion_limits());
     let deadline = Duration::from_secs_f64(input.deadline_s);
@@ -328,7 +434,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     ipc.wake_loop::<anyhow::Error>(&listeners, None, || {
         let now = Instant::now();
         let (mut odo_heard, mut lidar_heard) = (None, None);
-        out.answer_map_requests(&slam)?;
+        // A scan taken straight from shared memory is applied while draining; an IPC
+        // error on its outputs waits here until the drain is over.
+        let mut failed: Option<anyhow::Error> = None;
+        core.out.answer_map_requests(&core.slam)?;
         odometry.drain(|s| {
             let m = *s.payload();
             odo_end.saw(m.header.seq);
@@ -338,11 +447,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             match admission.odometry(&m) {
                 Ok(()) => {
                     odo_heard = odo_watch.heard(now).or(odo_heard);
-                    let pushed = sequencer.push_odometry(m);
-                    queued(&mut health, now, "odometry", m.header.seq, pushed);
+                    let pushed = core.sequencer.push_odometry(m);
+                    queued(&mut core.health, now, "odometry", m.header.seq, pushed);
                 }
                 Err(r) => {
-                    health
+                    core.health
                         .log
                         .reject(now, "odometry", m.header.seq, r.kind(), &r);
                 }
@@ -358,17 +467,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 }
                 let check = validate::observations(&header, s.payload());
                 match admission.lidar(check, header.header) {
+                    Ok(()) if core.sequencer.takes_directly(header.header.stamp_ns) => {
+                        lidar_heard = lidar_watch.heard(now).or(lidar_heard);
+                        let stamp = header.header.stamp_ns;
+                        let step = |slam: &mut Slam| slam.observe(&header, s.payload());
+                        failed = failed
+                            .take()
+                            .or(core.direct(stamp, step, &config, persist).err());
+                    }
                     Ok(()) => {
                         lidar_heard = lidar_watch.heard(now).or(lidar_heard);
-                        let observations = sequencer.copy_observations(s.payload());
-                        let pushed = sequencer.push_scan(Scan {
+                        let observations = core.sequencer.copy_observations(s.payload());
+                        let pushed = core.sequencer.push_scan(Scan {
                             header,
                             observations,
                         });
-                        queued(&mut health, now, "observations", seq, pushed);
+                        queued(&mut core.health, now, "observations", seq, pushed);
                     }
                     Err(r) => {
-                        health.log.reject(now, "observations", seq, r.kind(), &r);
+                        core.health
+                            .log
+                            .reject(now, "observations", seq, r.kind(), &r);
                     }
                 };
             })?,
@@ -381,28 +500,40 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 }
                 let check = validate::laser_scan(&header, s.payload());
                 match admission.lidar(check, header.header) {
+                    Ok(()) if core.sequencer.takes_directly(header.header.stamp_ns) => {
+                        lidar_heard = lidar_watch.heard(now).or(lidar_heard);
+                        let stamp = header.header.stamp_ns;
+                        let ranges = header.ranges_of(s.payload());
+                        let step = |slam: &mut Slam| slam.observe_raw(&header, ranges);
+                        failed = failed
+                            .take()
+                            .or(core.direct(stamp, step, &config, persist).err());
+                    }
                     Ok(()) => {
                         lidar_heard = lidar_watch.heard(now).or(lidar_heard);
-                        let ranges = sequencer.copy_ranges(header.ranges_of(s.payload()));
-                        let pushed = sequencer.push_raw_scan(RawScan { header, ranges });
-                        queued(&mut health, now, "scan", seq, pushed);
+                        let ranges = core.sequencer.copy_ranges(header.ranges_of(s.payload()));
+                        let pushed = core.sequencer.push_raw_scan(RawScan { header, ranges });
+                        queued(&mut core.health, now, "scan", seq, pushed);
                     }
                     Err(r) => {
-                        health.log.reject(now, "scan", seq, r.kind(), &r);
+                        core.health.log.reject(now, "scan", seq, r.kind(), &r);
                     }
                 };
             })?,
         };
+        if let Some(e) = failed.take() {
+            return Err(e);
+        }
         eos_in.drain(|s| match StreamId::from_u32(s.payload().stream) {
             Some(StreamId::Odometry) => odo_end.announce(s.payload()),
             Some(id) if id == lidar.stream() => scan_end.announce(s.payload()),
             _ => {}
         })?;
         if odo_end.finished() {
-            sequencer.end_odometry();
+            core.sequencer.end_odometry();
         }
         if scan_end.finished() {
-            sequencer.end_scans();
+            core.sequencer.end_scans();
         }
         // Sensor deadlines: a quiet stream is not waited for; its return ends that.
         let odo_change = odo_heard.or_else(|| odo_watch.check(now));
@@ -429,49 +560,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
             match stream {
                 Stream::Odometry => {
-                    sequencer.set_odometry_quiet(quiet);
-                    slam.set_coasting(quiet);
+                    core.sequencer.set_odometry_quiet(quiet);
+                    core.slam.set_coasting(quiet);
                 }
-                Stream::Lidar => sequencer.set_scans_quiet(quiet),
+                Stream::Lidar => core.sequencer.set_scans_quiet(quiet),
             }
-            health.set_quiet(stream, quiet);
-            out.status(health.now(&sequencer))?;
+            core.health.set_quiet(stream, quiet);
+            core.out.status(core.health.now(&core.sequencer))?;
         }
-        health.log.flush(now);
-        while let Some(input) = sequencer.release() {
-            let started = Instant::now();
-            let applied = slam.apply(&input);
-            sequencer.recycle(input);
-            match applied {
-                Ok(Some(step)) => {
-                    let status = health.step(&step, started.elapsed(), &slam, &sequencer);
-                    out.pose(step.pose)?;
-                    let stamp_ns = step.pose.header.stamp_ns;
-                    let due = |every: u64| every > 0 && health.steps().is_multiple_of(every);
-                    if due(config.output.map_every) {
-                        out.map(&slam, stamp_ns)?;
-                    }
-                    if due(config.output.grid_every) {
-                        out.grid(&mut slam, stamp_ns)?;
-                    }
-                    out.status(status)?;
-                    if args.persist.checkpoint_due(health.steps()) {
-                        let write = args
-                            .persist
-                            .write_checkpoint(|| checkpoint(&slam, &health, &sequencer, &out));
-                        if let Err(e) = write {
-                            tracing::warn!("{e:#}");
-                        }
-                    }
-                }
-                Ok(None) => {}
-                Err(e) => {
-                    let kind = RejectionKind::Filter;
-                    health.log.reject(Instant::now(), "input", 0, kind, &e);
-                }
-            }
-        }
-        Ok(if sequencer.finished() {
+        core.health.log.flush(now);
+        core.release_queued(&config, &args.persist)?;
+        Ok(if core.sequencer.finished() {
             Flow::Stop
         } else {
             Flow::Continue
@@ -480,17 +579,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     // Stopped by a signal or finished: the state goes to disk before anyone is told.
     args.persist
-        .write_checkpoint(|| checkpoint(&slam, &health, &sequencer, &out))?;
-    args.persist.save_map(&slam)?;
-    let last_ns = out.last_pose.map_or(0, |h| h.stamp_ns);
-    out.map(&slam, last_ns)?;
-    out.grid(&mut slam, last_ns)?;
-    out.status(health.final_status(&slam, &sequencer))?;
-    out.finish(&ipc)?;
-    let moves = slam.move_stats().unwrap_or_default();
+        .write_checkpoint(|| core.checkpoint(config.filter.seed))?;
+    args.persist.save_map(&core.slam)?;
+    let last_ns = core.out.last_pose.map_or(0, |h| h.stamp_ns);
+    core.out.map(&core.slam, last_ns)?;
+    core.out.grid(&mut core.slam, last_ns)?;
+    core.out
+        .status(core.health.final_status(&core.slam, &core.sequencer))?;
+    core.out.finish(&ipc)?;
+    let moves = core.slam.move_stats().unwrap_or_default();
     tracing::info!(
-        steps = health.steps(),
-        rejections = ?health.log.counts(),
+        steps = core.health.steps(),
+        rejections = ?core.health.log.counts(),
+        scans = core.scans,
+        scans_from_shared_memory = core.direct_scans,
         moves_proposed = moves.proposed,
         moves_accepted = moves.accepted,
         skipped_before_checkpoint = floor.skipped(),

@@ -227,6 +227,36 @@ impl Sequencer {
         self.scans.ended = true;
     }
 
+    /// True when a scan stamped `stamp` that has just arrived would be released right
+    /// after the odometry up to its stamp ([`Sequencer::odometry_through`]): no scan
+    /// waits before it, it is not late, neither stream is quiet, and odometry has passed
+    /// `stamp`. Such a scan can go to the filter straight from shared memory, in the same
+    /// order the queue would give it; [`Sequencer::took_directly`] then books it.
+    pub fn takes_directly(&self, stamp: u64) -> bool {
+        self.scans.queue.is_empty()
+            && !self.scans.quiet
+            && !self.odometry.quiet
+            && self.odometry.passed(stamp)
+            && stamp >= self.newest_released()
+    }
+
+    /// The next odometry stamped at or before `stamp`, to apply before a scan taken
+    /// directly.
+    pub fn odometry_through(&mut self, stamp: u64) -> Option<Odometry> {
+        self.odometry
+            .head()
+            .is_some_and(|o| o <= stamp)
+            .then(|| self.odometry.pop())
+            .flatten()
+    }
+
+    /// Books a scan stamped `stamp` that went to the filter directly, as if it had been
+    /// queued and released.
+    pub fn took_directly(&mut self, stamp: u64) {
+        self.scans.watermark = Some(self.scans.watermark.map_or(stamp, |w| w.max(stamp)));
+        self.scans.released = Some(stamp);
+    }
+
     /// Newest stamp released on either stream (0 before the first): anything older that
     /// arrives now is late.
     fn newest_released(&self) -> u64 {
@@ -318,6 +348,34 @@ mod tests {
                 Input::RawScan(s) => ('r', s.header.header.stamp_ns),
             })
             .collect()
+    }
+
+    #[test]
+    fn a_scan_is_taken_directly_only_where_the_queue_would_release_it_next() {
+        let mut seq = Sequencer::default();
+        seq.push_odometry(odo(10));
+        assert!(!seq.takes_directly(20), "odometry may still bring 15");
+        seq.push_odometry(odo(20));
+        seq.push_odometry(odo(30));
+        assert!(seq.takes_directly(20));
+        let through: Vec<u64> = std::iter::from_fn(|| seq.odometry_through(20))
+            .map(|o| o.header.stamp_ns)
+            .collect();
+        assert_eq!(
+            through,
+            [10, 20],
+            "odometry up to the scan's stamp, odometry first"
+        );
+        seq.took_directly(20);
+        assert_eq!(seq.released(), [20, 20]);
+        assert_eq!(
+            stamps(&mut seq),
+            vec![],
+            "odometry 30 waits for the next scan"
+        );
+        assert!(!seq.takes_directly(15), "late: 20 was released");
+        seq.push_scan(scan(40));
+        assert!(!seq.takes_directly(50), "a queued scan goes first");
     }
 
     #[test]

@@ -3,7 +3,7 @@
 //! occupancy grid. No IPC here, so it is testable on its own.
 
 use crate::config::ServiceConfig;
-use crate::sequencer::{Input, RawScan};
+use crate::sequencer::Input;
 use fastslam_estimation::Pose2;
 use fastslam_estimation::fastslam::{
     self, FastSlam, FilterState, OptimiserRefiner, PoseRefiner, Proposal, StepReport,
@@ -15,7 +15,8 @@ use fastslam_estimation::moves::MoveStats;
 use fastslam_estimation::observation::{Observation, Sensor};
 use fastslam_estimation::scan::RangeScan;
 use fastslam_protocol::{
-    Header, LandmarkMapHeader, MapLandmark, ObservationsHeader, OccupancyGridHeader, PoseEstimate,
+    Header, LandmarkMapHeader, LaserScanHeader, MapLandmark, ObservationsHeader,
+    OccupancyGridHeader, PoseEstimate,
 };
 use nalgebra::{Matrix2, Vector2};
 use std::f64::consts::TAU;
@@ -161,27 +162,23 @@ impl Slam {
                 }
                 Ok(None)
             }
-            Input::Scan(scan) => {
-                self.coast_to(scan.header.header.stamp_ns)?;
-                self.scan(&scan.header, &scan.observations).map(Some)
-            }
-            Input::RawScan(raw) => {
-                self.coast_to(raw.header.header.stamp_ns)?;
-                self.raw_scan(raw).map(Some)
-            }
+            Input::Scan(scan) => self.observe(&scan.header, &scan.observations).map(Some),
+            Input::RawScan(raw) => self.observe_raw(&raw.header, &raw.ranges).map(Some),
         }
     }
 
-    /// A scan's observations, straight from the message (a slice of shared memory, or a
-    /// sequenced copy): converted into the reused buffer, then one filter step.
+    /// One observation step on a scan's observations, read straight from the message (a
+    /// slice of shared memory, or a sequenced copy): converted into the reused buffer,
+    /// then one filter step.
     ///
     /// # Errors
     /// As [`Slam::apply`].
-    pub fn scan(
+    pub fn observe(
         &mut self,
         header: &ObservationsHeader,
         observations: &[fastslam_protocol::Observation],
     ) -> fastslam_estimation::Result<Step> {
+        self.coast_to(header.header.stamp_ns)?;
         let mut buffer = std::mem::take(&mut self.observations);
         buffer.clear();
         buffer.extend(observations.iter().map(|o| Observation {
@@ -218,16 +215,25 @@ impl Slam {
         Ok(())
     }
 
-    /// A raw scan: poles extracted and used as observations with unknown association,
-    /// then the scan offered to the grid mapper as a keyframe.
-    fn raw_scan(&mut self, raw: &RawScan) -> fastslam_estimation::Result<Step> {
-        let h = &raw.header;
+    /// One observation step on a raw scan, its ranges read straight from the message (a
+    /// slice of shared memory, or a sequenced copy): poles extracted and used as
+    /// observations with unknown association, then the scan offered to the grid mapper as
+    /// a keyframe.
+    ///
+    /// # Errors
+    /// As [`Slam::apply`].
+    pub fn observe_raw(
+        &mut self,
+        h: &LaserScanHeader,
+        ranges: &[f32],
+    ) -> fastslam_estimation::Result<Step> {
+        self.coast_to(h.header.stamp_ns)?;
         let scan = RangeScan {
             angle_min: h.angle_min.into(),
             angle_increment: h.angle_increment.into(),
             range_min: h.range_min.into(),
             range_max: h.range_max.into(),
-            ranges: &raw.ranges,
+            ranges,
         };
         // 1. Poles in the scan.
         let observations: Vec<Observation> = extract(&scan, &self.extractor)
@@ -350,8 +356,8 @@ impl Slam {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sequencer::Scan;
-    use fastslam_protocol::{LaserScanHeader, Odometry};
+    use crate::sequencer::{RawScan, Scan};
+    use fastslam_protocol::Odometry;
     use std::f64::consts::PI;
 
     fn odometry(t_ns: u64, v: f64) -> Input {
