@@ -13,7 +13,7 @@ use crate::run::{self, RunArgs};
 use anyhow::{Context, bail};
 use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::optimise::OptimiserKind;
-use fastslam_estimation::workload::Workload;
+use fastslam_estimation::workload::{Workload, machine};
 use fastslam_sensors_sim::Scenario;
 use fastslam_service::config::Overrides;
 use fastslam_stack::{offline, settings};
@@ -79,19 +79,6 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
-}
-
-/// The CPU model, logical cores and kernel, from `/proc`.
-fn machine() -> String {
-    let read = |p: &str| std::fs::read_to_string(p).unwrap_or_default();
-    let cpuinfo = read("/proc/cpuinfo");
-    let model = cpuinfo
-        .lines()
-        .find_map(|l| l.strip_prefix("model name"))
-        .map_or("unknown CPU", |m| m.trim_start_matches([' ', '\t', ':']));
-    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
-    let kernel = read("/proc/sys/kernel/osrelease");
-    format!("{model}, {cores} logical cores, Linux {}", kernel.trim())
 }
 
 /// The proposal and optimiser of a `--optimizers` name.

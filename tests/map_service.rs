@@ -65,19 +65,7 @@ fn map_get_returns_the_current_map_of_a_running_stack() {
     let mid_run = map_file::load(&got).expect("map-get writes a map that loads");
     assert_eq!(mid_run.len(), printed.get(), "the printed count");
     // Stop early (SIGTERM): the service finishes cleanly and the client writes its map.
-    let pid = service_pid(&prefix).expect("the service is still running");
-    nix::sys::signal::kill(
-        nix::unistd::Pid::from_raw(pid),
-        nix::sys::signal::Signal::SIGTERM,
-    )
-    .unwrap();
-    let out = launcher.wait_with_output().unwrap();
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    stop_service_and_wait(&prefix, launcher);
     let last = map_file::load(&run.join("map.csv")).expect("the client's final map");
     assert!(
         !mid_run.is_empty() && mid_run.len() <= last.len(),

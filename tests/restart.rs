@@ -34,21 +34,7 @@ fn sigterm_stops_the_service_cleanly_with_its_checkpoint_and_map() {
     wait_for("the first checkpoint", Duration::from_secs(30), || {
         ckpt.is_file()
     });
-    let pid = service_pid(&prefix).expect("the service is running");
-    nix::sys::signal::kill(
-        nix::unistd::Pid::from_raw(pid),
-        nix::sys::signal::Signal::SIGTERM,
-    )
-    .unwrap();
-    let out = launcher.wait_with_output().unwrap();
-    // The launcher fails (1) as soon as a process exits non-zero; the others finish
-    // their streams once the service has said end-of-stream.
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "the service exited 0 and the stack finished: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    stop_service_and_wait(&prefix, launcher);
     let log = std::fs::read_to_string(dir.join("run/logs/service.log")).unwrap();
     assert!(log.contains("stopped by signal"), "{log}");
     let checkpoint = Checkpoint::read(&ckpt).expect("the checkpoint loads");

@@ -213,3 +213,21 @@ pub fn wait_for(what: &str, limit: Duration, mut ready: impl FnMut() -> bool) {
         std::thread::sleep(Duration::from_millis(10));
     }
 }
+
+/// Sends SIGTERM to the stack's service and waits for the launcher: a service stopped on
+/// purpose finishes cleanly, so the launcher must exit 0 (its stderr otherwise).
+pub fn stop_service_and_wait(prefix: &str, launcher: std::process::Child) {
+    let pid = service_pid(prefix).expect("the service is running");
+    nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(pid),
+        nix::sys::signal::Signal::SIGTERM,
+    )
+    .unwrap();
+    let out = launcher.wait_with_output().unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "the service stopped cleanly and the stack finished: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

@@ -12,7 +12,7 @@
 use criterion::{BatchSize, BenchmarkId, Criterion};
 use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::optimise::OptimiserKind;
-use fastslam_estimation::workload::Workload;
+use fastslam_estimation::workload::{Workload, machine};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
@@ -174,19 +174,6 @@ fn print_growth() {
         21,
         |_| 0,
     );
-}
-
-/// The CPU model, logical cores and kernel, from `/proc`.
-fn machine() -> String {
-    let read = |p: &str| std::fs::read_to_string(p).unwrap_or_default();
-    let cpuinfo = read("/proc/cpuinfo");
-    let model = cpuinfo
-        .lines()
-        .find_map(|l| l.strip_prefix("model name"))
-        .map_or("unknown CPU", |m| m.trim_start_matches([' ', '\t', ':']));
-    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
-    let kernel = read("/proc/sys/kernel/osrelease");
-    format!("{model}, {cores} logical cores, Linux {}", kernel.trim())
 }
 
 fn main() {

@@ -114,6 +114,20 @@ impl Workload {
     }
 }
 
+/// The CPU model, logical cores and kernel, from `/proc`: printed with every benchmark's
+/// figures, which mean little without the machine they ran on.
+pub fn machine() -> String {
+    let read = |p: &str| std::fs::read_to_string(p).unwrap_or_default();
+    let cpuinfo = read("/proc/cpuinfo");
+    let model = cpuinfo
+        .lines()
+        .find_map(|l| l.strip_prefix("model name"))
+        .map_or("unknown CPU", |m| m.trim_start_matches([' ', '\t', ':']));
+    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
+    let kernel = read("/proc/sys/kernel/osrelease");
+    format!("{model}, {cores} logical cores, Linux {}", kernel.trim())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
