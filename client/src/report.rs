@@ -7,6 +7,7 @@ use crate::plot::{self, ErrorPlot, TrajectoryPlot};
 use crate::recording::{Recording, StampedPose};
 use crate::timeline::{CSV_COLUMNS, timeline};
 use fastslam_protocol::MapLandmark;
+use fastslam_protocol::landmarks::map_csv;
 use std::fs;
 use std::io::{BufWriter, Write};
 use std::path::Path;
@@ -98,18 +99,9 @@ pub fn write_tum(path: &Path, poses: &[StampedPose]) -> std::io::Result<()> {
     w.flush()
 }
 
-/// Landmark map as CSV with a header row.
+/// Landmark map as CSV with a header row ([`map_csv`], the format saved maps share).
 pub fn write_map(path: &Path, map: &[MapLandmark]) -> std::io::Result<()> {
-    let mut w = BufWriter::new(fs::File::create(path)?);
-    writeln!(w, "id,x,y,cov_xx,cov_xy,cov_yy,observations")?;
-    for l in map {
-        writeln!(
-            w,
-            "{},{},{},{},{},{},{}",
-            l.id, l.x, l.y, l.cov_xx, l.cov_xy, l.cov_yy, l.observations
-        )?;
-    }
-    w.flush()
+    fs::write(path, map_csv(map))
 }
 
 #[cfg(test)]

@@ -15,11 +15,8 @@
 
 use crate::checkpoint::write_atomically;
 use fastslam_protocol::MapLandmark;
-use std::fmt::Write;
+use fastslam_protocol::landmarks::{MAP_CSV_HEADER, map_csv};
 use std::path::{Path, PathBuf};
-
-/// The header row.
-pub const HEADER: &str = "id,x,y,cov_xx,cov_xy,cov_yy,observations";
 
 /// Why a map file could not be written or read.
 #[derive(Debug, thiserror::Error)]
@@ -46,19 +43,6 @@ pub enum MapFileError {
     },
 }
 
-/// The file contents for `map`.
-pub fn to_csv(map: &[MapLandmark]) -> String {
-    let mut text = format!("{HEADER}\n");
-    for l in map {
-        let _ = writeln!(
-            text,
-            "{},{},{},{},{},{},{}",
-            l.id, l.x, l.y, l.cov_xx, l.cov_xy, l.cov_yy, l.observations
-        );
-    }
-    text
-}
-
 /// Parses file contents; `path` only names the file in errors.
 ///
 /// # Errors
@@ -76,9 +60,14 @@ pub fn from_csv(text: &str, path: &Path) -> Result<Vec<MapLandmark>, MapFileErro
         .map(|(i, l)| (i + 1, l.trim()))
         .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
     match lines.next() {
-        Some((_, HEADER)) => {}
-        Some((n, _)) => return Err(error(n, format!("expected the header `{HEADER}`"))),
-        None => return Err(error(1, format!("empty, expected the header `{HEADER}`"))),
+        Some((_, MAP_CSV_HEADER)) => {}
+        Some((n, _)) => return Err(error(n, format!("expected the header `{MAP_CSV_HEADER}`"))),
+        None => {
+            return Err(error(
+                1,
+                format!("empty, expected the header `{MAP_CSV_HEADER}`"),
+            ));
+        }
     }
     lines
         .map(|(n, line)| {
@@ -114,7 +103,7 @@ pub fn from_csv(text: &str, path: &Path) -> Result<Vec<MapLandmark>, MapFileErro
 /// # Errors
 /// [`MapFileError::Io`] when the file cannot be written.
 pub fn save(path: &Path, map: &[MapLandmark]) -> Result<(), MapFileError> {
-    write_atomically(path, to_csv(map).as_bytes()).map_err(|error| MapFileError::Io {
+    write_atomically(path, map_csv(map).as_bytes()).map_err(|error| MapFileError::Io {
         path: path.to_path_buf(),
         error,
     })
@@ -154,7 +143,7 @@ mod tests {
                 ..MapLandmark::default()
             },
         ];
-        let text = format!("# saved by a test\n{}", to_csv(&map));
+        let text = format!("# saved by a test\n{}", map_csv(&map));
         assert_eq!(from_csv(&text, Path::new("m.csv")).unwrap(), map);
     }
 
@@ -163,14 +152,14 @@ mod tests {
         let path = Path::new("m.csv");
         let err = from_csv("x,y\n", path).unwrap_err();
         assert!(err.to_string().contains("line 1"), "{err}");
-        let text = format!("{HEADER}\n1,2,3,4,5,6,7\n2,2,3,abc,5,6,7\n");
+        let text = format!("{MAP_CSV_HEADER}\n1,2,3,4,5,6,7\n2,2,3,abc,5,6,7\n");
         let err = from_csv(&text, path).unwrap_err();
         assert!(
             err.to_string()
                 .starts_with("map m.csv, line 3: field 3 `abc`"),
             "{err}"
         );
-        let err = from_csv(&format!("{HEADER}\n1,2,3\n"), path).unwrap_err();
+        let err = from_csv(&format!("{MAP_CSV_HEADER}\n1,2,3\n"), path).unwrap_err();
         assert!(err.to_string().contains("3 fields"), "{err}");
     }
 }

@@ -92,3 +92,21 @@ pub struct MapRequest {
     /// Reserved, must be 0.
     pub reserved: u64,
 }
+
+/// The header row of a landmark map as CSV (the run folder's `map.csv`, saved maps).
+pub const MAP_CSV_HEADER: &str = "id,x,y,cov_xx,cov_xy,cov_yy,observations";
+
+/// `map` as CSV: [`MAP_CSV_HEADER`], then one landmark per line. Numbers are written in
+/// Rust's shortest exact form, so parsing them back gives the same bits.
+pub fn map_csv(map: &[MapLandmark]) -> String {
+    use std::fmt::Write;
+    let mut text = format!("{MAP_CSV_HEADER}\n");
+    for l in map {
+        let _ = writeln!(
+            text,
+            "{},{},{},{},{},{},{}",
+            l.id, l.x, l.y, l.cov_xx, l.cov_xy, l.cov_yy, l.observations
+        );
+    }
+    text
+}
