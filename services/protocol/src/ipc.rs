@@ -243,8 +243,23 @@ impl Ipc {
     /// # Errors
     /// [`IpcError::Timeout`] naming `what`, or [`IpcError::Shutdown`].
     pub fn wait_until(&self, what: impl Fn() -> String, ready: impl Fn() -> bool) -> Result<()> {
+        self.wait_for(what, || Ok(ready().then_some(())))
+    }
+
+    /// Polls `poll` until it yields a value, the wait timeout passes or a signal arrives.
+    ///
+    /// # Errors
+    /// `poll`'s error, [`IpcError::Timeout`] naming `what`, or [`IpcError::Shutdown`].
+    pub fn wait_for<T>(
+        &self,
+        what: impl Fn() -> String,
+        mut poll: impl FnMut() -> Result<Option<T>>,
+    ) -> Result<T> {
         let start = Instant::now();
-        while !ready() {
+        loop {
+            if let Some(value) = poll()? {
+                return Ok(value);
+            }
             if start.elapsed() > self.wait_timeout {
                 return Err(IpcError::Timeout {
                     what: what(),
@@ -253,7 +268,6 @@ impl Ipc {
             }
             self.sleep(Duration::from_millis(2))?;
         }
-        Ok(())
     }
 
     /// Sleeps for `d` unless a shutdown signal arrives first.
@@ -376,22 +390,15 @@ impl Ipc {
         let pending = client
             .send_copy(request)
             .map_err(iox_err(format!("request on {}", rr.name)))?;
-        let start = Instant::now();
-        loop {
-            if let Some(response) = pending
-                .receive()
-                .map_err(iox_err(format!("response on {}", rr.name)))?
-            {
-                return Ok((*response.user_header(), response.payload().to_vec()));
-            }
-            if start.elapsed() > self.wait_timeout {
-                return Err(IpcError::Timeout {
-                    what: format!("an answer from {full}"),
-                    waited: start.elapsed(),
-                });
-            }
-            self.sleep(Duration::from_millis(2))?;
-        }
+        self.wait_for(
+            || format!("an answer from {full}"),
+            || {
+                let response = pending
+                    .receive()
+                    .map_err(iox_err(format!("response on {}", rr.name)))?;
+                Ok(response.map(|r| (*r.user_header(), r.payload().to_vec())))
+            },
+        )
     }
 
     fn request_response<Q, H, T>(
