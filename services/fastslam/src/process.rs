@@ -12,7 +12,7 @@ use crate::slam::{Slam, Step};
 use fastslam_protocol::ipc::{Flow, Ipc, Pub, SliceServer, Sub};
 use fastslam_protocol::status::{RejectionKind, ServiceStatus};
 use fastslam_protocol::stream::StreamEnd;
-use fastslam_protocol::validate;
+use fastslam_protocol::validate::{self, Rejection};
 use fastslam_protocol::{
     EndOfStream, Header, LandmarkMapHeader, LaserScanHeader, MapLandmark, MapRequest, Observation,
     ObservationsHeader, OccupancyGridHeader, Odometry, PoseEstimate, StreamId, cli, topics,
@@ -457,68 +457,65 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 }
             };
         })?;
+        // One lidar message with header `h`, content check `check`: skipped when the
+        // checkpoint already covers it, else admitted and then either applied straight
+        // from shared memory (`direct`) or copied into the queue (`queue`).
+        let mut on_lidar =
+            |h: Header,
+             what: &str,
+             check: Result<(), Rejection>,
+             direct: &mut dyn FnMut(&mut Slam) -> fastslam_estimation::Result<Step>,
+             queue: &mut dyn FnMut(&mut Sequencer) -> Pushed| {
+                scan_end.saw(h.seq);
+                if !floor.admits(1, h.stamp_ns) {
+                    return;
+                }
+                match admission.lidar(check, h) {
+                    Ok(()) => {
+                        lidar_heard = lidar_watch.heard(now).or(lidar_heard);
+                        if core.sequencer.takes_directly(h.stamp_ns) {
+                            let applied = core.direct(h.stamp_ns, direct, &config, persist);
+                            failed = failed.take().or(applied.err());
+                        } else {
+                            let pushed = queue(&mut core.sequencer);
+                            queued(&mut core.health, now, what, h.seq, pushed);
+                        }
+                    }
+                    Err(r) => {
+                        core.health.log.reject(now, what, h.seq, r.kind(), &r);
+                    }
+                }
+            };
         match &lidar {
             Lidar::Observations(sub) => sub.drain(|s| {
                 let header = *s.user_header();
-                let seq = header.header.seq;
-                scan_end.saw(seq);
-                if !floor.admits(1, header.header.stamp_ns) {
-                    return;
-                }
-                let check = validate::observations(&header, s.payload());
-                match admission.lidar(check, header.header) {
-                    Ok(()) if core.sequencer.takes_directly(header.header.stamp_ns) => {
-                        lidar_heard = lidar_watch.heard(now).or(lidar_heard);
-                        let stamp = header.header.stamp_ns;
-                        let step = |slam: &mut Slam| slam.observe(&header, s.payload());
-                        failed = failed
-                            .take()
-                            .or(core.direct(stamp, step, &config, persist).err());
-                    }
-                    Ok(()) => {
-                        lidar_heard = lidar_watch.heard(now).or(lidar_heard);
-                        let observations = core.sequencer.copy_observations(s.payload());
-                        let pushed = core.sequencer.push_scan(Scan {
+                on_lidar(
+                    header.header,
+                    "observations",
+                    validate::observations(&header, s.payload()),
+                    &mut |slam| slam.observe(&header, s.payload()),
+                    &mut |sequencer| {
+                        let observations = sequencer.copy_observations(s.payload());
+                        sequencer.push_scan(Scan {
                             header,
                             observations,
-                        });
-                        queued(&mut core.health, now, "observations", seq, pushed);
-                    }
-                    Err(r) => {
-                        core.health
-                            .log
-                            .reject(now, "observations", seq, r.kind(), &r);
-                    }
-                };
+                        })
+                    },
+                );
             })?,
             Lidar::Scans(sub) => sub.drain(|s| {
                 let header = *s.user_header();
-                let seq = header.header.seq;
-                scan_end.saw(seq);
-                if !floor.admits(1, header.header.stamp_ns) {
-                    return;
-                }
-                let check = validate::laser_scan(&header, s.payload());
-                match admission.lidar(check, header.header) {
-                    Ok(()) if core.sequencer.takes_directly(header.header.stamp_ns) => {
-                        lidar_heard = lidar_watch.heard(now).or(lidar_heard);
-                        let stamp = header.header.stamp_ns;
-                        let ranges = header.ranges_of(s.payload());
-                        let step = |slam: &mut Slam| slam.observe_raw(&header, ranges);
-                        failed = failed
-                            .take()
-                            .or(core.direct(stamp, step, &config, persist).err());
-                    }
-                    Ok(()) => {
-                        lidar_heard = lidar_watch.heard(now).or(lidar_heard);
-                        let ranges = core.sequencer.copy_ranges(header.ranges_of(s.payload()));
-                        let pushed = core.sequencer.push_raw_scan(RawScan { header, ranges });
-                        queued(&mut core.health, now, "scan", seq, pushed);
-                    }
-                    Err(r) => {
-                        core.health.log.reject(now, "scan", seq, r.kind(), &r);
-                    }
-                };
+                let ranges = header.ranges_of(s.payload());
+                on_lidar(
+                    header.header,
+                    "scan",
+                    validate::laser_scan(&header, s.payload()),
+                    &mut |slam| slam.observe_raw(&header, ranges),
+                    &mut |sequencer| {
+                        let ranges = sequencer.copy_ranges(ranges);
+                        sequencer.push_raw_scan(RawScan { header, ranges })
+                    },
+                );
             })?,
         };
         if let Some(e) = failed.take() {
@@ -554,22 +551,25 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 tracing::info!(?stream, "input back: recovered");
             }
             match stream {
-                Stream::Odometry if quiet => admission.resync_odometry(),
-                Stream::Lidar if quiet => admission.resync_lidar(),
-                _ => {}
-            }
-            match stream {
                 Stream::Odometry => {
+                    if quiet {
+                        admission.resync_odometry();
+                    }
                     core.sequencer.set_odometry_quiet(quiet);
                     core.slam.set_coasting(quiet);
                 }
-                Stream::Lidar => core.sequencer.set_scans_quiet(quiet),
+                Stream::Lidar => {
+                    if quiet {
+                        admission.resync_lidar();
+                    }
+                    core.sequencer.set_scans_quiet(quiet);
+                }
             }
             core.health.set_quiet(stream, quiet);
             core.out.status(core.health.now(&core.sequencer))?;
         }
         core.health.log.flush(now);
-        core.release_queued(&config, &args.persist)?;
+        core.release_queued(&config, persist)?;
         Ok(if core.sequencer.finished() {
             Flow::Stop
         } else {
@@ -578,9 +578,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     })?;
 
     // Stopped by a signal or finished: the state goes to disk before anyone is told.
-    args.persist
-        .write_checkpoint(|| core.checkpoint(config.filter.seed))?;
-    args.persist.save_map(&core.slam)?;
+    persist.write_checkpoint(|| core.checkpoint(config.filter.seed))?;
+    persist.save_map(&core.slam)?;
     let last_ns = core.out.last_pose.map_or(0, |h| h.stamp_ns);
     core.out.map(&core.slam, last_ns)?;
     core.out.grid(&mut core.slam, last_ns)?;

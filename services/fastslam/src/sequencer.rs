@@ -86,7 +86,7 @@ impl<T> Lane<T> {
         if stamp < released {
             return Pushed::Late;
         }
-        self.watermark = Some(self.watermark.map_or(stamp, |w| w.max(stamp)));
+        self.saw(stamp);
         self.queue.push_back((stamp, item));
         if self.queue.len() > max_queue {
             self.queue.pop_front();
@@ -94,6 +94,11 @@ impl<T> Lane<T> {
         } else {
             Pushed::Queued
         }
+    }
+
+    /// Raises the watermark to `stamp`.
+    fn saw(&mut self, stamp: u64) {
+        self.watermark = Some(self.watermark.map_or(stamp, |w| w.max(stamp)));
     }
 
     fn head(&self) -> Option<u64> {
@@ -114,10 +119,12 @@ impl<T> Lane<T> {
 
 /// Merges odometry and scans into stamp order.
 ///
-/// A scan is copied out of shared memory once, into a buffer that is handed back with
-/// [`Sequencer::recycle`] after the filter has used it: in steady state no step allocates.
-/// (The copy releases the sample at once, so a publisher that waits for free samples never
-/// waits on the filter, and an out-of-order scan can wait here for its odometry.)
+/// A scan the queue would release at once goes to the filter straight from shared memory
+/// ([`Sequencer::takes_directly`]); any other is copied out once, into a buffer that is
+/// handed back with [`Sequencer::recycle`] after the filter has used it: in steady state no
+/// step allocates. (The copy releases the sample at once, so a publisher that waits for
+/// free samples never waits on the filter, and an early scan can wait here for its
+/// odometry.)
 #[derive(Debug, Clone)]
 pub struct Sequencer {
     odometry: Lane<Odometry>,
@@ -157,24 +164,17 @@ impl Sequencer {
 
     /// Queues a scan's observations.
     pub fn push_scan(&mut self, s: Scan) -> Pushed {
-        let stamp = s.header.header.stamp_ns;
-        self.scans.push(
-            stamp,
-            Input::Scan(s),
-            self.newest_released(),
-            self.max_queue,
-        )
+        self.push_lidar(s.header.header.stamp_ns, Input::Scan(s))
     }
 
     /// Queues a raw scan (on the same lane as observations: one lidar stream).
     pub fn push_raw_scan(&mut self, s: RawScan) -> Pushed {
-        let stamp = s.header.header.stamp_ns;
-        self.scans.push(
-            stamp,
-            Input::RawScan(s),
-            self.newest_released(),
-            self.max_queue,
-        )
+        self.push_lidar(s.header.header.stamp_ns, Input::RawScan(s))
+    }
+
+    fn push_lidar(&mut self, stamp: u64, input: Input) -> Pushed {
+        let released = self.newest_released();
+        self.scans.push(stamp, input, released, self.max_queue)
     }
 
     /// Marks the odometry stream quiet (missed its deadline: scans stop waiting for it)
@@ -253,7 +253,7 @@ impl Sequencer {
     /// Books a scan stamped `stamp` that went to the filter directly, as if it had been
     /// queued and released.
     pub fn took_directly(&mut self, stamp: u64) {
-        self.scans.watermark = Some(self.scans.watermark.map_or(stamp, |w| w.max(stamp)));
+        self.scans.saw(stamp);
         self.scans.released = Some(stamp);
     }
 
