@@ -7,8 +7,6 @@ use common::*;
 use fastslam_protocol::ipc::{Ipc, StackConfig};
 use fastslam_protocol::status::{RejectionKind, ServiceStatus, flags};
 use fastslam_protocol::{EndOfStream, Header, Odometry, StreamId, topics};
-use nix::sys::signal::{Signal, kill};
-use nix::unistd::Pid;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -157,15 +155,13 @@ fn short_scenario(dir: &Path) -> PathBuf {
     path
 }
 
-/// The stack's processes started by hand (the launcher's hidden subcommands), each with
-/// its log file; stopped with SIGTERM (then SIGKILL) and cleaned up on drop (the
-/// folder with the logs stays when the test failed).
-struct HandStack {
-    prefix: String,
-    root: PathBuf,
+/// The short scenario's stack started by hand ([`HandStack`]) with the flags the launcher
+/// gives each process; its folder (logs, run folder) is removed on drop unless the test
+/// failed.
+struct SimStack {
+    stack: HandStack,
     dir: PathBuf,
     scenario: PathBuf,
-    children: Vec<(&'static str, Child)>,
     /// Pace the truth in real time (else as fast as the stack goes).
     realtime: bool,
     /// Subscribers the truth waits for (odometry, lidar, client).
@@ -174,18 +170,15 @@ struct HandStack {
     service_flags: Vec<String>,
 }
 
-impl HandStack {
+impl SimStack {
     fn new(test: &str) -> Self {
         let prefix = prefix(test);
         let dir = folder(&prefix);
         let scenario = short_scenario(&dir);
-        let root = std::env::temp_dir().join("fsl").join(&prefix);
         Self {
-            prefix,
-            root,
+            stack: HandStack::new(&prefix, dir.join("logs")),
             dir,
             scenario,
-            children: Vec::new(),
             realtime: true,
             truth_subscribers: 3,
             service_flags: Vec::new(),
@@ -194,13 +187,6 @@ impl HandStack {
 
     /// Starts process `name` (a launcher subcommand) with the flags the launcher gives it.
     fn start(&mut self, name: &'static str) {
-        let mut args: Vec<String> = vec![
-            name.into(),
-            "--prefix".into(),
-            self.prefix.clone(),
-            "--iox-root".into(),
-            self.root.display().to_string(),
-        ];
         let sim = |subscribers: &str| {
             vec![
                 "--scenario".to_string(),
@@ -211,6 +197,7 @@ impl HandStack {
                 subscribers.into(),
             ]
         };
+        let mut args = Vec::new();
         match name {
             "truth-sim" => {
                 args.extend(sim(&self.truth_subscribers.to_string()));
@@ -226,26 +213,12 @@ impl HandStack {
             "client" => args.extend(["--out".into(), self.out().display().to_string()]),
             other => panic!("unknown process {other}"),
         }
-        let n = self.children.iter().filter(|(n, _)| *n == name).count();
-        let log = std::fs::File::create(self.dir.join(format!("{name}.{n}.log"))).unwrap();
-        let child = Command::new(LAUNCHER)
-            .args(&args)
-            .stdout(log.try_clone().unwrap())
-            .stderr(log)
-            .spawn()
-            .unwrap();
-        self.children.push((name, child));
+        self.stack.start(name, &args);
     }
 
     /// The process id of the running `name`.
-    fn pid(&self, name: &str) -> u32 {
-        let (_, child) = self
-            .children
-            .iter()
-            .rev()
-            .find(|(n, _)| *n == name)
-            .unwrap();
-        child.id()
+    fn pid(&mut self, name: &str) -> u32 {
+        self.stack.child(name).id()
     }
 
     /// The client's run folder.
@@ -253,59 +226,31 @@ impl HandStack {
         self.dir.join("run")
     }
 
-    /// SIGKILLs the running `name` and reaps it.
-    fn kill(&mut self, name: &str) {
-        let (_, child) = self
-            .children
-            .iter_mut()
-            .rev()
-            .find(|(n, _)| *n == name)
-            .expect("no such process");
-        child.kill().unwrap();
-        child.wait().unwrap();
-    }
-
     /// Joins the stack as the test's own process.
     fn ipc(&self) -> Ipc {
-        Ipc::open(&stack(&self.prefix), "fault-test", Duration::from_secs(30)).unwrap()
+        Ipc::open(
+            &stack(&self.stack.prefix),
+            "fault-test",
+            Duration::from_secs(30),
+        )
+        .unwrap()
     }
 
     /// Waits until every process exited; panics naming any that failed or hung.
     fn wait_all(&mut self, limit: Duration) {
-        let start = Instant::now();
-        for (name, child) in &mut self.children {
-            loop {
-                match child.try_wait().unwrap() {
-                    Some(status) => {
-                        // A SIGKILLed process reports the signal; everyone else must succeed.
-                        assert!(
-                            status.success() || status.code().is_none(),
-                            "{name} failed ({status}); logs in {}",
-                            self.dir.display()
-                        );
-                        break;
-                    }
-                    None if start.elapsed() > limit => {
-                        panic!("{name} still running; logs in {}", self.dir.display())
-                    }
-                    None => std::thread::sleep(Duration::from_millis(20)),
-                }
-            }
+        for (name, status) in self.stack.wait_all(limit) {
+            // A SIGKILLed process reports the signal; everyone else must succeed.
+            assert!(
+                status.success() || status.code().is_none(),
+                "{name} failed ({status}); logs in {}",
+                self.dir.display()
+            );
         }
     }
 }
 
-impl Drop for HandStack {
+impl Drop for SimStack {
     fn drop(&mut self) {
-        for (_, child) in &mut self.children {
-            if child.try_wait().ok().flatten().is_none() {
-                let _ = kill(Pid::from_raw(child.id() as i32), Signal::SIGTERM);
-                std::thread::sleep(Duration::from_millis(200));
-                let _ = child.kill();
-                let _ = child.wait();
-            }
-        }
-        remove_stack_files(&self.prefix, &self.root);
         if !std::thread::panicking() {
             let _ = std::fs::remove_dir_all(&self.dir); // kept with its logs on failure
         }
@@ -337,7 +282,7 @@ impl StatusWatch {
 /// says degraded, and checks that the status recovers (`quiet` flag cleared), the steps
 /// go on and the run completes with an ATE under `max_ate_m`.
 fn survive_a_sensor_restart(sensor: &'static str, quiet: u32, max_ate_m: f64) {
-    let mut stack = HandStack::new(sensor);
+    let mut stack = SimStack::new(sensor);
     for name in [
         "client",
         "service",
@@ -364,7 +309,7 @@ fn survive_a_sensor_restart(sensor: &'static str, quiet: u32, max_ate_m: f64) {
         },
     )
     .unwrap();
-    stack.kill(sensor);
+    stack.stack.kill(sensor);
     ipc.wait_until(
         || "a degraded status".into(),
         || {
@@ -400,7 +345,7 @@ fn survive_a_sensor_restart(sensor: &'static str, quiet: u32, max_ate_m: f64) {
     assert_eq!(m["complete"], true, "{m}");
     let ate = num(&m, "/estimate/ate_rmse_m");
     assert!(ate < max_ate_m, "ATE {ate} m after a {sensor} restart: {m}");
-    let prefix = stack.prefix.clone();
+    let prefix = stack.stack.prefix.clone();
     drop(stack);
     assert_eq!(leftovers(&prefix), (vec![], vec![]));
 }
@@ -422,7 +367,7 @@ fn the_service_survives_a_sigkilled_and_restarted_lidar() {
 
 #[test]
 fn sensors_may_start_before_the_service() {
-    let mut stack = HandStack::new("order");
+    let mut stack = SimStack::new("order");
     stack.realtime = false;
     // The launcher starts the consumers first; here the publishers go first.
     for name in [
@@ -442,7 +387,7 @@ fn sensors_may_start_before_the_service() {
         ate < 2.0,
         "ATE {ate} m (about 1.1 m in the launcher's order): {m}"
     );
-    let prefix = stack.prefix.clone();
+    let prefix = stack.stack.prefix.clone();
     drop(stack);
     assert_eq!(leftovers(&prefix), (vec![], vec![]));
 }
@@ -456,7 +401,7 @@ fn vm_rss_kb(pid: u32) -> Option<u64> {
 
 #[test]
 fn an_odometry_flood_stays_bounded_and_poses_keep_coming() {
-    let mut stack = HandStack::new("flood");
+    let mut stack = SimStack::new("flood");
     let config = stack.dir.join("service.toml");
     std::fs::write(&config, "[input]\nmax_queue = 256\n").unwrap();
     stack.service_flags = vec!["--config".into(), config.display().to_string()];
@@ -502,6 +447,7 @@ fn an_odometry_flood_stays_bounded_and_poses_keep_coming() {
         .unwrap();
     let started = Instant::now();
     while stack
+        .stack
         .children
         .iter_mut()
         .any(|(_, c)| c.try_wait().unwrap().is_none())
@@ -527,7 +473,7 @@ fn an_odometry_flood_stays_bounded_and_poses_keep_coming() {
         "flood: {overflow} overflows, {} steps, peak RSS {peak_kb} kB",
         newest.steps
     );
-    let prefix = stack.prefix.clone();
+    let prefix = stack.stack.prefix.clone();
     drop(stack);
     assert_eq!(leftovers(&prefix), (vec![], vec![]));
 }

@@ -146,85 +146,6 @@ fn bad_checkpoints_and_unknown_flags_fail_with_one_line() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// The processes of a stack started one by one (as `run` starts them), so a test can
-/// kill and restart one; whatever is still running is killed on drop, and the stack's
-/// iceoryx2 files are removed.
-struct Processes {
-    prefix: String,
-    root: std::path::PathBuf,
-    logs: std::path::PathBuf,
-    running: Vec<(&'static str, std::process::Child)>,
-}
-
-impl Processes {
-    fn new(prefix: &str, logs: std::path::PathBuf) -> Self {
-        std::fs::create_dir_all(&logs).unwrap();
-        Self {
-            prefix: prefix.to_string(),
-            root: std::env::temp_dir().join("fsl").join(prefix),
-            logs,
-            running: Vec::new(),
-        }
-    }
-
-    /// Starts `fastslam-stack <name> --prefix P --iox-root R <flags>`, logging to
-    /// `<logs>/<log>.log`.
-    fn start(&mut self, name: &'static str, log: &str, flags: &[&str]) {
-        let log = std::fs::File::create(self.logs.join(format!("{log}.log"))).unwrap();
-        let child = Command::new(LAUNCHER)
-            .args([name, "--prefix", &self.prefix, "--iox-root"])
-            .arg(&self.root)
-            .args(flags)
-            .stdout(log.try_clone().unwrap())
-            .stderr(log)
-            .spawn()
-            .unwrap();
-        self.running.push((name, child));
-    }
-
-    /// The running process `name`.
-    fn child(&mut self, name: &str) -> &mut std::process::Child {
-        &mut self
-            .running
-            .iter_mut()
-            .find(|(n, _)| *n == name)
-            .expect("started")
-            .1
-    }
-
-    /// SIGKILLs `name` and reaps it.
-    fn kill(&mut self, name: &str) {
-        let i = self.running.iter().position(|(n, _)| *n == name).unwrap();
-        let (_, mut child) = self.running.remove(i);
-        child.kill().unwrap();
-        child.wait().unwrap();
-    }
-
-    /// Waits for every process to exit, up to `limit`; their exit statuses by name.
-    fn wait_all(&mut self, limit: Duration) -> Vec<(&'static str, std::process::ExitStatus)> {
-        let mut statuses = Vec::new();
-        wait_for("every process to finish", limit, || {
-            self.running
-                .iter_mut()
-                .all(|(_, c)| c.try_wait().unwrap().is_some())
-        });
-        for (name, mut child) in self.running.drain(..) {
-            statuses.push((name, child.wait().unwrap()));
-        }
-        statuses
-    }
-}
-
-impl Drop for Processes {
-    fn drop(&mut self) {
-        for (_, child) in &mut self.running {
-            let _ = child.kill();
-            let _ = child.wait();
-        }
-        remove_stack_files(&self.prefix, &self.root);
-    }
-}
-
 #[test]
 fn a_sigkilled_service_resumes_from_its_checkpoint_without_a_long_gap() {
     let prefix = prefix("kill9");
@@ -253,15 +174,15 @@ fn a_sigkilled_service_resumes_from_its_checkpoint_without_a_long_gap() {
             subscribers,
         ]
     };
-    let mut stack = Processes::new(&prefix, dir.join("logs"));
-    stack.start("client", "client", &["--out", &run.display().to_string()]);
-    stack.start("service", "service", &service);
-    stack.start("odometry-sim", "odometry-sim", &sim("2"));
-    stack.start("lidar-sim", "lidar-sim", &sim("2"));
+    let mut stack = HandStack::new(&prefix, dir.join("logs"));
+    stack.start("client", &["--out", &run.display().to_string()]);
+    stack.start("service", &service);
+    stack.start("odometry-sim", &sim("2"));
+    stack.start("lidar-sim", &sim("2"));
     // Real time: the sensors do not run ahead, so what the dead service held is short.
     let mut truth = sim("3").to_vec();
     truth.push("--realtime");
-    stack.start("truth-sim", "truth-sim", &truth);
+    stack.start("truth-sim", &truth);
 
     wait_for("the first checkpoint", Duration::from_secs(30), || {
         Path::new(&ckpt).is_file()
@@ -270,7 +191,7 @@ fn a_sigkilled_service_resumes_from_its_checkpoint_without_a_long_gap() {
     assert!(stack.child("truth-sim").try_wait().unwrap().is_none());
     let mut resumed = service.to_vec();
     resumed.extend(["--resume", &ckpt]);
-    stack.start("service", "service-resumed", &resumed);
+    stack.start("service", &resumed);
     let statuses = stack.wait_all(Duration::from_secs(150));
     for (name, status) in &statuses {
         assert!(

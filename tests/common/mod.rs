@@ -231,3 +231,108 @@ pub fn stop_service_and_wait(prefix: &str, launcher: std::process::Child) {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// The processes of one stack started one by one with the launcher's hidden subcommands
+/// (as `run` starts them), so a test can kill and restart one. Process `name`'s n-th
+/// start logs to `<dir>/<name>.<n>.log`. On drop, whatever still runs gets SIGTERM, then
+/// SIGKILL, and the stack's iceoryx2 files are removed.
+pub struct HandStack {
+    /// The stack's prefix.
+    pub prefix: String,
+    /// The stack's iceoryx2 root, as `fastslam-stack run` derives it from the prefix.
+    pub root: PathBuf,
+    /// Where the logs go.
+    pub dir: PathBuf,
+    /// The processes started and not killed, oldest first.
+    pub children: Vec<(&'static str, std::process::Child)>,
+}
+
+impl HandStack {
+    /// A stack under `prefix` logging into `dir` (created).
+    pub fn new(prefix: &str, dir: PathBuf) -> Self {
+        std::fs::create_dir_all(&dir).expect("creating the log folder");
+        Self {
+            prefix: prefix.to_string(),
+            root: std::env::temp_dir().join("fsl").join(prefix),
+            dir,
+            children: Vec::new(),
+        }
+    }
+
+    /// Starts `fastslam-stack <name> --prefix P --iox-root R <flags>`.
+    pub fn start<S: AsRef<std::ffi::OsStr>>(&mut self, name: &'static str, flags: &[S]) {
+        let n = std::fs::read_dir(&self.dir)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .filter(|e| {
+                e.file_name()
+                    .to_string_lossy()
+                    .starts_with(&format!("{name}."))
+            })
+            .count();
+        let log = std::fs::File::create(self.dir.join(format!("{name}.{n}.log"))).unwrap();
+        let child = Command::new(LAUNCHER)
+            .args([name, "--prefix", &self.prefix, "--iox-root"])
+            .arg(&self.root)
+            .args(flags)
+            .stdout(log.try_clone().unwrap())
+            .stderr(log)
+            .spawn()
+            .unwrap();
+        self.children.push((name, child));
+    }
+
+    /// The newest running process `name`.
+    pub fn child(&mut self, name: &str) -> &mut std::process::Child {
+        let (_, child) = (self.children.iter_mut().rev())
+            .find(|(n, _)| *n == name)
+            .expect("no such process");
+        child
+    }
+
+    /// SIGKILLs the newest `name`, reaps it and forgets it.
+    pub fn kill(&mut self, name: &str) {
+        let i = (self.children.iter().rposition(|(n, _)| *n == name)).expect("no such process");
+        let (_, mut child) = self.children.remove(i);
+        child.kill().unwrap();
+        child.wait().unwrap();
+    }
+
+    /// Waits up to `limit` for every process to exit (failing the test naming the ones
+    /// still running); their exit statuses by name.
+    pub fn wait_all(&mut self, limit: Duration) -> Vec<(&'static str, std::process::ExitStatus)> {
+        let start = Instant::now();
+        let mut statuses = Vec::new();
+        for (name, child) in &mut self.children {
+            loop {
+                if let Some(status) = child.try_wait().unwrap() {
+                    statuses.push((*name, status));
+                    break;
+                }
+                assert!(
+                    start.elapsed() < limit,
+                    "{name} still running; logs in {}",
+                    self.dir.display()
+                );
+                std::thread::sleep(Duration::from_millis(20));
+            }
+        }
+        statuses
+    }
+}
+
+impl Drop for HandStack {
+    fn drop(&mut self) {
+        for (_, child) in &mut self.children {
+            if child.try_wait().ok().flatten().is_none() {
+                let pid = nix::unistd::Pid::from_raw(child.id() as i32);
+                let _ = nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM);
+                std::thread::sleep(Duration::from_millis(200));
+                let _ = child.kill();
+                let _ = child.wait();
+            }
+        }
+        remove_stack_files(&self.prefix, &self.root);
+    }
+}
