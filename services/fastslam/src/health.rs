@@ -16,23 +16,12 @@ pub enum Stream {
     Lidar,
 }
 
-impl Stream {
-    /// The stream's status flag while it is quiet.
-    fn quiet_flag(self) -> u32 {
-        match self {
-            Self::Odometry => flags::ODOMETRY_QUIET,
-            Self::Lidar => flags::LIDAR_QUIET,
-        }
-    }
-}
-
-/// Everything behind the status message: step counters, rejections, quiet streams, and
+/// Everything behind the status message: step counters, rejections, and
 /// the last step's filter figures (repeated when a status is sent between steps).
 #[derive(Debug)]
 pub struct Health {
     steps: u64,
     resamplings: u64,
-    quiet: u32,
     /// The rejection counters and their log.
     pub log: RejectionLog,
     last: ServiceStatus,
@@ -44,7 +33,6 @@ impl Health {
         Self {
             steps: 0,
             resamplings: 0,
-            quiet: 0,
             log: RejectionLog::new(log_interval),
             last: ServiceStatus::default(),
         }
@@ -64,15 +52,6 @@ impl Health {
     /// Times the particles were resampled.
     pub fn resamplings(&self) -> u64 {
         self.resamplings
-    }
-
-    /// Marks `stream` quiet or back.
-    pub fn set_quiet(&mut self, stream: Stream, quiet: bool) {
-        if quiet {
-            self.quiet |= stream.quiet_flag();
-        } else {
-            self.quiet &= !stream.quiet_flag();
-        }
     }
 
     /// The status after observation step `step`, which took `took`.
@@ -117,10 +96,13 @@ impl Health {
     }
 
     /// The status now: the last step's figures with the current queues, watermarks,
-    /// rejections and quiet streams.
+    /// rejections and quiet streams (the sequencer's: it is what stops waiting for them).
     pub fn now(&self, seq: &Sequencer) -> ServiceStatus {
-        let degraded = if self.quiet != 0 {
-            flags::DEGRADED | self.quiet
+        let [odometry, lidar] = seq.quiet();
+        let quiet = (if odometry { flags::ODOMETRY_QUIET } else { 0 })
+            | (if lidar { flags::LIDAR_QUIET } else { 0 });
+        let degraded = if quiet != 0 {
+            flags::DEGRADED | quiet
         } else {
             0
         };

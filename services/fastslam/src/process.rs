@@ -565,7 +565,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     core.sequencer.set_scans_quiet(quiet);
                 }
             }
-            core.health.set_quiet(stream, quiet);
             core.out.status(core.health.now(&core.sequencer))?;
         }
         core.health.log.flush(now);

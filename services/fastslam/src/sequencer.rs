@@ -188,6 +188,11 @@ impl Sequencer {
         self.scans.quiet = quiet;
     }
 
+    /// Whether each stream (odometry, lidar) is quiet.
+    pub fn quiet(&self) -> [bool; 2] {
+        [self.odometry.quiet, self.scans.quiet]
+    }
+
     /// A copy of `observations` in a recycled buffer (allocates only when none is spare).
     pub fn copy_observations(&mut self, observations: &[Observation]) -> Vec<Observation> {
         let mut buffer = self.spare_observations.pop().unwrap_or_default();
