@@ -149,15 +149,12 @@ impl Slam {
             Input::Odometry(m) => {
                 let now = m.header.stamp_ns;
                 if let Some(previous) = self.last_odometry_ns.replace(now) {
-                    let dt = now.saturating_sub(previous) as f64 * 1e-9;
                     let control = Control {
                         v: m.v,
                         omega: m.omega,
                         steering: m.steering,
                     };
-                    if dt > 0.0 {
-                        self.filter.predict(&control, dt)?;
-                    }
+                    self.predict(&control, previous, now)?;
                     self.last_control = Some(control);
                 }
                 Ok(None)
@@ -205,14 +202,27 @@ impl Slam {
         if !self.coasting {
             return Ok(());
         }
-        if let (Some(previous), Some(control)) = (self.last_odometry_ns, self.last_control) {
-            let dt = stamp_ns.saturating_sub(previous) as f64 * 1e-9;
-            if dt > 0.0 {
-                self.filter.predict(&control, dt)?;
-                self.last_odometry_ns = Some(stamp_ns);
-            }
+        if let (Some(previous), Some(control)) = (self.last_odometry_ns, self.last_control)
+            && self.predict(&control, previous, stamp_ns)?
+        {
+            self.last_odometry_ns = Some(stamp_ns);
         }
         Ok(())
+    }
+
+    /// Predicts with `control` from stamp `from` to `to` (ns); false when `to` is not
+    /// later (nothing to predict).
+    fn predict(
+        &mut self,
+        control: &Control,
+        from: u64,
+        to: u64,
+    ) -> fastslam_estimation::Result<bool> {
+        let dt = to.saturating_sub(from) as f64 * 1e-9;
+        if dt > 0.0 {
+            self.filter.predict(control, dt)?;
+        }
+        Ok(dt > 0.0)
     }
 
     /// One observation step on a raw scan, its ranges read straight from the message (a
