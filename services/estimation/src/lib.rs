@@ -15,6 +15,7 @@ pub mod motion;
 pub mod moves;
 pub mod observation;
 pub mod optimise;
+mod parallel;
 pub mod pf;
 pub mod pose;
 pub mod resample;

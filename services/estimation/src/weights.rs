@@ -36,6 +36,22 @@ impl Weights {
     /// # Performance
     /// O(n), two passes and one allocation per output vector.
     pub fn from_log(log_weights: &[f64]) -> Result<Self> {
+        let mut weights = Self {
+            normalised: Vec::new(),
+            log_normalised: Vec::new(),
+            log_normaliser: 0.0,
+            ess: 0.0,
+        };
+        weights.renormalise(log_weights)?;
+        Ok(weights)
+    }
+
+    /// Replaces these weights by [`from_log`](Self::from_log)`(log_weights)`, reusing
+    /// their buffers (the filter's step allocates no weights once they have grown to N).
+    ///
+    /// # Errors
+    /// As [`from_log`](Self::from_log); the weights are then unchanged.
+    pub fn renormalise(&mut self, log_weights: &[f64]) -> Result<()> {
         let degenerate = |reason: String| Err(Error::DegenerateWeights { reason });
         if log_weights.is_empty() {
             return degenerate("no weights".into());
@@ -55,15 +71,15 @@ impl Weights {
         }
         let sum: f64 = log_weights.iter().map(|l| (l - max).exp()).sum();
         let log_normaliser = max + sum.ln();
-        let log_normalised: Vec<f64> = log_weights.iter().map(|l| l - log_normaliser).collect();
-        let normalised: Vec<f64> = log_normalised.iter().map(|l| l.exp()).collect();
-        let ess = 1.0 / normalised.iter().map(|w| w * w).sum::<f64>();
-        Ok(Self {
-            normalised,
-            log_normalised,
-            log_normaliser,
-            ess,
-        })
+        self.log_normalised.clear();
+        self.log_normalised
+            .extend(log_weights.iter().map(|l| l - log_normaliser));
+        self.normalised.clear();
+        self.normalised
+            .extend(self.log_normalised.iter().map(|l| l.exp()));
+        self.log_normaliser = log_normaliser;
+        self.ess = 1.0 / self.normalised.iter().map(|w| w * w).sum::<f64>();
+        Ok(())
     }
 
     /// The normalised weights, in particle order; they sum to 1.

@@ -331,15 +331,6 @@ fn negative_evidence_removes_a_spurious_landmark_and_keeps_real_ones() {
     assert!(worst_nearest(&map, &seen) < 1.0);
 }
 
-/// Runs a mixed scenario (curving route, unknown association, clutter) to compare runs.
-fn scenario_result() -> (Vec<Particle>, Vec<MapLandmark>) {
-    scenario_with(
-        &FastSlamConfig::default(),
-        &OptimiserConfig::default(),
-        None,
-    )
-}
-
 /// The mixed scenario with `base`'s particle count and proposal, and `optimiser` with
 /// `correction` as step 2.
 fn scenario_with(
@@ -402,13 +393,22 @@ fn assert_thread_count_does_not_matter(
 
 #[test]
 fn results_are_bit_identical_with_one_or_two_threads() {
-    assert_thread_count_does_not_matter("FastSLAM 1.0", scenario_result);
+    // Enough particles that every per-particle stage runs on both threads (smaller batches
+    // stay on the calling thread, see `MIN_PARALLEL_WORK`), against one thread.
+    let many = FastSlamConfig {
+        particles: 4000,
+        ..FastSlamConfig::default()
+    };
+    assert_thread_count_does_not_matter("FastSLAM 1.0", || {
+        scenario_with(&many, &OptimiserConfig::default(), None)
+    });
 }
 
 #[test]
 fn optimisers_and_fastslam2_are_bit_identical_with_one_or_two_threads() {
     // 30 particles and 5 generations keep it quick; every optimiser, both corrections and
-    // both proposals run at least once.
+    // both proposals run at least once. FastSLAM 2.0 alone gets 600 particles, so that its
+    // proposal runs on both threads.
     let small = |proposal| FastSlamConfig {
         particles: 30,
         proposal,
@@ -421,7 +421,10 @@ fn optimisers_and_fastslam2_are_bit_identical_with_one_or_two_threads() {
     };
     assert_thread_count_does_not_matter("fastslam2", || {
         scenario_with(
-            &small(Proposal::FastSlam2),
+            &FastSlamConfig {
+                particles: 600,
+                ..small(Proposal::FastSlam2)
+            },
             &optimiser(OptimiserKind::None),
             None,
         )

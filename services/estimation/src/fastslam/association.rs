@@ -139,10 +139,26 @@ pub(crate) enum Decision {
 
 /// The decisions for a whole scan (one per observation, in order) and the scan's
 /// log-likelihood under the particle.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub(crate) struct ScanAssociation {
     pub decisions: Vec<Decision>,
     pub log_likelihood: f64,
+}
+
+/// The landmarks the scan's earlier observations were assigned to (updated, or created
+/// with a known id): read from their decisions, so no list is kept beside them.
+#[derive(Clone, Copy)]
+struct Claimed<'d>(&'d [Decision]);
+
+impl Claimed<'_> {
+    fn contains(self, id: u64) -> bool {
+        self.0.iter().any(|d| match *d {
+            Decision::Update { id: claimed, .. } | Decision::New { id: Some(claimed) } => {
+                claimed == id
+            }
+            Decision::New { id: None } | Decision::Ignore => false,
+        })
+    }
 }
 
 impl<'a> Scan<'a> {
@@ -188,32 +204,33 @@ impl<'a> Scan<'a> {
 
     /// Associates every observation with `map` as seen from `pose`; see the module docs.
     pub(crate) fn associate(&self, map: &LandmarkMap, pose: &Pose2) -> ScanAssociation {
+        let mut association = ScanAssociation::default();
+        self.associate_into(map, pose, &mut association);
+        association
+    }
+
+    /// [`associate`](Self::associate) into `out`, reusing its decision buffer: the
+    /// filter's step allocates nothing here once the buffer has grown to the scan's size.
+    pub(crate) fn associate_into(
+        &self,
+        map: &LandmarkMap,
+        pose: &Pose2,
+        out: &mut ScanAssociation,
+    ) {
         let noise = self.sensor.noise();
-        let mut claimed: Vec<u64> = Vec::with_capacity(self.observations.len());
-        let mut log_likelihood = 0.0;
-        let decisions = self
-            .observations
-            .iter()
-            .map(|obs| {
-                let (decision, contribution) = match (self.config.mode, obs.id) {
-                    (AssociationMode::Known, Some(id)) => {
-                        self.known(map, pose, obs, id, &claimed, &noise)
-                    }
-                    _ => self.unknown(map, pose, obs, &claimed, &noise),
-                };
-                match decision {
-                    Decision::Update { id, .. } | Decision::New { id: Some(id) } => {
-                        claimed.push(id)
-                    }
-                    Decision::New { id: None } | Decision::Ignore => {}
+        out.decisions.clear();
+        out.log_likelihood = 0.0;
+        for obs in self.observations {
+            // Landmarks claimed by earlier observations of this scan.
+            let claimed = Claimed(&out.decisions);
+            let (decision, contribution) = match (self.config.mode, obs.id) {
+                (AssociationMode::Known, Some(id)) => {
+                    self.known(map, pose, obs, id, claimed, &noise)
                 }
-                log_likelihood += contribution;
-                decision
-            })
-            .collect();
-        ScanAssociation {
-            decisions,
-            log_likelihood,
+                _ => self.unknown(map, pose, obs, claimed, &noise),
+            };
+            out.log_likelihood += contribution;
+            out.decisions.push(decision);
         }
     }
 
@@ -223,11 +240,11 @@ impl<'a> Scan<'a> {
         pose: &Pose2,
         obs: &Observation,
         id: u64,
-        claimed: &[u64],
+        claimed: Claimed<'_>,
         noise: &Matrix2<f64>,
     ) -> (Decision, f64) {
         let log_p_new = self.config.log_p_new;
-        if claimed.contains(&id) {
+        if claimed.contains(id) {
             return (Decision::Ignore, log_p_new);
         }
         let Some(landmark) = map.get(id) else {
@@ -248,7 +265,7 @@ impl<'a> Scan<'a> {
         map: &LandmarkMap,
         pose: &Pose2,
         obs: &Observation,
-        claimed: &[u64],
+        claimed: Claimed<'_>,
         noise: &Matrix2<f64>,
     ) -> (Decision, f64) {
         let z = obs.z();
@@ -262,7 +279,7 @@ impl<'a> Scan<'a> {
         let mut best_log_likelihood = f64::NEG_INFINITY;
         let mut min_d2 = f64::INFINITY;
         for landmark in map.within(point, radius) {
-            if claimed.contains(&landmark.id) {
+            if claimed.contains(landmark.id) {
                 continue;
             }
             let Some(p) = observation::predict(pose, &landmark.mean) else {

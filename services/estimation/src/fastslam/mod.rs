@@ -13,9 +13,11 @@
 //! - [`PoseRefiner`]: the seam for step 2 (an optimiser moving predicted poses), with
 //!   [`refine::OptimiserRefiner`] the optimisers of ALGORITHMS.md §4 behind it.
 //!
-//! Per-particle work runs on rayon; every random draw comes from a stream labelled
+//! Per-particle work runs on rayon when the batch is large enough to pay for the hand-off
+//! (`crate::parallel`); every random draw comes from a stream labelled
 //! `[step, particle, purpose]` ([`crate::rng::stream`]) and every reduction runs in
-//! particle order, so results are bit-identical whatever the number of threads.
+//! particle order, so results are bit-identical whatever the number of threads. A step
+//! fills buffers kept from the step before, so it allocates no scratch space.
 
 pub mod association;
 mod config;
@@ -44,13 +46,13 @@ pub use trail::Trail;
 
 use crate::motion::Control;
 use crate::observation::{Observation, Sensor};
+use crate::parallel;
 use crate::pose::Pose2;
 use crate::rng::stream;
 use crate::weights::Weights;
 use crate::{Error, Result};
 use association::ScanAssociation;
 use particle::MapChanges;
-use rayon::prelude::*;
 
 /// Stream label for the motion noise of one particle in one step.
 const PURPOSE_PREDICT: u64 = 0;
@@ -136,6 +138,38 @@ pub struct FastSlam {
     motion_prior: bool,
     /// Localisation only: the maps are read, never written ([`FastSlam::fix_map`]).
     map_fixed: bool,
+    /// Buffers a step fills, kept for the next step.
+    scratch: Scratch,
+}
+
+/// The buffers of one step, kept between steps so that a step allocates no scratch space
+/// once they have grown to the particle count and scan size. They hold nothing between
+/// steps that matters: a clone or a restored filter may start with empty ones.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Scratch {
+    /// Step 1: each particle's sampled pose and propagated prior, checked before use.
+    predicted: Vec<(Pose2, MotionPrior)>,
+    /// The scan's observations that pass the checks.
+    accepted: Vec<Observation>,
+    /// How each particle's weight increment of this step is obtained.
+    basis: Vec<WeightBasis>,
+    /// FastSLAM 2.0's draw per particle.
+    drawn: Vec<Option<proposal::Drawn>>,
+    /// Per particle: its association (step 3) and map changes (step 4).
+    particles: Vec<ParticleStep>,
+    /// Unnormalised log-weights (step 5).
+    log_weights: Vec<f64>,
+    /// The weights of the step before, whose buffers the next normalisation reuses.
+    spare_weights: Option<Weights>,
+    /// The particles before resampling, emptied after each resampling (capacity kept).
+    spare_particles: Vec<Particle>,
+}
+
+/// What one scan does to one particle.
+#[derive(Debug, Clone, Default)]
+struct ParticleStep {
+    association: ScanAssociation,
+    changes: MapChanges,
 }
 
 impl FastSlam {
@@ -212,6 +246,7 @@ impl FastSlam {
             step: 0,
             motion_prior: true,
             map_fixed: false,
+            scratch: Scratch::default(),
         })
     }
 
@@ -268,7 +303,7 @@ impl FastSlam {
     /// or a control so large that a pose would overflow; the filter is then unchanged.
     ///
     /// # Performance
-    /// O(N), parallel over particles.
+    /// O(N), parallel over particles when N is large; allocates nothing.
     pub fn predict(&mut self, control: &Control, dt: f64) -> Result<()> {
         control.validate()?;
         if !(dt.is_finite() && dt >= 0.0) {
@@ -280,21 +315,18 @@ impl FastSlam {
         let step = self.step + 1;
         let (seed, motion) = (self.config.seed, &self.config.motion);
         let with_prior = self.motion_prior;
-        let predicted: Vec<(Pose2, MotionPrior)> = self
-            .particles
-            .par_iter()
-            .enumerate()
-            .map(|(i, p)| {
-                let mut rng = stream(seed, &[step, i as u64, PURPOSE_PREDICT]);
-                let pose = motion.sample(&p.pose, control, dt, &mut rng);
-                let prior = if with_prior {
-                    p.prior.predict(motion, control, dt)
-                } else {
-                    p.prior
-                };
-                (pose, prior)
-            })
-            .collect();
+        let predicted = &mut self.scratch.predicted;
+        let parallel = parallel::pays(self.particles.len(), 1);
+        parallel::map_into(parallel, &self.particles, predicted, |i, p| {
+            let mut rng = stream(seed, &[step, i as u64, PURPOSE_PREDICT]);
+            let pose = motion.sample(&p.pose, control, dt, &mut rng);
+            let prior = if with_prior {
+                p.prior.predict(motion, control, dt)
+            } else {
+                p.prior
+            };
+            (pose, prior)
+        });
         let broken = predicted.iter().position(|(pose, prior)| {
             !(pose.is_finite() && prior.mean.is_finite())
                 || prior.covariance.iter().any(|v| !v.is_finite())
@@ -308,7 +340,7 @@ impl FastSlam {
                 ),
             });
         }
-        for (particle, (pose, prior)) in self.particles.iter_mut().zip(predicted) {
+        for (particle, &(pose, prior)) in self.particles.iter_mut().zip(predicted.iter()) {
             particle.pose = pose;
             particle.prior = prior;
         }
@@ -362,30 +394,39 @@ impl FastSlam {
             });
         }
         let step = self.step + 1;
+        let n = self.particles.len();
         let association = &self.config.association;
-        let accepted: Vec<Observation> = observations
-            .iter()
-            .filter(|obs| {
-                obs.validate().is_ok() && sensor.can_report(obs) && association.accepts(obs)
-            })
-            .copied()
-            .collect();
-        let scan = Scan::new(&accepted, sensor, association, step);
-        let mut basis = vec![WeightBasis::FinalPosition; self.particles.len()];
+        let Scratch {
+            accepted,
+            basis,
+            drawn,
+            particles: steps,
+            log_weights,
+            spare_weights,
+            ..
+        } = &mut self.scratch;
+        accepted.clear();
+        accepted.extend(observations.iter().copied().filter(|obs| {
+            obs.validate().is_ok() && sensor.can_report(obs) && association.accepts(obs)
+        }));
+        let scan = Scan::new(accepted, sensor, association, step);
+        let parallel = parallel::pays(n, accepted.len() + 1);
+        basis.clear();
+        basis.resize(n, WeightBasis::FinalPosition);
 
         // 1b. FastSLAM 2.0: draw each pose from the proposal that uses this scan.
         if self.config.proposal == Proposal::FastSlam2 {
             let seed = self.config.seed;
-            let drawn: Vec<Option<proposal::Drawn>> = self
+            parallel::map_into(parallel, &self.particles, drawn, |i, p| {
+                let mut rng = stream(seed, &[step, i as u64, PURPOSE_PROPOSAL]);
+                proposal::fastslam2(&scan, p, &mut rng)
+            });
+            for ((p, b), d) in self
                 .particles
-                .par_iter()
-                .enumerate()
-                .map(|(i, p)| {
-                    let mut rng = stream(seed, &[step, i as u64, PURPOSE_PROPOSAL]);
-                    proposal::fastslam2(&scan, p, &mut rng)
-                })
-                .collect();
-            for ((p, b), d) in self.particles.iter_mut().zip(&mut basis).zip(drawn) {
+                .iter_mut()
+                .zip(basis.iter_mut())
+                .zip(drawn.iter())
+            {
                 if let Some(d) = d {
                     p.pose = d.pose;
                     *b = WeightBasis::Given(d.log_likelihood);
@@ -395,74 +436,68 @@ impl FastSlam {
 
         // 2. Optimise (optional): move the poses.
         if let Some(refiner) = refiner {
-            refiner.refine(&scan, &mut self.particles, &mut basis)?;
+            refiner.refine(&scan, &mut self.particles, basis)?;
         }
 
         // 3. Associate and weigh, read-only, so nothing changes if normalising fails.
-        let associations: Vec<ScanAssociation> = self
-            .particles
-            .par_iter()
-            .map(|p| scan.associate(&p.map, &p.pose))
-            .collect();
-        let log_weights: Vec<f64> = self
-            .particles
-            .iter()
-            .zip(&associations)
-            .zip(&basis)
-            .map(|((p, a), b)| match *b {
-                WeightBasis::FinalPosition => p.log_weight + a.log_likelihood,
-                WeightBasis::Given(increment) => p.log_weight + increment,
-            })
-            .collect();
+        steps.resize_with(n, ParticleStep::default);
+        parallel::zip_mut(parallel, &mut self.particles, steps, |p, s| {
+            scan.associate_into(&p.map, &p.pose, &mut s.association);
+        });
+        log_weights.clear();
+        log_weights.extend(
+            self.particles
+                .iter()
+                .zip(steps.iter())
+                .zip(basis.iter())
+                .map(|((p, s), b)| match *b {
+                    WeightBasis::FinalPosition => p.log_weight + s.association.log_likelihood,
+                    WeightBasis::Given(increment) => p.log_weight + increment,
+                }),
+        );
 
         // 5. Normalise (log-sum-exp) and N_eff.
-        let weights = Weights::from_log(&log_weights)?;
+        let mut weights = spare_weights.take().unwrap_or_else(|| self.weights.clone());
+        weights.renormalise(log_weights)?;
 
         // 4. Update the maps: EKF updates, new landmarks, negative evidence. The pose is
         // settled: the next step's motion prior starts from it.
         let evidence = &self.config.negative_evidence;
         let floor = self.config.prior_floor.covariance();
         let map_fixed = self.map_fixed;
-        let changes: Vec<MapChanges> = self
-            .particles
-            .par_iter_mut()
-            .zip(&associations)
-            .map(|(p, a)| {
-                p.prior = MotionPrior::settled(p.pose, &floor);
-                if map_fixed {
-                    MapChanges::default()
-                } else {
-                    p.apply(&scan, a, evidence)
-                }
-            })
-            .collect();
-
-        // 6. Resample when N_eff < neff_ratio · N.
-        let n = self.particles.len();
-        let neff = weights.ess();
-        let resampled = self.config.resampling.due(&weights);
-        let distinct = if resampled {
-            self.resample(&weights, step)?
-        } else {
-            for (p, &lw) in self.particles.iter_mut().zip(weights.log_weights()) {
-                p.log_weight = lw;
-            }
-            self.weights = weights;
-            n
-        };
-        self.step = step;
-
-        let total = |f: fn(&MapChanges) -> usize| -> usize { changes.iter().map(f).sum() };
-        Ok(StepReport {
-            neff,
-            resampled,
-            distinct,
+        parallel::zip_mut(parallel, &mut self.particles, steps, |p, s| {
+            p.prior = MotionPrior::settled(p.pose, &floor);
+            s.changes = if map_fixed {
+                MapChanges::default()
+            } else {
+                p.apply(&scan, &s.association, evidence)
+            };
+        });
+        let total =
+            |f: fn(&MapChanges) -> usize| -> usize { steps.iter().map(|s| f(&s.changes)).sum() };
+        let mut report = StepReport {
+            neff: weights.ess(),
+            resampled: self.config.resampling.due(&weights),
+            distinct: n,
             matched: total(|c| c.matched),
             new_landmarks: total(|c| c.created),
             ignored: total(|c| c.ignored),
             removed: total(|c| c.removed),
             rejected: observations.len() - accepted.len(),
-        })
+        };
+
+        // 6. Resample when N_eff < neff_ratio · N.
+        if report.resampled {
+            report.distinct = self.resample(&weights, step)?;
+        } else {
+            for (p, &lw) in self.particles.iter_mut().zip(weights.log_weights()) {
+                p.log_weight = lw;
+            }
+            std::mem::swap(&mut self.weights, &mut weights);
+        }
+        self.scratch.spare_weights = Some(weights);
+        self.step = step;
+        Ok(report)
     }
 
     /// Replaces the particles by resampled copies (O(1) each: maps are shared) and
@@ -470,16 +505,19 @@ impl FastSlam {
     fn resample(&mut self, weights: &Weights, step: u64) -> Result<usize> {
         let mut rng = stream(self.config.seed, &[step, 0, PURPOSE_RESAMPLE]);
         let resampled = self.config.resampling.draw(weights, &mut rng);
-        self.weights = Weights::from_log(&resampled.log_weights)?;
-        self.particles = resampled
-            .ancestors
-            .iter()
-            .zip(&resampled.log_weights)
-            .map(|(&a, &log_weight)| Particle {
-                log_weight,
-                ..self.particles[a].clone()
-            })
-            .collect();
+        self.weights.renormalise(&resampled.log_weights)?;
+        let before = &mut self.scratch.spare_particles;
+        std::mem::swap(before, &mut self.particles);
+        self.particles
+            .extend(resampled.ancestors.iter().zip(&resampled.log_weights).map(
+                |(&a, &log_weight)| Particle {
+                    log_weight,
+                    ..before[a].clone()
+                },
+            ));
+        // Dropping the old particles now releases their references to the maps, so the
+        // next writes copy only what the new particles really share.
+        before.clear();
         Ok(resampled.distinct())
     }
 

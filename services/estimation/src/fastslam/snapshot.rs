@@ -201,6 +201,7 @@ impl FastSlam {
             // `FastSlam::without_motion_prior`); restored, it is the saved one.
             motion_prior: true,
             map_fixed: false,
+            scratch: super::Scratch::default(),
         })
     }
 }
