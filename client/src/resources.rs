@@ -6,9 +6,9 @@
 //! sampled while it runs (the client calls [`ProcessMonitor::sample`] on a timer and when
 //! a stream ends) and its last sample stands after it exits: a process has done its work
 //! once it has announced the end of its stream, so the final sample misses only its
-//! teardown. The total CPU time comes from `/proc/<pid>/schedstat` (the scheduler's
-//! run time, in ns); the user/kernel split from `/proc/<pid>/stat` is in clock ticks
-//! (usually 10 ms).
+//! teardown. The total CPU time comes from `/proc/<pid>/task/*/schedstat` (the
+//! scheduler's run time of every thread, in ns); the user/kernel split from
+//! `/proc/<pid>/stat` is in clock ticks (usually 10 ms).
 
 use fastslam_protocol::ipc::{Ipc, Service};
 use iceoryx2::node::{NodeState, NodeView};
@@ -27,8 +27,9 @@ pub struct ProcessUsage {
     pub cpu_user_s: f64,
     /// CPU time in the kernel on the process's behalf (s).
     pub cpu_system_s: f64,
-    /// Total CPU time (s): the scheduler's run time (`schedstat`, ns resolution), or user
-    /// plus system time where `schedstat` is not available.
+    /// Total CPU time (s): the scheduler's run time summed over the process's threads
+    /// (`schedstat`, ns resolution), or user plus system time (clock ticks, exited threads
+    /// included) when that is larger or `schedstat` is not available.
     pub cpu_s: f64,
     /// Peak resident set size, `VmHWM` (MiB). Shared-memory pages the process touched
     /// count too, so the sum over processes counts shared pages more than once.
@@ -117,7 +118,9 @@ impl ProcessMonitor {
                     pid,
                     cpu_user_s: user,
                     cpu_system_s: system,
-                    cpu_s: r.runtime_ns.map_or(user + system, |ns| ns as f64 * 1e-9),
+                    cpu_s: r
+                        .runtime_ns
+                        .map_or(user + system, |ns| (ns as f64 * 1e-9).max(user + system)),
                     peak_rss_mib: r.peak_rss_kib.map_or(f64::NAN, |k| k as f64 / 1024.0),
                 }
             })
@@ -135,11 +138,28 @@ impl Default for ProcessMonitor {
 fn read(pid: i32) -> Option<Reading> {
     let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
     let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok();
-    let schedstat = std::fs::read_to_string(format!("/proc/{pid}/schedstat")).ok();
     let mut r = parse(&stat, status.as_deref())?;
-    // `schedstat`: time on a CPU (ns), time waiting for one (ns), timeslices.
-    r.runtime_ns = schedstat.and_then(|s| s.split_whitespace().next()?.parse().ok());
+    r.runtime_ns = threads_runtime_ns(pid);
     Some(r)
+}
+
+/// Time on a CPU (ns) summed over the process's threads: `/proc/<pid>/schedstat` alone
+/// is its main thread's (a filter's rayon workers would be missed). `None` where the
+/// kernel keeps no schedstat. Threads that have exited are not counted; the tick-based
+/// user and system times are, which is why [`ProcessUsage::cpu_s`] takes the larger.
+fn threads_runtime_ns(pid: i32) -> Option<u64> {
+    let tasks = std::fs::read_dir(format!("/proc/{pid}/task")).ok()?;
+    let mut total = None;
+    for task in tasks.flatten() {
+        // `schedstat`: time on a CPU (ns), time waiting for one (ns), timeslices.
+        let ns = std::fs::read_to_string(task.path().join("schedstat"))
+            .ok()
+            .and_then(|s| s.split_whitespace().next()?.parse::<u64>().ok());
+        if let Some(ns) = ns {
+            total = Some(total.unwrap_or(0) + ns);
+        }
+    }
+    total
 }
 
 /// Parses `/proc/<pid>/stat` (fields 14, 15 and 22: utime, stime, starttime, counted
@@ -180,6 +200,35 @@ mod tests {
         );
         assert_eq!(parse(stat, None).unwrap().peak_rss_kib, None);
         assert_eq!(parse("garbage", None), None);
+    }
+
+    #[test]
+    fn cpu_time_of_every_thread_is_counted() {
+        if !std::path::Path::new("/proc/thread-self/schedstat").exists() {
+            return;
+        }
+        // A second thread burns 200 ms of its own CPU time (by its own schedstat) and
+        // stays alive while the process is read.
+        let own_ns = || {
+            let s = std::fs::read_to_string("/proc/thread-self/schedstat").unwrap();
+            s.split_whitespace().next().unwrap().parse::<u64>().unwrap()
+        };
+        let (burnt, read_done) = (std::sync::mpsc::channel(), std::sync::mpsc::channel());
+        let (tell, wait_burnt) = burnt;
+        let (done, wait_read) = read_done;
+        let worker = std::thread::spawn(move || {
+            let start = own_ns();
+            while own_ns() - start < 200_000_000 {
+                std::hint::black_box(start);
+            }
+            tell.send(()).unwrap();
+            wait_read.recv().unwrap();
+        });
+        wait_burnt.recv().unwrap();
+        let r = read(std::process::id() as i32).unwrap();
+        done.send(()).unwrap();
+        worker.join().unwrap();
+        assert!(r.runtime_ns.unwrap() >= 200_000_000, "{r:?}");
     }
 
     #[test]
