@@ -45,8 +45,9 @@ pub struct BenchArgs {
     #[arg(long, value_delimiter = ',', default_value = "step,latency,throughput")]
     pub parts: Vec<String>,
     /// Scenario of the latency measurement (real time: its simulated length is the wall
-    /// time it takes).
-    #[arg(long, default_value = "bailey-short")]
+    /// time it takes). The default sees about 20 landmarks per scan, the load the
+    /// latency target is stated for.
+    #[arg(long, default_value = "bailey-dense")]
     pub latency_scenario: String,
     /// Scenario of the throughput comparison.
     #[arg(long, default_value = "bailey-webmap")]

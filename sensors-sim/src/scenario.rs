@@ -19,6 +19,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         include_str!("../scenarios/bailey-short.toml"),
     ),
     (
+        "bailey-dense",
+        include_str!("../scenarios/bailey-dense.toml"),
+    ),
+    (
         "bailey-poles",
         include_str!("../scenarios/bailey-poles.toml"),
     ),
