@@ -19,11 +19,15 @@ pub struct LatencyMatcher {
     poses: BTreeMap<u64, Instant>,
     /// Latency per pose stamp (s), in pairing order.
     latencies: Vec<(u64, f64)>,
+    /// When the first observation and the latest pose arrived.
+    first_observation: Option<Instant>,
+    last_pose: Option<Instant>,
 }
 
 impl LatencyMatcher {
     /// An observation with `stamp_ns` arrived at `at`.
     pub fn observation(&mut self, stamp_ns: u64, at: Instant) {
+        self.first_observation.get_or_insert(at);
         match self.poses.remove(&stamp_ns) {
             Some(pose_at) => self.pair(stamp_ns, at, pose_at),
             None => {
@@ -35,6 +39,7 @@ impl LatencyMatcher {
     /// A pose with `stamp_ns` arrived at `at`. Observations older than it that are still
     /// unpaired produced no pose and are forgotten (stamps only grow).
     pub fn pose(&mut self, stamp_ns: u64, at: Instant) {
+        self.last_pose = Some(at);
         match self.observations.remove(&stamp_ns) {
             Some(obs_at) => self.pair(stamp_ns, obs_at, at),
             None => {
@@ -55,6 +60,14 @@ impl LatencyMatcher {
     /// Latencies paired so far: (pose stamp in ns, seconds).
     pub fn latencies(&self) -> &[(u64, f64)] {
         &self.latencies
+    }
+
+    /// Wall time from the first observation to the latest pose, as received (s): how
+    /// long the stack took to stream the run through, without its start-up and the
+    /// client's scoring. `None` before both have arrived.
+    pub fn streamed_s(&self) -> Option<f64> {
+        let (first, last) = (self.first_observation?, self.last_pose?);
+        Some(last.saturating_duration_since(first).as_secs_f64())
     }
 }
 
@@ -82,6 +95,9 @@ mod tests {
             .collect();
         assert_eq!(got, vec![(100, 3), (200, 7), (400, 1)]);
         assert!(m.observations.is_empty(), "the unpaired 300 was forgotten");
+        // Streamed from the first observation (0 ms) to the latest pose (21 ms).
+        assert_eq!((m.streamed_s().unwrap() * 1e3).round(), 21.0);
+        assert_eq!(LatencyMatcher::default().streamed_s(), None);
     }
 
     #[test]

@@ -170,6 +170,10 @@ pub struct Cost {
     pub service_cpu_s: f64,
     /// CPU time of all processes of the stack together (s).
     pub stack_cpu_s: f64,
+    /// Wall time from the first observation to the last pose the client received (s):
+    /// the run streamed through the processes, start-up and scoring left out; NaN when
+    /// no pose arrived.
+    pub stream_wall_s: f64,
 }
 
 impl Metrics {
@@ -406,6 +410,7 @@ pub fn cost(rec: &Recording) -> Cost {
         processes: rec.processes.clone(),
         service_cpu_s,
         stack_cpu_s: rec.processes.iter().map(|p| p.cpu_s).sum(),
+        stream_wall_s: rec.streamed_s.unwrap_or(f64::NAN),
     }
 }
 

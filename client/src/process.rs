@@ -172,6 +172,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     })?;
     monitor.sample(&ipc);
     rec.latencies = latency.latencies().to_vec();
+    rec.streamed_s = latency.streamed_s();
     rec.processes = monitor.usage();
 
     let alignment = fit_alignment(&scored_at(&rec, args.score_at), args.align);

@@ -46,6 +46,9 @@ pub struct Recording {
     pub status: Vec<StatusSample>,
     /// End-to-end latency per pose: (pose stamp in ns, seconds), see [`crate::latency`].
     pub latencies: Vec<(u64, f64)>,
+    /// Wall time from the first observation to the last pose, as received (s); see
+    /// [`crate::latency::LatencyMatcher::streamed_s`].
+    pub streamed_s: Option<f64>,
     /// CPU time and peak memory of the stack's processes, see [`crate::resources`].
     pub processes: Vec<ProcessUsage>,
 }
