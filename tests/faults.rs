@@ -25,10 +25,12 @@ fn stack(prefix: &str) -> StackConfig {
     }
 }
 
-/// Starts `fastslam-stack run` in the background.
-fn launch(prefix: &str, out: &Path, scenario: &str) -> Child {
+/// Starts `fastslam-stack run` on `scenario` in real time in the background.
+fn launch(prefix: &str, out: &Path, scenario: &Path) -> Child {
     Command::new(LAUNCHER)
-        .args(["run", "--prefix", prefix, "--scenario", scenario, "--out"])
+        .args(["run", "--prefix", prefix, "--realtime", "--scenario"])
+        .arg(scenario)
+        .arg("--out")
         .arg(out)
         .args(["--timeout-s", "120"])
         .stdout(Stdio::piped())
@@ -62,7 +64,8 @@ fn a_garbage_publisher_is_counted_and_the_run_still_finishes() {
     let prefix = prefix("garbage");
     let dir = folder(&prefix);
     let out = dir.join("run");
-    let mut launcher = launch(&prefix, &out, "bailey-short");
+    // In real time, so the garbage meets a service in mid-run however fast the stack is.
+    let mut launcher = launch(&prefix, &out, &short_scenario(&dir));
     let ipc = Ipc::open(&stack(&prefix), "garbage", Duration::from_secs(60)).unwrap();
     // Publishers before subscribers (see `Ipc::subscriber`).
     let bad = ipc.publisher::<Odometry>(&topics::ODOMETRY).unwrap();
@@ -115,7 +118,7 @@ fn a_garbage_publisher_is_counted_and_the_run_still_finishes() {
     }
     let m = metrics(&out);
     assert_eq!(m["complete"], true);
-    assert!(num(&m, "/estimate/poses") > 100.0, "{m}");
+    assert!(num(&m, "/estimate/poses") > 40.0, "{m}");
     assert!(
         num(&m, "/estimate/ate_rmse_m") < num(&m, "/dead_reckoning/ate_rmse_m").max(5.0),
         "garbage spoilt the estimate: {m}"

@@ -19,8 +19,17 @@ fn sigterm_stops_the_service_cleanly_with_its_checkpoint_and_map() {
     let prefix = prefix("sigterm");
     let dir = folder(&prefix);
     let (ckpt, map) = (dir.join("run.ckpt"), dir.join("map.csv"));
+    // In real time, so the stop lands mid-run however fast the stack is (as fast as
+    // possible it can finish before the test sees the first checkpoint).
     let launcher = Command::new(LAUNCHER)
-        .args(["run", "--scenario", SCENARIO, "--prefix", &prefix])
+        .args([
+            "run",
+            "--scenario",
+            SCENARIO,
+            "--prefix",
+            &prefix,
+            "--realtime",
+        ])
         .args(["--timeout-s", "120", "--out"])
         .arg(dir.join("run"))
         .arg(format!("--service-flag=--checkpoint={}", ckpt.display()))

@@ -13,7 +13,6 @@ use crate::Result;
 use crate::check::{non_negative, require};
 use crate::observation::{self, Sensor};
 use crate::pose::Pose2;
-use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 
 /// Settings of negative evidence; `min_hits = 0` switches it off.
@@ -61,26 +60,27 @@ impl NegativeEvidence {
 
     /// Counts a chance for every tentative landmark of `map` in view of `sensor` at
     /// `pose` and removes those that have used up their chances. Returns how many were
-    /// removed.
+    /// removed. `map` must track its tentative landmarks below `min_hits`
+    /// ([`LandmarkMap::track_tentative`], as the filter's maps do).
     ///
     /// # Performance
-    /// Reads the landmarks in the footprint's bounding box (independent of M at a fixed
-    /// density); writes only tentative ones.
+    /// O(T log M) for T tentative landmarks (looked up by id: no spatial query);
+    /// writes only those in view, allocates only to copy what it writes.
     pub(crate) fn apply(&self, map: &mut LandmarkMap, pose: &Pose2, sensor: &Sensor) -> usize {
         if self.min_hits == 0 {
             return 0;
         }
-        let tentative: Vec<u64> = map
-            .within(Vector2::new(pose.x, pose.y), sensor.max_range)
-            .filter(|landmark| landmark.hits < self.min_hits)
-            .filter(|landmark| {
+        debug_assert_eq!(map.tentative_below(), self.min_hits, "untracked map");
+        let tentative = map.tentative();
+        let mut removed = 0;
+        for &id in tentative.iter() {
+            let in_view = map.get(id).is_some_and(|landmark| {
                 let z = observation::measure(pose, &landmark.mean);
                 sensor.sees(&z, self.margin_range, self.margin_bearing)
-            })
-            .map(|landmark| landmark.id)
-            .collect();
-        let mut removed = 0;
-        for id in tentative {
+            });
+            if !in_view {
+                continue;
+            }
             let mut expired = false;
             map.update(id, |landmark| {
                 landmark.chances = landmark.chances.saturating_add(1);
@@ -98,7 +98,7 @@ impl NegativeEvidence {
 mod tests {
     use super::*;
     use crate::fastslam::landmarks::Landmark;
-    use nalgebra::Matrix2;
+    use nalgebra::{Matrix2, Vector2};
 
     fn landmark(id: u64, x: f64, y: f64, hits: u32) -> Landmark {
         Landmark {
@@ -115,7 +115,7 @@ mod tests {
         let evidence = NegativeEvidence::default();
         let sensor = Sensor::default();
         let pose = Pose2::default();
-        let mut map = LandmarkMap::new(10.0);
+        let mut map = LandmarkMap::new(10.0).track_tentative(evidence.min_hits);
         map.insert(landmark(0, 10.0, 0.0, 1)); // tentative, in view
         map.insert(landmark(1, 12.0, 3.0, 2)); // confirmed, in view
         map.insert(landmark(2, -10.0, 0.0, 1)); // tentative, behind the sensor

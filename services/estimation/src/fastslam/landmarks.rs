@@ -9,6 +9,10 @@
 //!   no second copy of the landmarks to keep in step.
 //! - `cell_of`: `id` → cell, for lookups by id (known association) and removal.
 //!
+//! Beside them, the sorted ids of the *tentative* landmarks (`hits` below a threshold,
+//! see [`LandmarkMap::track_tentative`]), kept up to date by every write: negative
+//! evidence visits only those, by id, instead of scanning the sensor's footprint.
+//!
 //! Cloning a map is O(1) (two reference-count increments); an update, insertion or
 //! removal costs O(log M) and copies O(log M) nodes of the writing particle only.
 
@@ -16,6 +20,7 @@ use crate::observation;
 use crate::pose::Pose2;
 use imbl::OrdMap;
 use nalgebra::{Matrix2, Vector2};
+use std::sync::Arc;
 
 /// One landmark's Gaussian and its detection counts.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -44,6 +49,11 @@ type Cell = (i64, i64);
 pub struct LandmarkMap {
     by_cell: OrdMap<(i64, i64, u64), Landmark>,
     cell_of: OrdMap<u64, Cell>,
+    /// Ids of the landmarks with `hits < tentative_below`, sorted; shared between copies
+    /// until one of them changes the set.
+    tentative: Arc<Vec<u64>>,
+    /// Hits that confirm a landmark; 0 tracks nothing.
+    tentative_below: u32,
     next_id: u64,
     cell_size: f64,
 }
@@ -55,8 +65,52 @@ impl LandmarkMap {
         Self {
             by_cell: OrdMap::new(),
             cell_of: OrdMap::new(),
+            tentative: Arc::default(),
+            tentative_below: 0,
             next_id: 0,
             cell_size,
+        }
+    }
+
+    /// The same map, keeping from now on the ids of its landmarks with fewer than
+    /// `min_hits` hits (none for 0): negative evidence's `min_hits`.
+    ///
+    /// # Performance
+    /// O(M) once; afterwards each write keeps the set in step in O(1), or O(T) for T
+    /// tentative landmarks when a landmark joins or leaves it.
+    pub fn track_tentative(mut self, min_hits: u32) -> Self {
+        self.tentative_below = min_hits;
+        let mut ids: Vec<u64> = self
+            .by_cell
+            .values()
+            .filter(|l| l.hits < min_hits)
+            .map(|l| l.id)
+            .collect();
+        ids.sort_unstable();
+        self.tentative = Arc::new(ids);
+        self
+    }
+
+    /// The hits below which a landmark counts as tentative (0: none is tracked).
+    pub fn tentative_below(&self) -> u32 {
+        self.tentative_below
+    }
+
+    /// Ids of the tentative landmarks, sorted (a shared handle: the map may be written
+    /// while it is read).
+    pub fn tentative(&self) -> Arc<Vec<u64>> {
+        Arc::clone(&self.tentative)
+    }
+
+    /// Puts `id` in or out of the tentative set as its `hits` say.
+    fn classify(&mut self, id: u64, hits: u32) {
+        let tentative = hits < self.tentative_below;
+        match (self.tentative.binary_search(&id), tentative) {
+            (Err(at), true) => Arc::make_mut(&mut self.tentative).insert(at, id),
+            (Ok(at), false) => {
+                Arc::make_mut(&mut self.tentative).remove(at);
+            }
+            _ => {}
         }
     }
 
@@ -73,7 +127,9 @@ impl LandmarkMap {
     /// True when both maps are the very same storage (a resampled copy nobody has
     /// written to yet): sharing costs no memory.
     pub fn shares_storage_with(&self, other: &Self) -> bool {
-        self.by_cell.ptr_eq(&other.by_cell) && self.cell_of.ptr_eq(&other.cell_of)
+        self.by_cell.ptr_eq(&other.by_cell)
+            && self.cell_of.ptr_eq(&other.cell_of)
+            && Arc::ptr_eq(&self.tentative, &other.tentative)
     }
 
     fn cell(&self, p: &Vector2<f64>) -> Cell {
@@ -149,6 +205,7 @@ impl LandmarkMap {
         let (cx, cy) = self.cell(&landmark.mean);
         self.next_id = self.next_id.max(landmark.id.saturating_add(1));
         self.cell_of.insert(landmark.id, (cx, cy));
+        self.classify(landmark.id, landmark.hits);
         self.by_cell.insert((cx, cy, landmark.id), landmark);
     }
 
@@ -164,8 +221,12 @@ impl LandmarkMap {
         let Some(landmark) = self.by_cell.get_mut(&(cx, cy, id)) else {
             return false;
         };
+        let hits_before = landmark.hits;
         change(landmark);
-        let mean = landmark.mean;
+        let (mean, hits) = (landmark.mean, landmark.hits);
+        if hits != hits_before {
+            self.classify(id, hits);
+        }
         let moved_to = self.cell(&mean);
         if moved_to != (cx, cy)
             && let Some(landmark) = self.by_cell.remove(&(cx, cy, id))
@@ -179,6 +240,7 @@ impl LandmarkMap {
     /// Removes and returns the landmark with `id`.
     pub fn remove(&mut self, id: u64) -> Option<Landmark> {
         let (cx, cy) = self.cell_of.remove(&id)?;
+        self.classify(id, u32::MAX);
         self.by_cell.remove(&(cx, cy, id))
     }
 
@@ -268,6 +330,38 @@ mod tests {
         );
         assert_eq!(child.get(3).unwrap().hits, 2);
         assert_eq!(child.get(4), parent.get(4));
+    }
+
+    #[test]
+    fn the_tentative_set_follows_every_write() {
+        let tentative = |m: &LandmarkMap| m.tentative().as_ref().clone();
+        let mut map = LandmarkMap::new(5.0);
+        map.insert(Landmark {
+            hits: 3,
+            ..landmark(9, 0.0, 0.0)
+        });
+        let mut map = map.track_tentative(2);
+        assert_eq!(
+            tentative(&map),
+            Vec::<u64>::new(),
+            "built from the contents"
+        );
+        (0..4).for_each(|i| map.insert(landmark(i, i as f64, 0.0)));
+        assert_eq!(tentative(&map), vec![0, 1, 2, 3]);
+        let before = map.clone();
+        map.update(2, |l| l.hits += 1); // confirmed
+        map.update(1, |l| l.mean.x += 20.0); // moved, still tentative
+        map.remove(3);
+        map.update(9, |l| l.hits = 1); // back below the threshold
+        assert_eq!(tentative(&map), vec![0, 1, 9]);
+        assert_eq!(
+            tentative(&before),
+            vec![0, 1, 2, 3],
+            "the copy keeps its own"
+        );
+        let rebuilt = map.clone().track_tentative(2);
+        assert_eq!(tentative(&rebuilt), tentative(&map));
+        assert!(LandmarkMap::new(5.0).tentative().is_empty());
     }
 
     #[test]

@@ -235,7 +235,7 @@ impl FastSlam {
         let particle = Particle {
             pose,
             log_weight,
-            map,
+            map: map.track_tentative(config.negative_evidence.min_hits),
             trail: Trail::default(),
             prior: MotionPrior::settled(pose, &config.prior_floor.covariance()),
         };
