@@ -7,7 +7,7 @@ use crate::metrics::{AlignMode, ScoreAt, fit_alignment, interpolate, scored_at};
 use crate::progress::{LiveAte, Progress};
 use crate::resources::ProcessMonitor;
 use crate::{Metrics, Recording, report};
-use fastslam_protocol::ipc::{Ended, Flow, Ipc, Sub};
+use fastslam_protocol::ipc::{Ended, Flow, Ipc, Sub, WakeSource};
 use fastslam_protocol::stream::StreamEnd;
 use fastslam_protocol::{
     EndOfStream, GroundTruth, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation,
@@ -81,18 +81,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut live_ate = LiveAte::default();
     let mut last_sample = Instant::now();
     monitor.sample(&ipc);
-    let listeners = [
-        truth.listener(),
-        odometry.listener(),
-        lidar.listener(),
-        status.listener(),
-        map.listener(),
-        grid.listener(),
-        pose.listener(),
-        true_map.listener(),
-        eos.listener(),
+    let sources: [&dyn WakeSource; 9] = [
+        &truth,
+        &odometry,
+        lidar.source(),
+        &status,
+        &map,
+        &grid,
+        &pose,
+        &true_map,
+        &eos,
     ];
-    let ended = ipc.wake_loop::<anyhow::Error>(&listeners, Some(SAMPLE_EVERY), || {
+    let ended = ipc.wake_loop::<anyhow::Error>(&sources, Some(SAMPLE_EVERY), || {
         // Truth before poses, observations before poses: a pose's truth and observation
         // were published before it, so they are in by the time the pose is.
         truth.drain(|s| {
@@ -274,11 +274,11 @@ impl Lidar {
         }
     }
 
-    /// The listener to wake on.
-    fn listener(&self) -> &iceoryx2::port::listener::Listener<fastslam_protocol::ipc::Service> {
+    /// The subscriber to wake on.
+    fn source(&self) -> &dyn WakeSource {
         match self {
-            Self::Observations(s) => s.listener(),
-            Self::Scans(s) => s.listener(),
+            Self::Observations(s) => s,
+            Self::Scans(s) => s,
         }
     }
 

@@ -108,7 +108,7 @@ impl GroundTruthFollower {
     ) -> anyhow::Result<Ended> {
         let mut end = StreamEnd::default();
         let mut order = validate::StampOrder::default();
-        ipc.wake_loop(&[self.truth.listener(), self.eos.listener()], None, || {
+        ipc.wake_loop(&[&self.truth, &self.eos], None, || {
             let mut failure = None;
             self.truth.drain(|sample| {
                 let gt = *sample.payload();

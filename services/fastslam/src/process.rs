@@ -9,7 +9,7 @@ use crate::health::{Health, Stream};
 use crate::persist::PersistArgs;
 use crate::sequencer::{Input, Pushed, RawScan, Scan, Sequencer};
 use crate::slam::{Slam, Step};
-use fastslam_protocol::ipc::{Flow, Ipc, Pub, SliceServer, Sub};
+use fastslam_protocol::ipc::{Flow, Ipc, Pub, SliceServer, Sub, WakeSource};
 use fastslam_protocol::status::{RejectionKind, ServiceStatus};
 use fastslam_protocol::stream::StreamEnd;
 use fastslam_protocol::validate::{self, Rejection};
@@ -426,12 +426,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let deadline = Duration::from_secs_f64(input.deadline_s);
     let (mut odo_watch, mut lidar_watch) = (Watchdog::new(deadline), Watchdog::new(deadline));
     let (mut odo_end, mut scan_end) = (StreamEnd::default(), StreamEnd::default());
-    let lidar_listener = match &lidar {
-        Lidar::Observations(sub) => sub.listener(),
-        Lidar::Scans(sub) => sub.listener(),
+    let lidar_source: &dyn WakeSource = match &lidar {
+        Lidar::Observations(sub) => sub,
+        Lidar::Scans(sub) => sub,
     };
-    let listeners = [odometry.listener(), lidar_listener, eos_in.listener()];
-    ipc.wake_loop::<anyhow::Error>(&listeners, None, || {
+    ipc.wake_loop::<anyhow::Error>(&[&odometry, lidar_source, &eos_in], None, || {
         let now = Instant::now();
         let (mut odo_heard, mut lidar_heard) = (None, None);
         // A scan taken straight from shared memory is applied while draining; an IPC

@@ -26,6 +26,7 @@ use iceoryx2::service::port_factory::publish_subscribe::PortFactory;
 use iceoryx2::service::port_factory::request_response::PortFactory as RequestResponsePortFactory;
 use iceoryx2::waitset::WaitSetRunResult;
 use std::fmt::Debug;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// The iceoryx2 service flavour the stack uses: inter-process, shared memory.
@@ -285,58 +286,72 @@ impl Ipc {
         }
     }
 
-    /// Sleeps until any of `listeners` fires (or `tick` elapses, if given) and calls
-    /// `on_wake` each time, until it returns [`Flow::Stop`] or a signal arrives.
+    /// Sleeps until the listener of any of `sources` fires (or `tick` elapses, if given)
+    /// and calls `on_wake` once per wake-up, until it returns [`Flow::Stop`] or a signal
+    /// arrives.
     ///
-    /// `on_wake` should drain every subscriber it owns: wake-ups are not per sample, and
-    /// it is also called at least every [`LOST_WAKEUP_GUARD`].
+    /// `on_wake` must drain every source on every call: wake-ups are not per sample, one
+    /// wake-up may stand for several sources, and `on_wake` is also called at least every
+    /// [`LOST_WAKEUP_GUARD`]. The loop only marks the sources whose listener fired
+    /// ([`WakeSource::fired`]); their next [`Sub::drain`] clears the listener before it
+    /// receives, so a wake-up costs one clearing per source that fired or has samples,
+    /// not one per source.
     ///
     /// # Errors
     /// [`IpcError::Iceoryx`] when the WaitSet fails, or whatever `on_wake` returns.
     pub fn wake_loop<E: From<IpcError>>(
         &self,
-        listeners: &[&Listener<Service>],
+        sources: &[&dyn WakeSource],
         tick: Option<Duration>,
         mut on_wake: impl FnMut() -> std::result::Result<Flow, E>,
     ) -> std::result::Result<Ended, E> {
         let waitset = WaitSetBuilder::new()
             .create::<Service>()
             .map_err(iox_err("create waitset"))?;
-        let mut guards = Vec::with_capacity(listeners.len());
-        for l in listeners {
+        let mut guards = Vec::with_capacity(sources.len());
+        for s in sources {
             guards.push(
                 waitset
-                    .attach_notification(*l)
+                    .attach_notification(s.listener())
                     .map_err(iox_err("attach listener"))?,
             );
         }
         let period = tick.map_or(LOST_WAKEUP_GUARD, |t| t.min(LOST_WAKEUP_GUARD));
-        let tick_guard = waitset
+        let _tick_guard = waitset
             .attach_interval(period)
             .map_err(iox_err("attach interval"))?;
-        // Samples published before this loop started raise no new event: look once first.
+        // Samples published before this loop started may raise no new event: look once
+        // first (a drain that finds samples clears its listener).
         if on_wake()? == Flow::Stop {
             return Ok(Ended::Done);
         }
-        let mut failure = None;
-        let result = waitset.wait_and_process(|_| match on_wake() {
-            Ok(Flow::Continue) => CallbackProgression::Continue,
-            Ok(Flow::Stop) => CallbackProgression::Stop,
-            Err(e) => {
-                failure = Some(e);
-                CallbackProgression::Stop
+        loop {
+            let mut fired = false;
+            let result = waitset
+                .wait_and_process_once(|id| {
+                    fired = true;
+                    if let Some((_, s)) = guards
+                        .iter()
+                        .zip(sources)
+                        .find(|(g, _)| id.has_event_from(g))
+                    {
+                        s.fired();
+                    } // otherwise the interval
+                    CallbackProgression::Continue
+                })
+                .map_err(iox_err("wait"))?;
+            match result {
+                WaitSetRunResult::Interrupt | WaitSetRunResult::TerminationRequest => {
+                    shutdown::request();
+                    return Ok(Ended::Signal);
+                }
+                // `StopRequest` cannot happen: the callback never stops.
+                WaitSetRunResult::StopRequest | WaitSetRunResult::AllEventsHandled => {}
             }
-        });
-        drop((guards, tick_guard));
-        if let Some(e) = failure {
-            return Err(e);
-        }
-        match result.map_err(iox_err("wait"))? {
-            WaitSetRunResult::Interrupt | WaitSetRunResult::TerminationRequest => {
-                shutdown::request();
-                Ok(Ended::Signal)
+            // A timed wait can end before the interval's deadline is due: nothing fired.
+            if fired && on_wake()? == Flow::Stop {
+                return Ok(Ended::Done);
             }
-            WaitSetRunResult::StopRequest | WaitSetRunResult::AllEventsHandled => Ok(Ended::Done),
         }
     }
 
@@ -536,6 +551,16 @@ impl<T: Debug + ZeroCopySend + 'static> Wire for [T] {
     ) -> std::result::Result<Option<Sample<Service, Self, H>>, ReceiveError> {
         subscriber.receive()
     }
+}
+
+/// What an [`Ipc::wake_loop`] sleeps on: a [`Sub`], whose listener the loop attaches to
+/// its `WaitSet`. A trait so that subscribers of different types share one loop.
+pub trait WakeSource {
+    /// The listener the loop attaches.
+    fn listener(&self) -> &Listener<Service>;
+    /// Called by the loop when the listener fired; the next drain clears its wake-ups
+    /// (otherwise the `WaitSet` keeps firing).
+    fn fired(&self);
 }
 
 /// The longest [`Ipc::wake_loop`] sleeps without looking at its subscribers.
@@ -754,6 +779,8 @@ where
 pub struct Sub<P: Wire + ?Sized, H: Debug + ZeroCopySend + 'static> {
     subscriber: Subscriber<Service, P, H>,
     listener: Listener<Service>,
+    /// The listener fired since the last drain (set by [`Ipc::wake_loop`]).
+    fired: AtomicBool,
     topic: &'static str,
 }
 
@@ -784,13 +811,9 @@ where
         Ok(Self {
             subscriber,
             listener,
+            fired: AtomicBool::new(false),
             topic: topic.name,
         })
-    }
-
-    /// The listener to attach to a `WaitSet`.
-    pub fn listener(&self) -> &Listener<Service> {
-        &self.listener
     }
 
     /// The topic name (without prefix), for logs.
@@ -798,15 +821,31 @@ where
         self.topic
     }
 
-    /// Takes every pending sample, in publication order, after clearing the pending
-    /// wake-ups (otherwise the `WaitSet` keeps firing).
+    /// Takes every pending sample, in publication order.
+    ///
+    /// When the listener fired (see [`Ipc::wake_loop`]) or samples are pending, it first
+    /// clears the listener's wake-ups: before receiving, so that a sample sent meanwhile
+    /// wakes the loop again. A drain that finds neither costs no syscall. Clearing on
+    /// pending samples also resets a listener that iceoryx2 left "notified" without a
+    /// wake-up on its socket (see [`LOST_WAKEUP_GUARD`]): such a listener never fires
+    /// again until cleared, so its samples would otherwise only be seen when another
+    /// listener or the interval wakes the loop.
     ///
     /// # Errors
-    /// [`IpcError::Iceoryx`] when receiving fails.
+    /// [`IpcError::Iceoryx`] when clearing the listener or receiving fails.
     pub fn drain(&self, mut each: impl FnMut(Sample<Service, P, H>)) -> Result<usize> {
+        let fired = self.fired.swap(false, Ordering::Relaxed);
+        if !fired
+            && !self
+                .subscriber
+                .has_samples()
+                .map_err(iox_err(format!("look for samples on {}", self.topic)))?
+        {
+            return Ok(0);
+        }
         self.listener
             .try_wait(|_| {})
-            .map_err(iox_err(format!("wait on {}", self.topic)))?;
+            .map_err(iox_err(format!("clear the wake-ups on {}", self.topic)))?;
         let mut n = 0;
         while let Some(sample) =
             P::receive(&self.subscriber).map_err(iox_err(format!("receive on {}", self.topic)))?
@@ -818,10 +857,146 @@ where
     }
 }
 
+impl<P, H> WakeSource for Sub<P, H>
+where
+    P: Wire + ?Sized,
+    H: Debug + ZeroCopySend + 'static,
+{
+    fn listener(&self) -> &Listener<Service> {
+        &self.listener
+    }
+
+    fn fired(&self) {
+        self.fired.store(true, Ordering::Relaxed);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::EndOfStream;
+
+    /// A stack of its own for one test: prefix and root, removed by [`TestStack::drop`].
+    struct TestStack {
+        prefix: String,
+        root: std::path::PathBuf,
+    }
+
+    impl TestStack {
+        fn new(tag: &str) -> Self {
+            let prefix = format!("{tag}{}x", std::process::id());
+            let root = std::env::temp_dir().join("fsl").join(&prefix);
+            Self { prefix, root }
+        }
+
+        fn config(&self) -> StackConfig {
+            StackConfig {
+                prefix: self.prefix.clone(),
+                root: Some(self.root.display().to_string()),
+            }
+        }
+    }
+
+    impl Drop for TestStack {
+        fn drop(&mut self) {
+            for e in std::fs::read_dir("/dev/shm")
+                .into_iter()
+                .flatten()
+                .flatten()
+            {
+                if e.file_name().to_string_lossy().starts_with(&self.prefix) {
+                    let _ = std::fs::remove_file(e.path());
+                }
+            }
+            let _ = std::fs::remove_dir_all(&self.root);
+        }
+    }
+
+    /// Two listeners that both fired make one call of `on_wake` (which sees both
+    /// samples), and the loop then sleeps until the next tick instead of calling again
+    /// at once (both drains cleared their listeners). Samples sent before the loop are
+    /// seen by its first look, and leave no wake-up behind.
+    #[test]
+    fn wake_loop_calls_back_once_per_wake_up_and_then_sleeps() {
+        let test = TestStack::new("wlo");
+        let stack = test.config();
+        let (done, result) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let run = || -> Result<Vec<(Duration, usize)>> {
+                let ipc = Ipc::open(&stack, "test", Duration::from_secs(5))?;
+                let eos_out = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
+                let status_out = ipc.publisher::<crate::ServiceStatus>(&topics::STATUS)?;
+                let eos = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
+                let status = ipc.subscriber::<crate::ServiceStatus>(&topics::STATUS)?;
+                let send_both = || -> Result<()> {
+                    eos_out.send(EndOfStream::default())?;
+                    status_out.send(crate::ServiceStatus::default())
+                };
+                send_both()?;
+                let started = Instant::now();
+                let mut calls = Vec::new();
+                ipc.wake_loop::<IpcError>(&[&eos, &status], None, || {
+                    let seen = eos.drain(|_| {})? + status.drain(|_| {})?;
+                    calls.push((started.elapsed(), seen));
+                    if calls.len() == 1 {
+                        send_both()?; // both listeners fire during the next wait
+                    }
+                    Ok(if calls.len() == 3 {
+                        Flow::Stop
+                    } else {
+                        Flow::Continue
+                    })
+                })?;
+                Ok(calls)
+            };
+            let _ = done.send(run().map_err(|e| e.to_string()));
+        });
+        let calls = result
+            .recv_timeout(Duration::from_secs(10))
+            .expect("the loop hangs")
+            .expect("the loop failed");
+        let seen: Vec<usize> = calls.iter().map(|c| c.1).collect();
+        assert_eq!(seen, [2, 2, 0], "samples seen per call: {calls:?}");
+        // The third call can only be the interval's (the first is due a guard period
+        // after the loop started); one right after the second would be a wasted wake-up.
+        assert!(
+            calls[2].0 >= LOST_WAKEUP_GUARD / 2,
+            "on_wake called again without a new sample: {calls:?}"
+        );
+    }
+
+    /// A listener that nothing ever clears (one whose subscriber is never drained or
+    /// waited on) never makes its notifier block or fail, however many samples go by:
+    /// after the first wake-up its notifiers skip the datagram.
+    #[test]
+    fn a_listener_never_cleared_never_blocks_its_notifier() {
+        let test = TestStack::new("unc");
+        let stack = test.config();
+        let (done, result) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let run = || -> Result<usize> {
+                let ipc = Ipc::open(&stack, "test", Duration::from_secs(5))?;
+                let out = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
+                let sub = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
+                let _never_cleared = ipc
+                    .event(&topics::END_OF_STREAM)?
+                    .listener_builder()
+                    .create()
+                    .map_err(iox_err("create listener"))?;
+                let mut seen = 0;
+                for _ in 0..2000 {
+                    out.send(EndOfStream::default())?;
+                    seen += sub.drain(|_| {})?;
+                }
+                Ok(seen)
+            };
+            let _ = done.send(run().map_err(|e| e.to_string()));
+        });
+        let seen = result
+            .recv_timeout(Duration::from_secs(10))
+            .expect("a notifier blocked");
+        assert_eq!(seen, Ok(2000));
+    }
 
     /// Without notifications a wake loop still looks again (see [`LOST_WAKEUP_GUARD`]);
     /// before the guard this loop slept forever.
@@ -843,7 +1018,7 @@ mod tests {
                 .subscriber::<EndOfStream>(&topics::END_OF_STREAM)
                 .unwrap();
             let mut calls = 0;
-            let ended = ipc.wake_loop::<IpcError>(&[sub.listener()], None, || {
+            let ended = ipc.wake_loop::<IpcError>(&[&sub], None, || {
                 calls += 1;
                 Ok(if calls == 3 {
                     Flow::Stop
