@@ -3,23 +3,22 @@
 //! landmark it changes (ALGORITHMS.md §1 step 6, DESIGN.md "Fast").
 //!
 //! Storage is two persistent B+ trees from `imbl` (16 entries per node):
-//! - `by_id`: `id` → [`Landmark`], the landmarks themselves: a lookup by id (known
-//!   association, negative evidence) or an update is one tree walk;
-//! - `by_cell`: the set of keys `(cell_x, cell_y, id)`, the spatial index. Cells are
-//!   squares of side `cell_size` (m), derived from each landmark's mean; landmarks of one
-//!   cell column form contiguous key ranges, so a window query is one range scan per
-//!   column. A landmark's key changes only when its mean leaves its cell.
+//! - `by_cell`: key `(cell_x, cell_y, id)` → [`Landmark`]. Cells are squares of side
+//!   `cell_size` (m); landmarks of one cell column form contiguous key ranges, so a
+//!   window query is one range scan per column. This *is* the spatial index — there is
+//!   no second copy of the landmarks to keep in step.
+//! - `cell_of`: `id` → cell, for lookups by id (known association) and removal.
 //!
 //! Beside them, the sorted ids of the *tentative* landmarks (`hits` below a threshold,
 //! see [`LandmarkMap::track_tentative`]), kept up to date by every write: negative
 //! evidence visits only those, by id, instead of scanning the sensor's footprint.
 //!
-//! Cloning a map is O(1) (three reference-count increments); an update, insertion or
+//! Cloning a map is O(1) (two reference-count increments); an update, insertion or
 //! removal costs O(log M) and copies O(log M) nodes of the writing particle only.
 
 use crate::observation;
 use crate::pose::Pose2;
-use imbl::{OrdMap, OrdSet};
+use imbl::OrdMap;
 use nalgebra::{Matrix2, Vector2};
 use std::sync::Arc;
 
@@ -45,20 +44,11 @@ pub struct Landmark {
 /// Grid cell coordinates (cell_x, cell_y).
 type Cell = (i64, i64);
 
-/// The cell of the spatial index that holds point `p`.
-fn cell_of(p: &Vector2<f64>, cell_size: f64) -> Cell {
-    // Float-to-int `as` saturates, so far-away points land in the border cells.
-    (
-        (p[0] / cell_size).floor() as i64,
-        (p[1] / cell_size).floor() as i64,
-    )
-}
-
 /// A particle's landmark map; see the module documentation for the layout and costs.
 #[derive(Debug, Clone)]
 pub struct LandmarkMap {
-    by_id: OrdMap<u64, Landmark>,
-    by_cell: OrdSet<(i64, i64, u64)>,
+    by_cell: OrdMap<(i64, i64, u64), Landmark>,
+    cell_of: OrdMap<u64, Cell>,
     /// Ids of the landmarks with `hits < tentative_below`, sorted; shared between copies
     /// until one of them changes the set.
     tentative: Arc<Vec<u64>>,
@@ -73,8 +63,8 @@ impl LandmarkMap {
     /// (finite, > 0; the filter's config checks it).
     pub fn new(cell_size: f64) -> Self {
         Self {
-            by_id: OrdMap::new(),
-            by_cell: OrdSet::new(),
+            by_cell: OrdMap::new(),
+            cell_of: OrdMap::new(),
             tentative: Arc::default(),
             tentative_below: 0,
             next_id: 0,
@@ -90,12 +80,13 @@ impl LandmarkMap {
     /// tentative landmarks when a landmark joins or leaves it.
     pub fn track_tentative(mut self, min_hits: u32) -> Self {
         self.tentative_below = min_hits;
-        let ids: Vec<u64> = self
-            .by_id
+        let mut ids: Vec<u64> = self
+            .by_cell
             .values()
             .filter(|l| l.hits < min_hits)
             .map(|l| l.id)
             .collect();
+        ids.sort_unstable();
         self.tentative = Arc::new(ids);
         self
     }
@@ -125,47 +116,50 @@ impl LandmarkMap {
 
     /// Number of landmarks.
     pub fn len(&self) -> usize {
-        self.by_id.len()
+        self.cell_of.len()
     }
 
     /// True when the map holds no landmark.
     pub fn is_empty(&self) -> bool {
-        self.by_id.is_empty()
+        self.cell_of.is_empty()
     }
 
     /// True when both maps are the very same storage (a resampled copy nobody has
     /// written to yet): sharing costs no memory.
     pub fn shares_storage_with(&self, other: &Self) -> bool {
-        self.by_id.ptr_eq(&other.by_id)
-            && self.by_cell.ptr_eq(&other.by_cell)
+        self.by_cell.ptr_eq(&other.by_cell)
+            && self.cell_of.ptr_eq(&other.cell_of)
             && Arc::ptr_eq(&self.tentative, &other.tentative)
     }
 
     fn cell(&self, p: &Vector2<f64>) -> Cell {
-        cell_of(p, self.cell_size)
+        // Float-to-int `as` saturates, so far-away points land in the border cells.
+        (
+            (p[0] / self.cell_size).floor() as i64,
+            (p[1] / self.cell_size).floor() as i64,
+        )
     }
 
     /// The landmark with `id`.
     ///
     /// # Performance
-    /// O(log M), one tree lookup.
+    /// O(log M), two tree lookups.
     pub fn get(&self, id: u64) -> Option<&Landmark> {
-        self.by_id.get(&id)
+        let (cx, cy) = *self.cell_of.get(&id)?;
+        self.by_cell.get(&(cx, cy, id))
     }
 
-    /// Every landmark, by id.
+    /// Every landmark, in spatial-index order (cell column, cell row, id).
     pub fn iter(&self) -> impl Iterator<Item = &Landmark> + '_ {
-        self.by_id.values()
+        self.by_cell.values()
     }
 
     /// Landmarks whose mean lies within `radius` metres of `centre`.
     ///
     /// # Performance
     /// One range scan per cell column crossed by the disc's bounding box (columns are
-    /// clipped to the map's extent) and one lookup per landmark in the box:
-    /// O((columns + k) · log M) for k landmarks in the box, independent of M but for the
-    /// logarithm at a fixed landmark density. The order is the index's (cell column, cell
-    /// row, id).
+    /// clipped to the map's extent): O(columns · log M + k) for k landmarks in the box,
+    /// independent of M for a fixed landmark density.
     pub fn within(
         &self,
         centre: Vector2<f64>,
@@ -173,12 +167,12 @@ impl LandmarkMap {
     ) -> impl Iterator<Item = &Landmark> + '_ {
         let (lo_x, lo_y) = self.cell(&(centre - Vector2::repeat(radius)));
         let (hi_x, hi_y) = self.cell(&(centre + Vector2::repeat(radius)));
-        let first_column = self.by_cell.get_min().map_or(0, |(cx, _, _)| *cx);
-        let last_column = self.by_cell.get_max().map_or(-1, |(cx, _, _)| *cx);
+        let first_column = self.by_cell.get_min().map_or(0, |((cx, _, _), _)| *cx);
+        let last_column = self.by_cell.get_max().map_or(-1, |((cx, _, _), _)| *cx);
         let radius_squared = radius * radius;
         (lo_x.max(first_column)..=hi_x.min(last_column))
             .flat_map(move |cx| self.by_cell.range((cx, lo_y, 0)..=(cx, hi_y, u64::MAX)))
-            .filter_map(|(_, _, id)| self.by_id.get(id))
+            .map(|(_, landmark)| landmark)
             .filter(move |landmark| (landmark.mean - centre).norm_squared() <= radius_squared)
     }
 
@@ -210,42 +204,44 @@ impl LandmarkMap {
         self.remove(landmark.id);
         let (cx, cy) = self.cell(&landmark.mean);
         self.next_id = self.next_id.max(landmark.id.saturating_add(1));
-        self.by_cell.insert((cx, cy, landmark.id));
+        self.cell_of.insert(landmark.id, (cx, cy));
         self.classify(landmark.id, landmark.hits);
-        self.by_id.insert(landmark.id, landmark);
+        self.by_cell.insert((cx, cy, landmark.id), landmark);
     }
 
     /// Applies `change` to the landmark with `id`, moving it in the spatial index if its
     /// mean left its cell. Returns false (and does nothing) when there is no such id.
     ///
     /// # Performance
-    /// O(log M); copies only the tree path to this landmark if it is shared (and the
-    /// index's paths when the landmark changes cell).
+    /// O(log M); copies only the tree path to this landmark if it is shared.
     pub fn update(&mut self, id: u64, change: impl FnOnce(&mut Landmark)) -> bool {
-        let cell_size = self.cell_size;
-        let Some(landmark) = self.by_id.get_mut(&id) else {
+        let Some(&(cx, cy)) = self.cell_of.get(&id) else {
             return false;
         };
-        let (hits_before, cell_before) = (landmark.hits, cell_of(&landmark.mean, cell_size));
+        let Some(landmark) = self.by_cell.get_mut(&(cx, cy, id)) else {
+            return false;
+        };
+        let hits_before = landmark.hits;
         change(landmark);
-        let (hits, cell) = (landmark.hits, cell_of(&landmark.mean, cell_size));
+        let (mean, hits) = (landmark.mean, landmark.hits);
         if hits != hits_before {
             self.classify(id, hits);
         }
-        if cell != cell_before {
-            self.by_cell.remove(&(cell_before.0, cell_before.1, id));
-            self.by_cell.insert((cell.0, cell.1, id));
+        let moved_to = self.cell(&mean);
+        if moved_to != (cx, cy)
+            && let Some(landmark) = self.by_cell.remove(&(cx, cy, id))
+        {
+            self.by_cell.insert((moved_to.0, moved_to.1, id), landmark);
+            self.cell_of.insert(id, moved_to);
         }
         true
     }
 
     /// Removes and returns the landmark with `id`.
     pub fn remove(&mut self, id: u64) -> Option<Landmark> {
-        let landmark = self.by_id.remove(&id)?;
-        let (cx, cy) = self.cell(&landmark.mean);
-        self.by_cell.remove(&(cx, cy, id));
+        let (cx, cy) = self.cell_of.remove(&id)?;
         self.classify(id, u32::MAX);
-        Some(landmark)
+        self.by_cell.remove(&(cx, cy, id))
     }
 
     /// A landmark built from one observation `z` seen from `pose` ([`observation::initialise`]).
