@@ -49,10 +49,5 @@ fn ctrl_c_leaves_no_process_and_no_shared_memory() {
         "stopping took {:?}",
         start.elapsed()
     );
-    assert_eq!(
-        leftovers(&prefix),
-        (vec![], vec![]),
-        "processes or shared memory left behind"
-    );
-    std::fs::remove_dir_all(&dir).ok();
+    assert_no_leftovers_and_remove(&prefix, &dir);
 }

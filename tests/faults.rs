@@ -130,8 +130,7 @@ fn a_garbage_publisher_is_counted_and_the_run_still_finishes() {
         "{logged} rejection lines for {k} bad messages: the log is not rate-limited"
     );
     remove_stack_files(&prefix, &std::env::temp_dir().join("fsl").join(&prefix));
-    assert_eq!(leftovers(&prefix), (vec![], vec![]));
-    std::fs::remove_dir_all(&dir).ok();
+    assert_no_leftovers_and_remove(&prefix, &dir);
 }
 
 /// A short real-time drive (the start of `bailey-short` at 6 m/s: about 12 s simulated),
@@ -350,7 +349,7 @@ fn survive_a_sensor_restart(sensor: &'static str, quiet: u32, max_ate_m: f64) {
     assert!(ate < max_ate_m, "ATE {ate} m after a {sensor} restart: {m}");
     let prefix = stack.stack.prefix.clone();
     drop(stack);
-    assert_eq!(leftovers(&prefix), (vec![], vec![]));
+    assert_no_leftovers(&prefix);
 }
 
 #[test]
@@ -392,7 +391,7 @@ fn sensors_may_start_before_the_service() {
     );
     let prefix = stack.stack.prefix.clone();
     drop(stack);
-    assert_eq!(leftovers(&prefix), (vec![], vec![]));
+    assert_no_leftovers(&prefix);
 }
 
 /// Resident memory of process `pid` (kB), from `/proc/<pid>/status`.
@@ -478,5 +477,5 @@ fn an_odometry_flood_stays_bounded_and_poses_keep_coming() {
     );
     let prefix = stack.stack.prefix.clone();
     drop(stack);
-    assert_eq!(leftovers(&prefix), (vec![], vec![]));
+    assert_no_leftovers(&prefix);
 }

@@ -73,8 +73,7 @@ fn map_get_returns_the_current_map_of_a_running_stack() {
         mid_run.len(),
         last.len()
     );
-    assert_eq!(leftovers(&prefix), (vec![], vec![]));
-    std::fs::remove_dir_all(&dir).ok();
+    assert_no_leftovers_and_remove(&prefix, &dir);
 }
 
 #[test]
@@ -92,6 +91,5 @@ fn map_get_without_a_service_fails_with_one_line() {
         "{stderr}"
     );
     assert!(!dir.join("got.csv").exists(), "no file without an answer");
-    assert_eq!(leftovers(&prefix), (vec![], vec![]));
-    std::fs::remove_dir_all(&dir).ok();
+    assert_no_leftovers_and_remove(&prefix, &dir);
 }

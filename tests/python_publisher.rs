@@ -145,6 +145,5 @@ fn the_service_runs_on_what_the_python_publisher_sends() {
     );
     assert!(num(&m, "/map/rmse_m") < 0.5, "{m}");
     drop(stack);
-    assert_eq!(leftovers(&prefix), (vec![], vec![]));
-    std::fs::remove_dir_all(&dir).ok();
+    assert_no_leftovers_and_remove(&prefix, &dir);
 }

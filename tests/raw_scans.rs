@@ -130,8 +130,7 @@ fn the_structured_world_runs_end_to_end_with_raw_scans() {
     println!("structured-100m grid: precision {precision:.3}, recall {recall:.3}");
     assert!(precision > 0.9, "grid precision {precision:.3}");
     assert!(out.join("map.png").is_file());
-    assert_eq!(leftovers(&prefix), (vec![], vec![]));
-    std::fs::remove_dir_all(&dir).ok();
+    assert_no_leftovers_and_remove(&prefix, &dir);
 }
 
 #[test]

@@ -165,6 +165,5 @@ fn a_missing_data_folder_or_profile_is_reported_with_its_reason() {
         err.contains("nope") && err.contains("victoria-park"),
         "{err}"
     );
-    assert_eq!(leftovers(&prefix), (vec![], vec![]));
-    std::fs::remove_dir_all(&dir).ok();
+    assert_no_leftovers_and_remove(&prefix, &dir);
 }

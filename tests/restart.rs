@@ -66,12 +66,7 @@ fn sigterm_stops_the_service_cleanly_with_its_checkpoint_and_map() {
     let saved = map_file::load(&map).expect("the map loads");
     let best = &checkpoint.filter.maps[checkpoint.filter.particles[0].map as usize];
     assert!(!saved.is_empty() && saved.len() <= best.landmarks.len() + 30);
-    assert_eq!(
-        leftovers(&prefix),
-        (vec![], vec![]),
-        "processes or shared memory left behind"
-    );
-    std::fs::remove_dir_all(&dir).ok();
+    assert_no_leftovers_and_remove(&prefix, &dir);
 }
 
 #[test]
@@ -116,8 +111,7 @@ fn localisation_only_on_a_saved_map_keeps_the_map_and_tracks_the_pose() {
         ate_localising < 2.0 * ate_mapping + 0.5,
         "localising ATE {ate_localising} m vs mapping {ate_mapping} m"
     );
-    assert_eq!(leftovers(&prefix), (vec![], vec![]));
-    std::fs::remove_dir_all(&dir).ok();
+    assert_no_leftovers_and_remove(&prefix, &dir);
 }
 
 /// Runs the service alone with `flags`; it must fail before joining any stack.
@@ -151,8 +145,7 @@ fn bad_checkpoints_and_unknown_flags_fail_with_one_line() {
     assert!(line.contains("--load-map"), "{line}");
     let line = service_fails(&prefix, &["--no-such-flag"]);
     assert!(line.contains("--no-such-flag"), "{line}");
-    assert_eq!(leftovers(&prefix), (vec![], vec![]));
-    std::fs::remove_dir_all(&dir).ok();
+    assert_no_leftovers_and_remove(&prefix, &dir);
 }
 
 #[test]
@@ -226,6 +219,5 @@ fn a_sigkilled_service_resumes_from_its_checkpoint_without_a_long_gap() {
     eprintln!("resumed run: longest gap {gap:.2} s, ATE {ate:.3} m");
     assert!(ate < 3.0, "ATE {ate} m");
     drop(stack);
-    assert_eq!(leftovers(&prefix), (vec![], vec![]));
-    std::fs::remove_dir_all(&dir).ok();
+    assert_no_leftovers_and_remove(&prefix, &dir);
 }

@@ -49,12 +49,7 @@ fn fastslam_beats_dead_reckoning_through_the_real_processes() {
     ] {
         assert!(out.join(file).is_file(), "{file} missing");
     }
-    assert_eq!(
-        leftovers(&prefix),
-        (vec![], vec![]),
-        "processes or shared memory left behind"
-    );
-    std::fs::remove_dir_all(&dir).ok();
+    assert_no_leftovers_and_remove(&prefix, &dir);
 }
 
 #[test]
@@ -111,6 +106,5 @@ fn bad_flags_and_scenarios_are_reported_with_their_reason() {
         .unwrap();
     assert!(!unknown.status.success());
     assert!(String::from_utf8_lossy(&unknown.stderr).contains("--no-such-flag"));
-    assert_eq!(leftovers(&prefix), (vec![], vec![]));
-    std::fs::remove_dir_all(&dir).ok();
+    assert_no_leftovers_and_remove(&prefix, &dir);
 }

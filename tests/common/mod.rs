@@ -88,6 +88,21 @@ pub fn leftovers(prefix: &str) -> (Vec<String>, Vec<String>) {
     (processes, files)
 }
 
+/// Fails the test if a process or a shared-memory file of stack `prefix` is left.
+pub fn assert_no_leftovers(prefix: &str) {
+    assert_eq!(
+        leftovers(prefix),
+        (vec![], vec![]),
+        "processes or shared memory left behind"
+    );
+}
+
+/// [`assert_no_leftovers`], then removes the test's folder `dir` (kept when it fails).
+pub fn assert_no_leftovers_and_remove(prefix: &str, dir: &Path) {
+    assert_no_leftovers(prefix);
+    std::fs::remove_dir_all(dir).ok();
+}
+
 /// Fails the test with the launcher's output unless it exited 0.
 pub fn assert_success(out: &Output) {
     assert!(
