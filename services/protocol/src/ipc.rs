@@ -897,6 +897,21 @@ mod tests {
         }
     }
 
+    /// Runs `test` with an `Ipc` on `stack` on a thread of its own and returns what it
+    /// returned (errors as text); fails with `hang` if it has not returned within 10 s.
+    fn on_thread<T: Send + 'static>(
+        stack: StackConfig,
+        hang: &str,
+        test: impl FnOnce(&Ipc) -> Result<T> + Send + 'static,
+    ) -> std::result::Result<T, String> {
+        let (done, result) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let run = || test(&Ipc::open(&stack, "test", Duration::from_secs(5))?);
+            let _ = done.send(run().map_err(|e| e.to_string()));
+        });
+        result.recv_timeout(Duration::from_secs(10)).expect(hang)
+    }
+
     impl Drop for TestStack {
         fn drop(&mut self) {
             for e in std::fs::read_dir("/dev/shm")
@@ -919,42 +934,33 @@ mod tests {
     #[test]
     fn wake_loop_calls_back_once_per_wake_up_and_then_sleeps() {
         let test = TestStack::new("wlo");
-        let stack = test.config();
-        let (done, result) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
-            let run = || -> Result<Vec<(Duration, usize)>> {
-                let ipc = Ipc::open(&stack, "test", Duration::from_secs(5))?;
-                let eos_out = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
-                let status_out = ipc.publisher::<crate::ServiceStatus>(&topics::STATUS)?;
-                let eos = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
-                let status = ipc.subscriber::<crate::ServiceStatus>(&topics::STATUS)?;
-                let send_both = || -> Result<()> {
-                    eos_out.send(EndOfStream::default())?;
-                    status_out.send(crate::ServiceStatus::default())
-                };
-                send_both()?;
-                let started = Instant::now();
-                let mut calls = Vec::new();
-                ipc.wake_loop::<IpcError>(&[&eos, &status], None, || {
-                    let seen = eos.drain(|_| {})? + status.drain(|_| {})?;
-                    calls.push((started.elapsed(), seen));
-                    if calls.len() == 1 {
-                        send_both()?; // both listeners fire during the next wait
-                    }
-                    Ok(if calls.len() == 3 {
-                        Flow::Stop
-                    } else {
-                        Flow::Continue
-                    })
-                })?;
-                Ok(calls)
+        let calls = on_thread(test.config(), "the loop hangs", |ipc| {
+            let eos_out = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
+            let status_out = ipc.publisher::<crate::ServiceStatus>(&topics::STATUS)?;
+            let eos = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
+            let status = ipc.subscriber::<crate::ServiceStatus>(&topics::STATUS)?;
+            let send_both = || -> Result<()> {
+                eos_out.send(EndOfStream::default())?;
+                status_out.send(crate::ServiceStatus::default())
             };
-            let _ = done.send(run().map_err(|e| e.to_string()));
-        });
-        let calls = result
-            .recv_timeout(Duration::from_secs(10))
-            .expect("the loop hangs")
-            .expect("the loop failed");
+            send_both()?;
+            let started = Instant::now();
+            let mut calls = Vec::new();
+            ipc.wake_loop::<IpcError>(&[&eos, &status], None, || {
+                let seen = eos.drain(|_| {})? + status.drain(|_| {})?;
+                calls.push((started.elapsed(), seen));
+                if calls.len() == 1 {
+                    send_both()?; // both listeners fire during the next wait
+                }
+                Ok(if calls.len() == 3 {
+                    Flow::Stop
+                } else {
+                    Flow::Continue
+                })
+            })?;
+            Ok(calls)
+        })
+        .expect("the loop failed");
         let seen: Vec<usize> = calls.iter().map(|c| c.1).collect();
         assert_eq!(seen, [2, 2, 0], "samples seen per call: {calls:?}");
         // The third call can only be the interval's (the first is due a guard period
@@ -971,30 +977,21 @@ mod tests {
     #[test]
     fn a_listener_never_cleared_never_blocks_its_notifier() {
         let test = TestStack::new("unc");
-        let stack = test.config();
-        let (done, result) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
-            let run = || -> Result<usize> {
-                let ipc = Ipc::open(&stack, "test", Duration::from_secs(5))?;
-                let out = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
-                let sub = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
-                let _never_cleared = ipc
-                    .event(&topics::END_OF_STREAM)?
-                    .listener_builder()
-                    .create()
-                    .map_err(iox_err("create listener"))?;
-                let mut seen = 0;
-                for _ in 0..2000 {
-                    out.send(EndOfStream::default())?;
-                    seen += sub.drain(|_| {})?;
-                }
-                Ok(seen)
-            };
-            let _ = done.send(run().map_err(|e| e.to_string()));
+        let seen = on_thread(test.config(), "a notifier blocked", |ipc| {
+            let out = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
+            let sub = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
+            let _never_cleared = ipc
+                .event(&topics::END_OF_STREAM)?
+                .listener_builder()
+                .create()
+                .map_err(iox_err("create listener"))?;
+            let mut seen = 0;
+            for _ in 0..2000 {
+                out.send(EndOfStream::default())?;
+                seen += sub.drain(|_| {})?;
+            }
+            Ok(seen)
         });
-        let seen = result
-            .recv_timeout(Duration::from_secs(10))
-            .expect("a notifier blocked");
         assert_eq!(seen, Ok(2000));
     }
 
@@ -1002,46 +999,24 @@ mod tests {
     /// before the guard this loop slept forever.
     #[test]
     fn wake_loop_looks_again_when_no_notification_arrives() {
-        let prefix = format!("wlg{}x", std::process::id());
-        let root = std::env::temp_dir().join("fsl").join(&prefix);
-        let stack = StackConfig {
-            prefix: prefix.clone(),
-            root: Some(root.display().to_string()),
-        };
-        let (done, result) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
-            let ipc = Ipc::open(&stack, "test", Duration::from_secs(5)).unwrap();
-            let _publisher = ipc
-                .publisher::<EndOfStream>(&topics::END_OF_STREAM)
-                .unwrap();
-            let sub = ipc
-                .subscriber::<EndOfStream>(&topics::END_OF_STREAM)
-                .unwrap();
-            let mut calls = 0;
-            let ended = ipc.wake_loop::<IpcError>(&[&sub], None, || {
-                calls += 1;
-                Ok(if calls == 3 {
-                    Flow::Stop
-                } else {
-                    Flow::Continue
+        let test = TestStack::new("wlg");
+        let ended = on_thread(
+            test.config(),
+            "the loop never woke up without a notification",
+            |ipc| {
+                let _publisher = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
+                let sub = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
+                let mut calls = 0;
+                ipc.wake_loop::<IpcError>(&[&sub], None, || {
+                    calls += 1;
+                    Ok(if calls == 3 {
+                        Flow::Stop
+                    } else {
+                        Flow::Continue
+                    })
                 })
-            });
-            let _ = done.send(ended.map_err(|e| e.to_string()));
-        });
-        let ended = result.recv_timeout(Duration::from_secs(10));
-        for e in std::fs::read_dir("/dev/shm")
-            .into_iter()
-            .flatten()
-            .flatten()
-        {
-            if e.file_name().to_string_lossy().starts_with(&prefix) {
-                let _ = std::fs::remove_file(e.path());
-            }
-        }
-        let _ = std::fs::remove_dir_all(&root);
-        assert_eq!(
-            ended.expect("the loop never woke up without a notification"),
-            Ok(Ended::Done)
+            },
         );
+        assert_eq!(ended, Ok(Ended::Done));
     }
 }
