@@ -58,7 +58,7 @@ pub fn run_in_process(
     let mut apply = |sequencer: &mut Sequencer, recording: &mut Recording| {
         while let Some(input) = sequencer.release() {
             let started = Instant::now();
-            let step = slam.apply(&input);
+            let step = slam.apply(&input, &mut |_| {});
             filter_time += started.elapsed();
             sequencer.recycle(input);
             if let Ok(Some(step)) = step {

@@ -36,6 +36,8 @@ struct Sim {
 struct Errors {
     filter: Vec<f64>,
     dead_reckoning: Vec<f64>,
+    /// Scans after which the particles were resampled.
+    resampled: usize,
 }
 
 fn rms(v: &[f64]) -> f64 {
@@ -130,10 +132,18 @@ impl Sim {
             scan.extend(extra(s, &self.truth));
             let sensor = slam.config().sensor.clone();
             let refiner = refiner.as_mut().map(|r| &mut **r as &mut dyn PoseRefiner);
-            slam.update_with(&scan, &sensor, refiner).unwrap();
-            errors
-                .filter
-                .push(distance(&slam.estimate().mean, &self.truth));
+            let mut published = None;
+            let report = slam
+                .update_publishing(&scan, &sensor, refiner, |e| published = Some(*e))
+                .unwrap();
+            let estimate = slam.estimate();
+            assert_eq!(
+                published,
+                Some(estimate),
+                "the estimate handed out before the map updates is the step's own"
+            );
+            errors.resampled += usize::from(report.resampled);
+            errors.filter.push(distance(&estimate.mean, &self.truth));
             errors
                 .dead_reckoning
                 .push(distance(&self.dead_reckoning, &self.truth));
@@ -572,6 +582,31 @@ fn prior_map_is_shared_and_checked() {
         theta: 0.0,
     };
     assert!(FastSlam::new(FastSlamConfig::default(), nan_start).is_err());
+}
+
+#[test]
+fn the_estimate_is_published_before_the_maps_are_written() {
+    // `Sim::run` checks at every scan that the estimate handed to `publish` equals
+    // `estimate()` after the step; this run takes both branches (resampled or not).
+    let mut sim = Sim::new(corridor(60.0, 10.0), 5);
+    let mut slam = FastSlam::new(config(AssociationMode::Unknown, 5), Pose2::default()).unwrap();
+    let errors = sim.run(&mut slam, 40, |s| 0.05 * (s as f64 * 0.2).sin(), no_clutter);
+    assert!(
+        errors.resampled > 0 && errors.resampled < 40,
+        "resampled after {} of 40 scans",
+        errors.resampled
+    );
+    // A failing step publishes nothing.
+    let bad = Sensor {
+        max_range: -1.0,
+        ..Sensor::default()
+    };
+    let mut published = false;
+    assert!(
+        slam.update_publishing(&sim.scan(), &bad, None, |_| published = true)
+            .is_err()
+    );
+    assert!(!published);
 }
 
 #[test]

@@ -8,7 +8,7 @@ use crate::deadline::{Change, Watchdog};
 use crate::health::{Health, Stream};
 use crate::persist::PersistArgs;
 use crate::sequencer::{Input, Pushed, RawScan, Scan, Sequencer};
-use crate::slam::{Slam, Step};
+use crate::slam::{PoseSink, Slam, Step};
 use fastslam_protocol::ipc::{Flow, Ipc, Pub, SliceServer, Sub, WakeSource};
 use fastslam_protocol::status::{RejectionKind, ServiceStatus};
 use fastslam_protocol::stream::StreamEnd;
@@ -286,11 +286,10 @@ impl Core {
         persist: &PersistArgs,
     ) -> anyhow::Result<()> {
         while let Some(input) = self.sequencer.release() {
-            let started = Instant::now();
             self.scans += u64::from(!matches!(input, Input::Odometry(_)));
-            let applied = self.slam.apply(&input);
+            let stepped = self.step(|slam, publish| slam.apply(&input, publish), config, persist);
             self.sequencer.recycle(input);
-            self.after(applied, started, config, persist)?;
+            stepped?;
         }
         Ok(())
     }
@@ -301,25 +300,47 @@ impl Core {
     fn direct(
         &mut self,
         stamp: u64,
-        step: impl FnOnce(&mut Slam) -> fastslam_estimation::Result<Step>,
+        step: impl FnOnce(&mut Slam, PoseSink<'_>) -> fastslam_estimation::Result<Step>,
         config: &ServiceConfig,
         persist: &PersistArgs,
     ) -> anyhow::Result<()> {
         while let Some(m) = self.sequencer.odometry_through(stamp) {
-            let started = Instant::now();
-            let applied = self.slam.apply(&Input::Odometry(m));
-            self.after(applied, started, config, persist)?;
+            let odometry = Input::Odometry(m);
+            self.step(
+                |slam, publish| slam.apply(&odometry, publish),
+                config,
+                persist,
+            )?;
         }
         self.sequencer.took_directly(stamp);
         self.direct_scans += 1;
         self.scans += 1;
+        self.step(
+            |slam, publish| step(slam, publish).map(Some),
+            config,
+            persist,
+        )
+    }
+
+    /// Runs one filter input through `apply`, publishing its pose the moment the filter
+    /// has it (before the maps are updated: the pose's latency is half the step's), then
+    /// the rest of what it produced ([`Core::after`]).
+    fn step(
+        &mut self,
+        apply: impl FnOnce(&mut Slam, PoseSink<'_>) -> fastslam_estimation::Result<Option<Step>>,
+        config: &ServiceConfig,
+        persist: &PersistArgs,
+    ) -> anyhow::Result<()> {
         let started = Instant::now();
-        let applied = step(&mut self.slam).map(Some);
+        let out = &mut self.out;
+        let mut sent = Ok(());
+        let applied = apply(&mut self.slam, &mut |pose| sent = out.pose(pose));
+        sent?;
         self.after(applied, started, config, persist)
     }
 
-    /// Publishes what an applied input produced (pose, map and grid when due, status,
-    /// checkpoint when due), or counts the filter's refusal.
+    /// Publishes what an applied input produced besides its pose (map and grid when due,
+    /// status, checkpoint when due), or counts the filter's refusal.
     fn after(
         &mut self,
         applied: fastslam_estimation::Result<Option<Step>>,
@@ -332,7 +353,6 @@ impl Core {
                 let status =
                     self.health
                         .step(&step, started.elapsed(), &self.slam, &self.sequencer);
-                self.out.pose(step.pose)?;
                 let stamp_ns = step.pose.header.stamp_ns;
                 let due = |every: u64| every > 0 && self.health.steps().is_multiple_of(every);
                 if due(config.output.map_every) {
@@ -463,7 +483,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             |h: Header,
              what: &str,
              check: Result<(), Rejection>,
-             direct: &mut dyn FnMut(&mut Slam) -> fastslam_estimation::Result<Step>,
+             direct: &mut dyn FnMut(
+                &mut Slam,
+                PoseSink<'_>,
+            ) -> fastslam_estimation::Result<Step>,
              queue: &mut dyn FnMut(&mut Sequencer) -> Pushed| {
                 scan_end.saw(h.seq);
                 if !floor.admits(1, h.stamp_ns) {
@@ -492,7 +515,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     header.header,
                     "observations",
                     validate::observations(&header, s.payload()),
-                    &mut |slam| slam.observe(&header, s.payload()),
+                    &mut |slam, publish| slam.observe(&header, s.payload(), publish),
                     &mut |sequencer| {
                         let observations = sequencer.copy_observations(s.payload());
                         sequencer.push_scan(Scan {
@@ -509,7 +532,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     header.header,
                     "scan",
                     validate::laser_scan(&header, s.payload()),
-                    &mut |slam| slam.observe_raw(&header, ranges),
+                    &mut |slam, publish| slam.observe_raw(&header, ranges, publish),
                     &mut |sequencer| {
                         let ranges = sequencer.copy_ranges(ranges);
                         sequencer.push_raw_scan(RawScan { header, ranges })

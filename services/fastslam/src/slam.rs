@@ -39,6 +39,10 @@ pub struct Slam {
     observations: Vec<Observation>,
 }
 
+/// Where an observation step sends its pose the moment the filter has it, before the
+/// maps are updated (see [`FastSlam::update_publishing`]); the service publishes it.
+pub type PoseSink<'a> = &'a mut dyn FnMut(PoseEstimate);
+
 /// What an observation step produced.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Step {
@@ -139,12 +143,17 @@ impl Slam {
     }
 
     /// Applies one input: odometry predicts over the interval since the previous odometry
-    /// stamp; a scan updates and yields a [`Step`].
+    /// stamp; a scan updates, hands its pose to `publish` as soon as it is known, and
+    /// yields a [`Step`].
     ///
     /// # Errors
-    /// The filter's error (bad input, degenerate weights); the filter is then unchanged
-    /// and the service carries on with the next input.
-    pub fn apply(&mut self, input: &Input) -> fastslam_estimation::Result<Option<Step>> {
+    /// The filter's error (bad input, degenerate weights); the filter is then unchanged,
+    /// nothing is published, and the service carries on with the next input.
+    pub fn apply(
+        &mut self,
+        input: &Input,
+        publish: PoseSink<'_>,
+    ) -> fastslam_estimation::Result<Option<Step>> {
         match input {
             Input::Odometry(m) => {
                 let now = m.header.stamp_ns;
@@ -159,8 +168,12 @@ impl Slam {
                 }
                 Ok(None)
             }
-            Input::Scan(scan) => self.observe(&scan.header, &scan.observations).map(Some),
-            Input::RawScan(raw) => self.observe_raw(&raw.header, &raw.ranges).map(Some),
+            Input::Scan(scan) => self
+                .observe(&scan.header, &scan.observations, publish)
+                .map(Some),
+            Input::RawScan(raw) => self
+                .observe_raw(&raw.header, &raw.ranges, publish)
+                .map(Some),
         }
     }
 
@@ -174,6 +187,7 @@ impl Slam {
         &mut self,
         header: &ObservationsHeader,
         observations: &[fastslam_protocol::Observation],
+        publish: PoseSink<'_>,
     ) -> fastslam_estimation::Result<Step> {
         self.coast_to(header.header.stamp_ns)?;
         let mut buffer = std::mem::take(&mut self.observations);
@@ -184,7 +198,7 @@ impl Slam {
             id: o.known_id(),
         }));
         let sensor = self.sensor(header.max_range, header.min_bearing, header.max_bearing);
-        let step = self.update(header.header, &buffer, &sensor);
+        let step = self.update(header.header, &buffer, &sensor, publish);
         self.observations = buffer;
         step
     }
@@ -236,6 +250,7 @@ impl Slam {
         &mut self,
         h: &LaserScanHeader,
         ranges: &[f32],
+        publish: PoseSink<'_>,
     ) -> fastslam_estimation::Result<Step> {
         self.coast_to(h.header.stamp_ns)?;
         let scan = RangeScan {
@@ -257,7 +272,7 @@ impl Slam {
         // 2. The filter step; poles are found up to the extractor's range.
         let max_range = self.extractor.max_range.min(scan.range_max);
         let sensor = self.sensor(max_range, scan.angle_min, h.angle_max());
-        let step = self.update(h.header, &observations, &sensor)?;
+        let step = self.update(h.header, &observations, &sensor, publish)?;
         // 3. A keyframe for the grid: every particle records its pose.
         let estimate = Pose2::new(step.pose.x, step.pose.y, step.pose.theta);
         if let Some(keyframe) = self.mapper.offer(&scan, estimate) {
@@ -271,19 +286,23 @@ impl Slam {
         header: Header,
         observations: &[Observation],
         sensor: &Sensor,
+        publish: PoseSink<'_>,
     ) -> fastslam_estimation::Result<Step> {
         let refiner = self.refiner.as_mut().map(|r| r as &mut dyn PoseRefiner);
-        let report = self.filter.update_with(observations, sensor, refiner)?;
-        let estimate = self.filter.estimate();
-        let c = estimate.covariance;
-        let covariance = std::array::from_fn(|k| c[(k / 3, k % 3)]);
-        let pose = PoseEstimate {
-            header,
-            x: estimate.mean.x,
-            y: estimate.mean.y,
-            theta: estimate.mean.theta,
-            covariance,
-        };
+        let mut pose = PoseEstimate::default();
+        let report = self
+            .filter
+            .update_publishing(observations, sensor, refiner, |estimate| {
+                let c = estimate.covariance;
+                pose = PoseEstimate {
+                    header,
+                    x: estimate.mean.x,
+                    y: estimate.mean.y,
+                    theta: estimate.mean.theta,
+                    covariance: std::array::from_fn(|k| c[(k / 3, k % 3)]),
+                };
+                publish(pose);
+            })?;
         Ok(Step {
             pose,
             report,
@@ -387,7 +406,8 @@ mod tests {
         config.filter.particles = 20;
         let mut slam = Slam::new(&config).unwrap();
         for k in 0..=40 {
-            slam.apply(&odometry(k * 25_000_000, 2.0)).unwrap();
+            slam.apply(&odometry(k * 25_000_000, 2.0), &mut |_| {})
+                .unwrap();
         }
         slam.set_coasting(coasting);
         let header = ObservationsHeader {
@@ -404,7 +424,7 @@ mod tests {
             header,
             observations: Vec::new(),
         });
-        slam.apply(&scan).unwrap().unwrap().pose.x
+        slam.apply(&scan, &mut |_| {}).unwrap().unwrap().pose.x
     }
 
     #[test]
@@ -419,9 +439,13 @@ mod tests {
         let mut config = ServiceConfig::default();
         config.filter.particles = 20;
         let mut slam = Slam::new(&config).unwrap();
-        assert_eq!(slam.apply(&odometry(0, 0.0)).unwrap(), None);
+        assert_eq!(slam.apply(&odometry(0, 0.0), &mut |_| {}).unwrap(), None);
         for k in 1..=40 {
-            assert_eq!(slam.apply(&odometry(k * 25_000_000, 2.0)).unwrap(), None);
+            assert_eq!(
+                slam.apply(&odometry(k * 25_000_000, 2.0), &mut |_| {})
+                    .unwrap(),
+                None
+            );
         }
         let header = ObservationsHeader {
             header: Header {
@@ -440,13 +464,18 @@ mod tests {
             diameter: 0.0,
             id: -1,
         };
+        let mut published = Vec::new();
         let step = slam
-            .apply(&Input::Scan(Scan {
-                header,
-                observations: vec![obs],
-            }))
+            .apply(
+                &Input::Scan(Scan {
+                    header,
+                    observations: vec![obs],
+                }),
+                &mut |pose| published.push(pose),
+            )
             .unwrap()
             .unwrap();
+        assert_eq!(published, [step.pose], "the step's pose, published once");
         assert_eq!(step.pose.header.stamp_ns, 1_000_000_000);
         assert!(
             (step.pose.x - 2.0).abs() < 0.5,
@@ -470,7 +499,7 @@ mod tests {
         let mut config = ServiceConfig::default();
         config.filter.particles = 10;
         let mut slam = Slam::new(&config).unwrap();
-        assert_eq!(slam.apply(&odometry(0, 0.0)).unwrap(), None);
+        assert_eq!(slam.apply(&odometry(0, 0.0), &mut |_| {}).unwrap(), None);
         // A full turn of 720 beams: a pole of radius 0.2 m at (4, 0) inside a round wall
         // of radius 8 m.
         let increment = TAU / 720.0;
@@ -496,7 +525,7 @@ mod tests {
             ..Default::default()
         };
         let step = slam
-            .apply(&Input::RawScan(RawScan { header, ranges }))
+            .apply(&Input::RawScan(RawScan { header, ranges }), &mut |_| {})
             .unwrap()
             .unwrap();
         assert_eq!(step.observations, 1, "one pole, no wall");

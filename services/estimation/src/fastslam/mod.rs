@@ -32,6 +32,7 @@ pub mod snapshot;
 pub mod trail;
 
 pub use crate::moves::WeightBasis;
+use crate::resample::Resampled;
 pub use crate::resample::{ResamplingConfig, ResamplingScheme};
 pub use association::{AssociationConfig, AssociationMode, Scan};
 pub use config::{FastSlamConfig, PriorFloor};
@@ -386,6 +387,27 @@ impl FastSlam {
         sensor: &Sensor,
         refiner: Option<&mut dyn PoseRefiner>,
     ) -> Result<StepReport> {
+        self.update_publishing(observations, sensor, refiner, |_| {})
+    }
+
+    /// [`update_with`](Self::update_with), handing the step's pose estimate to `publish`
+    /// the moment it is known: after weighing and the resampling draw, before the map
+    /// updates. A caller can send the pose while the maps are still being written, which
+    /// takes about half of a step. The estimate is the very one [`estimate`](Self::estimate)
+    /// returns after the step: the map updates move no pose, and the draw reads only the
+    /// weights.
+    ///
+    /// `publish` is called once if the step succeeds, never if it fails.
+    ///
+    /// # Errors
+    /// As [`update_with`](Self::update_with).
+    pub fn update_publishing(
+        &mut self,
+        observations: &[Observation],
+        sensor: &Sensor,
+        refiner: Option<&mut dyn PoseRefiner>,
+        publish: impl FnOnce(&PoseEstimate),
+    ) -> Result<StepReport> {
         sensor.validate()?;
         if refiner.is_some() && !self.motion_prior {
             return Err(Error::InvalidParameter {
@@ -459,6 +481,31 @@ impl FastSlam {
         // 5. Normalise (log-sum-exp) and N_eff.
         let mut weights = spare_weights.take().unwrap_or_else(|| self.weights.clone());
         weights.renormalise(log_weights)?;
+        let neff = weights.ess();
+
+        // 6a. Draw the resampling ancestors when N_eff < neff_ratio · N: the draw reads only
+        // the weights, so the step's estimate is known before any map is written.
+        let resampled = if self.config.resampling.due(&weights) {
+            let mut rng = stream(self.config.seed, &[step, 0, PURPOSE_RESAMPLE]);
+            let resampled = self.config.resampling.draw(&weights, &mut rng);
+            weights.renormalise(&resampled.log_weights)?;
+            Some(resampled)
+        } else {
+            None
+        };
+
+        // 7. The estimate, handed out now.
+        let estimate = match &resampled {
+            Some(r) => PoseEstimate::from_weighted(
+                r.ancestors.iter().map(|&a| self.particles[a].pose),
+                weights.as_slice(),
+            ),
+            None => PoseEstimate::from_weighted(
+                self.particles.iter().map(|p| p.pose),
+                weights.as_slice(),
+            ),
+        };
+        publish(&estimate);
 
         // 4. Update the maps: EKF updates, new landmarks, negative evidence. The pose is
         // settled: the next step's motion prior starts from it.
@@ -475,10 +522,10 @@ impl FastSlam {
         });
         let total =
             |f: fn(&MapChanges) -> usize| -> usize { steps.iter().map(|s| f(&s.changes)).sum() };
-        let mut report = StepReport {
-            neff: weights.ess(),
-            resampled: self.config.resampling.due(&weights),
-            distinct: n,
+        let report = StepReport {
+            neff,
+            resampled: resampled.is_some(),
+            distinct: resampled.as_ref().map_or(n, |r| r.distinct()),
             matched: total(|c| c.matched),
             new_landmarks: total(|c| c.created),
             ignored: total(|c| c.ignored),
@@ -486,26 +533,24 @@ impl FastSlam {
             rejected: observations.len() - accepted.len(),
         };
 
-        // 6. Resample when N_eff < neff_ratio · N.
-        if report.resampled {
-            report.distinct = self.resample(&weights, step)?;
-        } else {
-            for (p, &lw) in self.particles.iter_mut().zip(weights.log_weights()) {
-                p.log_weight = lw;
+        // 6b. The resampled particles: copies of their updated ancestors.
+        match &resampled {
+            Some(r) => self.replace_by_copies(r),
+            None => {
+                for (p, &lw) in self.particles.iter_mut().zip(weights.log_weights()) {
+                    p.log_weight = lw;
+                }
             }
-            std::mem::swap(&mut self.weights, &mut weights);
         }
+        std::mem::swap(&mut self.weights, &mut weights);
         self.scratch.spare_weights = Some(weights);
         self.step = step;
         Ok(report)
     }
 
-    /// Replaces the particles by resampled copies (O(1) each: maps are shared) and
-    /// returns the number of distinct ancestors.
-    fn resample(&mut self, weights: &Weights, step: u64) -> Result<usize> {
-        let mut rng = stream(self.config.seed, &[step, 0, PURPOSE_RESAMPLE]);
-        let resampled = self.config.resampling.draw(weights, &mut rng);
-        self.weights.renormalise(&resampled.log_weights)?;
+    /// Replaces the particles by the copies `resampled` draws (O(1) each: maps are
+    /// shared).
+    fn replace_by_copies(&mut self, resampled: &Resampled) {
         let before = &mut self.scratch.spare_particles;
         std::mem::swap(before, &mut self.particles);
         self.particles
@@ -518,7 +563,6 @@ impl FastSlam {
         // Dropping the old particles now releases their references to the maps, so the
         // next writes copy only what the new particles really share.
         before.clear();
-        Ok(resampled.distinct())
     }
 
     /// Records every particle's current pose under `keyframe` in its [`Trail`] (for
