@@ -22,7 +22,7 @@
 //!   is much larger than the observation's.
 
 use super::ekf::{self, Innovation};
-use super::landmarks::LandmarkMap;
+use super::landmarks::{LandmarkMap, Slot};
 use crate::Result;
 use crate::check::{positive, require};
 use crate::observation::{self, Observation, Sensor};
@@ -125,9 +125,10 @@ pub struct Scan<'a> {
 /// What one observation does to one particle's map.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum Decision {
-    /// EKF-update landmark `id` with this innovation and Jacobian (w.r.t. the landmark).
+    /// EKF-update the landmark stored at `slot` with this innovation and Jacobian (w.r.t.
+    /// the landmark).
     Update {
-        id: u64,
+        slot: Slot,
         h: Matrix2<f64>,
         innovation: Innovation,
     },
@@ -153,9 +154,8 @@ struct Claimed<'d>(&'d [Decision]);
 impl Claimed<'_> {
     fn contains(self, id: u64) -> bool {
         self.0.iter().any(|d| match *d {
-            Decision::Update { id: claimed, .. } | Decision::New { id: Some(claimed) } => {
-                claimed == id
-            }
+            Decision::Update { slot, .. } => slot.id() == id,
+            Decision::New { id: Some(claimed) } => claimed == id,
             Decision::New { id: None } | Decision::Ignore => false,
         })
     }
@@ -247,7 +247,7 @@ impl<'a> Scan<'a> {
         if claimed.contains(id) {
             return (Decision::Ignore, log_p_new);
         }
-        let Some(landmark) = map.get(id) else {
+        let Some((slot, landmark)) = map.locate(id) else {
             return (Decision::New { id: Some(id) }, log_p_new);
         };
         let z = obs.z();
@@ -256,7 +256,14 @@ impl<'a> Scan<'a> {
             .map_or((Decision::Ignore, log_p_new), |(p, innovation)| {
                 let contribution = innovation.log_likelihood;
                 let h = p.wrt_landmark;
-                (Decision::Update { id, h, innovation }, contribution)
+                (
+                    Decision::Update {
+                        slot,
+                        h,
+                        innovation,
+                    },
+                    contribution,
+                )
             })
     }
 
@@ -278,8 +285,8 @@ impl<'a> Scan<'a> {
         let mut best: Option<Decision> = None;
         let mut best_log_likelihood = f64::NEG_INFINITY;
         let mut min_d2 = f64::INFINITY;
-        for landmark in map.within(point, radius) {
-            if claimed.contains(landmark.id) {
+        for (slot, landmark) in map.within(point, radius) {
+            if claimed.contains(slot.id()) {
                 continue;
             }
             let Some(p) = observation::predict(pose, &landmark.mean) else {
@@ -292,7 +299,7 @@ impl<'a> Scan<'a> {
             if innovation.log_likelihood > best_log_likelihood {
                 best_log_likelihood = innovation.log_likelihood;
                 best = Some(Decision::Update {
-                    id: landmark.id,
+                    slot,
                     h: p.wrt_landmark,
                     innovation,
                 });
@@ -352,7 +359,7 @@ mod tests {
             seen(&pose, 20.0, 1.15, None),
         ];
         let a = Scan::new(&obs, &sensor, &config, 0).associate(&map, &pose);
-        assert!(matches!(a.decisions[0], Decision::Update { id: 2, .. }));
+        assert!(matches!(a.decisions[0], Decision::Update { slot, .. } if slot.id() == 2));
         assert_eq!(
             a.decisions[1],
             Decision::New { id: None },
@@ -384,7 +391,7 @@ mod tests {
         let config = AssociationConfig::default();
         let obs = [seen(&pose, 10.0, 0.0, None), seen(&pose, 10.0, 0.05, None)];
         let a = Scan::new(&obs, &sensor, &config, 0).associate(&map, &pose);
-        assert!(matches!(a.decisions[0], Decision::Update { id: 1, .. }));
+        assert!(matches!(a.decisions[0], Decision::Update { slot, .. } if slot.id() == 1));
         assert_eq!(a.decisions[1], Decision::New { id: None });
     }
 
@@ -403,7 +410,7 @@ mod tests {
             seen(&pose, 10.0, 0.0, Some(2)),
         ];
         let a = Scan::new(&obs, &sensor, &config, 0).associate(&map, &pose);
-        assert!(matches!(a.decisions[0], Decision::Update { id: 2, .. }));
+        assert!(matches!(a.decisions[0], Decision::Update { slot, .. } if slot.id() == 2));
         assert_eq!(a.decisions[1], Decision::New { id: Some(9) });
         assert_eq!(
             a.decisions[2],

@@ -74,15 +74,15 @@ impl NegativeEvidence {
         let tentative = map.tentative();
         let mut removed = 0;
         for &id in tentative.iter() {
-            let in_view = map.get(id).is_some_and(|landmark| {
-                let z = observation::measure(pose, &landmark.mean);
-                sensor.sees(&z, self.margin_range, self.margin_bearing)
-            });
-            if !in_view {
+            let Some((slot, landmark)) = map.locate(id) else {
+                continue;
+            };
+            let z = observation::measure(pose, &landmark.mean);
+            if !sensor.sees(&z, self.margin_range, self.margin_bearing) {
                 continue;
             }
             let mut expired = false;
-            map.update(id, |landmark| {
+            map.update_at(slot, |landmark| {
                 landmark.chances = landmark.chances.saturating_add(1);
                 expired = landmark.chances >= self.chances;
             });

@@ -44,10 +44,36 @@ pub struct Landmark {
 /// Grid cell coordinates (cell_x, cell_y).
 type Cell = (i64, i64);
 
+/// Where a landmark is stored in a map: its cell and id, the key of `by_cell`. A read
+/// ([`LandmarkMap::locate`], [`LandmarkMap::within`]) hands it out so that a later write
+/// of the same map ([`LandmarkMap::update_at`]) need not look the id up again. It stays
+/// valid until that landmark moves to another cell or is removed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub struct Slot {
+    cell_x: i64,
+    cell_y: i64,
+    id: u64,
+}
+
+impl Slot {
+    /// The landmark's id.
+    pub fn id(&self) -> u64 {
+        self.id
+    }
+
+    fn new((cell_x, cell_y): Cell, id: u64) -> Self {
+        Self { cell_x, cell_y, id }
+    }
+
+    fn cell(&self) -> Cell {
+        (self.cell_x, self.cell_y)
+    }
+}
+
 /// A particle's landmark map; see the module documentation for the layout and costs.
 #[derive(Debug, Clone)]
 pub struct LandmarkMap {
-    by_cell: OrdMap<(i64, i64, u64), Landmark>,
+    by_cell: OrdMap<Slot, Landmark>,
     cell_of: OrdMap<u64, Cell>,
     /// Ids of the landmarks with `hits < tentative_below`, sorted; shared between copies
     /// until one of them changes the set.
@@ -145,8 +171,25 @@ impl LandmarkMap {
     /// # Performance
     /// O(log M), two tree lookups.
     pub fn get(&self, id: u64) -> Option<&Landmark> {
-        let (cx, cy) = *self.cell_of.get(&id)?;
-        self.by_cell.get(&(cx, cy, id))
+        self.locate(id).map(|(_, landmark)| landmark)
+    }
+
+    /// The landmark with `id` and where it is stored, for a later
+    /// [`update_at`](Self::update_at).
+    ///
+    /// # Performance
+    /// O(log M), two tree lookups.
+    pub fn locate(&self, id: u64) -> Option<(Slot, &Landmark)> {
+        let slot = Slot::new(*self.cell_of.get(&id)?, id);
+        self.by_cell.get(&slot).map(|landmark| (slot, landmark))
+    }
+
+    /// The landmark stored at `slot`, if it is still there.
+    ///
+    /// # Performance
+    /// O(log M), one tree lookup.
+    pub fn at(&self, slot: Slot) -> Option<&Landmark> {
+        self.by_cell.get(&slot)
     }
 
     /// Every landmark, in spatial-index order (cell column, cell row, id).
@@ -154,7 +197,8 @@ impl LandmarkMap {
         self.by_cell.values()
     }
 
-    /// Landmarks whose mean lies within `radius` metres of `centre`.
+    /// Landmarks whose mean lies within `radius` metres of `centre`, with where they are
+    /// stored.
     ///
     /// # Performance
     /// One range scan per cell column crossed by the disc's bounding box (columns are
@@ -164,16 +208,19 @@ impl LandmarkMap {
         &self,
         centre: Vector2<f64>,
         radius: f64,
-    ) -> impl Iterator<Item = &Landmark> + '_ {
+    ) -> impl Iterator<Item = (Slot, &Landmark)> + '_ {
         let (lo_x, lo_y) = self.cell(&(centre - Vector2::repeat(radius)));
         let (hi_x, hi_y) = self.cell(&(centre + Vector2::repeat(radius)));
-        let first_column = self.by_cell.get_min().map_or(0, |((cx, _, _), _)| *cx);
-        let last_column = self.by_cell.get_max().map_or(-1, |((cx, _, _), _)| *cx);
+        let first_column = self.by_cell.get_min().map_or(0, |(slot, _)| slot.cell_x);
+        let last_column = self.by_cell.get_max().map_or(-1, |(slot, _)| slot.cell_x);
         let radius_squared = radius * radius;
         (lo_x.max(first_column)..=hi_x.min(last_column))
-            .flat_map(move |cx| self.by_cell.range((cx, lo_y, 0)..=(cx, hi_y, u64::MAX)))
-            .map(|(_, landmark)| landmark)
-            .filter(move |landmark| (landmark.mean - centre).norm_squared() <= radius_squared)
+            .flat_map(move |cx| {
+                self.by_cell
+                    .range(Slot::new((cx, lo_y), 0)..=Slot::new((cx, hi_y), u64::MAX))
+            })
+            .filter(move |(_, landmark)| (landmark.mean - centre).norm_squared() <= radius_squared)
+            .map(|(slot, landmark)| (*slot, landmark))
     }
 
     /// Reserves a fresh id for a new landmark (per-particle counter, never reused; it
@@ -202,11 +249,11 @@ impl LandmarkMap {
     /// O(log M); copies the touched tree paths if they are shared.
     pub fn insert(&mut self, landmark: Landmark) {
         self.remove(landmark.id);
-        let (cx, cy) = self.cell(&landmark.mean);
+        let cell = self.cell(&landmark.mean);
         self.next_id = self.next_id.max(landmark.id.saturating_add(1));
-        self.cell_of.insert(landmark.id, (cx, cy));
+        self.cell_of.insert(landmark.id, cell);
         self.classify(landmark.id, landmark.hits);
-        self.by_cell.insert((cx, cy, landmark.id), landmark);
+        self.by_cell.insert(Slot::new(cell, landmark.id), landmark);
     }
 
     /// Applies `change` to the landmark with `id`, moving it in the spatial index if its
@@ -215,33 +262,43 @@ impl LandmarkMap {
     /// # Performance
     /// O(log M); copies only the tree path to this landmark if it is shared.
     pub fn update(&mut self, id: u64, change: impl FnOnce(&mut Landmark)) -> bool {
-        let Some(&(cx, cy)) = self.cell_of.get(&id) else {
-            return false;
-        };
-        let Some(landmark) = self.by_cell.get_mut(&(cx, cy, id)) else {
+        match self.cell_of.get(&id) {
+            Some(&cell) => self.update_at(Slot::new(cell, id), change),
+            None => false,
+        }
+    }
+
+    /// [`update`](Self::update) of the landmark stored at `slot` (from a read of this
+    /// map since it last moved or removed that landmark); false, doing nothing, when it is
+    /// not there.
+    ///
+    /// # Performance
+    /// O(log M), one tree walk fewer than [`update`](Self::update).
+    pub fn update_at(&mut self, slot: Slot, change: impl FnOnce(&mut Landmark)) -> bool {
+        let Some(landmark) = self.by_cell.get_mut(&slot) else {
             return false;
         };
         let hits_before = landmark.hits;
         change(landmark);
         let (mean, hits) = (landmark.mean, landmark.hits);
         if hits != hits_before {
-            self.classify(id, hits);
+            self.classify(slot.id, hits);
         }
         let moved_to = self.cell(&mean);
-        if moved_to != (cx, cy)
-            && let Some(landmark) = self.by_cell.remove(&(cx, cy, id))
+        if moved_to != slot.cell()
+            && let Some(landmark) = self.by_cell.remove(&slot)
         {
-            self.by_cell.insert((moved_to.0, moved_to.1, id), landmark);
-            self.cell_of.insert(id, moved_to);
+            self.by_cell.insert(Slot::new(moved_to, slot.id), landmark);
+            self.cell_of.insert(slot.id, moved_to);
         }
         true
     }
 
     /// Removes and returns the landmark with `id`.
     pub fn remove(&mut self, id: u64) -> Option<Landmark> {
-        let (cx, cy) = self.cell_of.remove(&id)?;
+        let cell = self.cell_of.remove(&id)?;
         self.classify(id, u32::MAX);
-        self.by_cell.remove(&(cx, cy, id))
+        self.by_cell.remove(&Slot::new(cell, id))
     }
 
     /// A landmark built from one observation `z` seen from `pose` ([`observation::initialise`]).
@@ -287,7 +344,7 @@ mod tests {
             }
         }
         let centre = Vector2::new(3.3, -4.1);
-        let mut found: Vec<u64> = map.within(centre, 7.0).map(|l| l.id).collect();
+        let mut found: Vec<u64> = map.within(centre, 7.0).map(|(slot, _)| slot.id()).collect();
         found.sort_unstable();
         let mut expected: Vec<u64> = map
             .iter()

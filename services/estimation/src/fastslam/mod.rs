@@ -38,7 +38,7 @@ pub use association::{AssociationConfig, AssociationMode, Scan};
 pub use config::{FastSlamConfig, PriorFloor};
 pub use estimate::{MapLandmark, PoseEstimate};
 pub use evidence::NegativeEvidence;
-pub use landmarks::{Landmark, LandmarkMap};
+pub use landmarks::{Landmark, LandmarkMap, Slot};
 pub use particle::{MotionPrior, Particle};
 pub use proposal::Proposal;
 pub use refine::OptimiserRefiner;

@@ -135,8 +135,12 @@ impl Particle {
         let mut changes = MapChanges::default();
         for (obs, decision) in scan.observations().iter().zip(&association.decisions) {
             match *decision {
-                Decision::Update { id, h, innovation } => {
-                    self.map.update(id, |landmark| {
+                Decision::Update {
+                    slot,
+                    h,
+                    innovation,
+                } => {
+                    self.map.update_at(slot, |landmark| {
                         ekf::update(
                             &mut landmark.mean,
                             &mut landmark.covariance,

@@ -75,10 +75,13 @@ fn gaussian(scan: &Scan<'_>, particle: &Particle) -> Option<(Pose2, Matrix3<f64>
     let mut log_likelihood = association.log_likelihood;
     let mut matched = 0;
     for (obs, decision) in scan.observations().iter().zip(&association.decisions) {
-        let Decision::Update { id, innovation, .. } = decision else {
+        let Decision::Update {
+            slot, innovation, ..
+        } = decision
+        else {
             continue;
         };
-        let Some(landmark) = particle.map().get(*id) else {
+        let Some(landmark) = particle.map().at(*slot) else {
             continue;
         };
         let Some(p) = predict(&mean, &landmark.mean) else {
