@@ -49,7 +49,7 @@ use crate::motion::Control;
 use crate::observation::{Observation, Sensor};
 use crate::parallel;
 use crate::pose::Pose2;
-use crate::rng::stream;
+use crate::rng::{Streams, stream};
 use crate::weights::Weights;
 use crate::{Error, Result};
 use association::ScanAssociation;
@@ -318,8 +318,9 @@ impl FastSlam {
         let with_prior = self.motion_prior;
         let predicted = &mut self.scratch.predicted;
         let parallel = parallel::pays(self.particles.len(), 1);
+        let streams = Streams::new(seed, &[step]);
         parallel::map_into(parallel, &self.particles, predicted, |i, p| {
-            let mut rng = stream(seed, &[step, i as u64, PURPOSE_PREDICT]);
+            let mut rng = streams.stream(&[i as u64, PURPOSE_PREDICT]);
             let pose = motion.sample(&p.pose, control, dt, &mut rng);
             let prior = if with_prior {
                 p.prior.predict(motion, control, dt)
@@ -438,9 +439,9 @@ impl FastSlam {
 
         // 1b. FastSLAM 2.0: draw each pose from the proposal that uses this scan.
         if self.config.proposal == Proposal::FastSlam2 {
-            let seed = self.config.seed;
+            let streams = Streams::new(self.config.seed, &[step]);
             parallel::map_into(parallel, &self.particles, drawn, |i, p| {
-                let mut rng = stream(seed, &[step, i as u64, PURPOSE_PROPOSAL]);
+                let mut rng = streams.stream(&[i as u64, PURPOSE_PROPOSAL]);
                 proposal::fastslam2(&scan, p, &mut rng)
             });
             for ((p, b), d) in self
