@@ -228,7 +228,7 @@ typedef struct fastslam_ServiceStatus {
     uint32_t particles; /* —: number of particles */
     uint32_t distinct_particles; /* —: distinct particles after the last step */
     uint64_t landmarks; /* —: landmarks in the best particle's map */
-    uint64_t step_time_ns; /* ns: wall-clock time of the last filter update */
+    uint64_t step_time_ns; /* ns: wall-clock time of the last filter update, sending its pose included (the pose goes out before the maps are updated, so it is seen earlier than this) */
     uint32_t queued[2]; /* —: inputs waiting: odometry, observations */
     uint64_t last_input_ns[2]; /* ns: newest accepted stamp: odometry, observations */
     uint32_t flags; /* —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline); bit 2: odometry quiet; bit 3: lidar quiet; bit 4: final status, sent at shutdown (not a step) */

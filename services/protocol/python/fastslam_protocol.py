@@ -217,7 +217,7 @@ class ServiceStatus(ctypes.Structure):
         ("particles", ctypes.c_uint32),  # —: number of particles
         ("distinct_particles", ctypes.c_uint32),  # —: distinct particles after the last step
         ("landmarks", ctypes.c_uint64),  # —: landmarks in the best particle's map
-        ("step_time_ns", ctypes.c_uint64),  # ns: wall-clock time of the last filter update
+        ("step_time_ns", ctypes.c_uint64),  # ns: wall-clock time of the last filter update, sending its pose included (the pose goes out before the maps are updated, so it is seen earlier than this)
         ("queued", ctypes.c_uint32 * 2),  # —: inputs waiting: odometry, observations
         ("last_input_ns", ctypes.c_uint64 * 2),  # ns: newest accepted stamp: odometry, observations
         ("flags", ctypes.c_uint32),  # —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline); bit 2: odometry quiet; bit 3: lidar quiet; bit 4: final status, sent at shutdown (not a step)

@@ -104,7 +104,9 @@ pub struct ServiceStatus {
     pub distinct_particles: u32,
     /// Landmarks in the best particle's map.
     pub landmarks: u64,
-    /// Wall-clock time of the last observation step's filter update (ns).
+    /// Wall-clock time of the last observation step's filter update, sending its pose
+    /// included (ns). The pose goes out before the maps are updated, so it is seen
+    /// earlier than this.
     pub step_time_ns: u64,
     /// Inputs waiting in the service's queues (odometry, observations).
     pub queued: [u32; 2],
