@@ -323,7 +323,7 @@ impl Core {
     }
 
     /// Runs one filter input through `apply`, publishing its pose the moment the filter
-    /// has it (before the maps are updated: the pose's latency is half the step's), then
+    /// has it (before the maps are updated, about half-way through a scan's step), then
     /// the rest of what it produced ([`Core::after`]).
     fn step(
         &mut self,

@@ -1,7 +1,9 @@
 //! FastSLAM 1.0 and 2.0 with per-particle landmark EKFs (ALGORITHMS.md §1).
 //!
-//! The filter reads top to bottom in [`FastSlam::predict`] and [`FastSlam::update_with`],
-//! one comment per stage of §1. Parts:
+//! The filter reads top to bottom in [`FastSlam::predict`] and
+//! [`FastSlam::update_publishing`], one comment per stage of §1; the stages that the pose
+//! estimate needs (weighing, the resampling draw) come before the map updates, so the
+//! estimate can be published first. Parts:
 //! - [`landmarks`]: the per-particle map, persistent and spatially indexed, shared
 //!   between resampled copies and copied only where written;
 //! - [`association`]: association and weighting of a scan against one particle's map;
