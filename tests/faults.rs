@@ -7,6 +7,8 @@ use common::*;
 use fastslam_protocol::ipc::{Ipc, StackConfig};
 use fastslam_protocol::status::{RejectionKind, ServiceStatus, flags};
 use fastslam_protocol::{EndOfStream, Header, Odometry, StreamId, topics};
+use nix::sys::signal::{Signal, kill};
+use nix::unistd::Pid;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -128,6 +130,60 @@ fn a_garbage_publisher_is_counted_and_the_run_still_finishes() {
     assert!(
         logged <= 20 && (logged as u64) < k / 4,
         "{logged} rejection lines for {k} bad messages: the log is not rate-limited"
+    );
+    remove_stack_files(&prefix, &std::env::temp_dir().join("fsl").join(&prefix));
+    assert_no_leftovers_and_remove(&prefix, &dir);
+}
+
+#[test]
+fn stray_signals_interrupt_waits_but_stop_no_process() {
+    // iceoryx2 catches SIGCONT and SIGURG (among others), and each interrupts a wait
+    // with EINTR: Ctrl-Z and `fg` send SIGTSTP and SIGCONT to every process of a stack
+    // started from a terminal. The signals start once the stack runs: during start-up
+    // they also interrupt iceoryx2's own waits, in more places than the stack retries.
+    let prefix = prefix("stray");
+    let dir = folder(&prefix);
+    let out = dir.join("run");
+    let mut launcher = launch(&prefix, &out, &short_scenario(&dir));
+    let service_log = out.join("logs").join("service.log");
+    wait_for("the service to run", Duration::from_secs(30), || {
+        std::fs::read_to_string(&service_log).is_ok_and(|log| log.contains("running"))
+    });
+    assert_eq!(
+        stack_processes(&prefix).len(),
+        6,
+        "the launcher and its five processes"
+    );
+    let started = Instant::now();
+    let mut sent = 0;
+    while started.elapsed() < Duration::from_secs(4) && launcher.try_wait().unwrap().is_none() {
+        for (pid, _) in stack_processes(&prefix) {
+            for signal in [Signal::SIGCONT, Signal::SIGURG] {
+                sent += usize::from(kill(Pid::from_raw(pid), signal).is_ok());
+            }
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let output = launcher.wait_with_output().unwrap();
+    assert!(
+        output.status.success(),
+        "launcher failed: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(sent >= 200, "only {sent} signals sent while the stack ran");
+    let lidar_log = std::fs::read_to_string(out.join("logs").join("lidar-sim.log")).unwrap();
+    let scans: f64 = lidar_log
+        .split("finished messages=")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("the lidar did not finish its route: {lidar_log}"));
+    let m = metrics(&out);
+    assert_eq!(m["complete"], true);
+    assert_eq!(
+        num(&m, "/estimate/poses"),
+        scans,
+        "a pose for every scan: no process stopped early"
     );
     remove_stack_files(&prefix, &std::env::temp_dir().join("fsl").join(&prefix));
     assert_no_leftovers_and_remove(&prefix, &dir);

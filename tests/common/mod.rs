@@ -209,15 +209,29 @@ pub fn remove_stack_files(prefix: &str, root: &Path) {
     let _ = std::fs::remove_dir_all(root);
 }
 
+/// The stack's processes running now, the launcher included: process id and subcommand
+/// (`run`, `service`, `lidar-sim`, …) of each process whose arguments hold `prefix`.
+pub fn stack_processes(prefix: &str) -> Vec<(i32, String)> {
+    let Ok(proc) = std::fs::read_dir("/proc") else {
+        return Vec::new();
+    };
+    proc.flatten()
+        .filter_map(|e| {
+            let pid = e.file_name().to_string_lossy().parse().ok()?;
+            let cmdline = std::fs::read(e.path().join("cmdline")).ok()?;
+            let args: Vec<&[u8]> = cmdline.split(|&b| b == 0).collect();
+            let subcommand = String::from_utf8_lossy(args.get(1)?).into_owned();
+            args.contains(&prefix.as_bytes())
+                .then_some((pid, subcommand))
+        })
+        .collect()
+}
+
 /// Process id of the stack's service, once it runs.
 pub fn service_pid(prefix: &str) -> Option<i32> {
-    std::fs::read_dir("/proc").ok()?.flatten().find_map(|e| {
-        let cmdline = std::fs::read(e.path().join("cmdline")).ok()?;
-        let args: Vec<&[u8]> = cmdline.split(|&b| b == 0).collect();
-        let ours = args.get(1) == Some(&b"service".as_slice()) && args.contains(&prefix.as_bytes());
-        ours.then(|| e.file_name().to_string_lossy().parse().ok())
-            .flatten()
-    })
+    stack_processes(prefix)
+        .into_iter()
+        .find_map(|(pid, subcommand)| (subcommand == "service").then_some(pid))
 }
 
 /// Polls `ready` every 10 ms for up to `limit`, failing the test with `what`.

@@ -7,6 +7,7 @@
 //! nothing"), giving up only when the process is asked to shut down.
 
 use crate::topics::{self, RequestResponse, Topic};
+use iceoryx2::node::NodeWaitFailure;
 use iceoryx2::port::ReceiveError;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
@@ -114,6 +115,11 @@ impl StackConfig {
 
 /// Process-wide shutdown flag: set once SIGINT or SIGTERM has been seen by iceoryx2's
 /// signal handler (which reports a signal only once, so it is latched here).
+///
+/// iceoryx2 catches more signals than these (SIGCONT, SIGTSTP, SIGUSR1, SIGURG, SIGPROF,
+/// …), and each of them interrupts a wait with EINTR. An interrupted wait therefore asks
+/// [`requested`] whether to stop: Ctrl-Z and `fg` in a terminal, `kill -CONT` or a
+/// sampling profiler must not end a process.
 pub mod shutdown {
     use iceoryx2_bb_posix::signal::SignalHandler;
     use std::sync::atomic::{AtomicBool, Ordering};
@@ -276,13 +282,20 @@ impl Ipc {
     /// # Errors
     /// [`IpcError::Shutdown`] when SIGINT/SIGTERM arrived.
     pub fn sleep(&self, d: Duration) -> Result<()> {
-        if self.node.wait(d).is_err() {
-            shutdown::request();
-        }
-        if shutdown::requested() {
-            Err(IpcError::Shutdown)
-        } else {
-            Ok(())
+        let until = Instant::now() + d;
+        loop {
+            let left = until.saturating_duration_since(Instant::now());
+            // `Interrupt` is any caught signal: `requested` tells a termination apart, and
+            // another signal only cut the sleep short, so it goes on.
+            if let Err(NodeWaitFailure::TerminationRequest) = self.node.wait(left) {
+                shutdown::request();
+            }
+            if shutdown::requested() {
+                return Err(IpcError::Shutdown);
+            }
+            if Instant::now() >= until {
+                return Ok(());
+            }
         }
     }
 
@@ -341,12 +354,19 @@ impl Ipc {
                 })
                 .map_err(iox_err("wait"))?;
             match result {
-                WaitSetRunResult::Interrupt | WaitSetRunResult::TerminationRequest => {
+                WaitSetRunResult::TerminationRequest => {
                     shutdown::request();
                     return Ok(Ended::Signal);
                 }
+                // EINTR: SIGINT or SIGTERM, or another signal iceoryx2 catches, which only
+                // interrupted the wait (see `shutdown`).
+                WaitSetRunResult::Interrupt if shutdown::requested() => {
+                    return Ok(Ended::Signal);
+                }
                 // `StopRequest` cannot happen: the callback never stops.
-                WaitSetRunResult::StopRequest | WaitSetRunResult::AllEventsHandled => {}
+                WaitSetRunResult::Interrupt
+                | WaitSetRunResult::StopRequest
+                | WaitSetRunResult::AllEventsHandled => {}
             }
             // A timed wait can end before the interval's deadline is due: nothing fired.
             if fired && on_wake()? == Flow::Stop {
@@ -428,12 +448,14 @@ impl Ipc {
         let name = topics::service_name(&self.prefix, rr.name);
         let service_name =
             ServiceName::new(&name).map_err(iox_err(format!("service name {name}")))?;
-        self.node
-            .service_builder(&service_name)
-            .request_response::<Q, [T]>()
-            .response_user_header::<H>()
-            .open_or_create()
-            .map_err(iox_err(format!("open service {name}")))
+        retry_interrupted(|| {
+            self.node
+                .service_builder(&service_name)
+                .request_response::<Q, [T]>()
+                .response_user_header::<H>()
+                .open_or_create()
+        })
+        .map_err(iox_err(format!("open service {name}")))
     }
 
     fn pubsub<P, H>(&self, topic: &Topic) -> Result<PortFactory<Service, P, H>>
@@ -444,17 +466,20 @@ impl Ipc {
         let name = topics::service_name(&self.prefix, topic.name);
         let service_name =
             ServiceName::new(&name).map_err(iox_err(format!("service name {name}")))?;
-        let builder = self
-            .node
-            .service_builder(&service_name)
-            .publish_subscribe::<P>()
-            .user_header::<H>()
-            .enable_safe_overflow(false)
-            .subscriber_max_buffer_size(topic.buffer)
-            .history_size(topic.history)
-            .max_publishers(topics::MAX_PUBLISHERS)
-            .max_subscribers(topics::MAX_SUBSCRIBERS);
-        P::open_service(builder).map_err(iox_err(format!("open service {name}")))
+        retry_interrupted(|| {
+            let builder = self
+                .node
+                .service_builder(&service_name)
+                .publish_subscribe::<P>()
+                .user_header::<H>()
+                .enable_safe_overflow(false)
+                .subscriber_max_buffer_size(topic.buffer)
+                .history_size(topic.history)
+                .max_publishers(topics::MAX_PUBLISHERS)
+                .max_subscribers(topics::MAX_SUBSCRIBERS);
+            P::open_service(builder)
+        })
+        .map_err(iox_err(format!("open service {name}")))
     }
 
     fn event(
@@ -464,11 +489,31 @@ impl Ipc {
         let name = topics::service_name(&self.prefix, topic.name);
         let service_name =
             ServiceName::new(&name).map_err(iox_err(format!("service name {name}")))?;
-        self.node
-            .service_builder(&service_name)
-            .event()
-            .open_or_create()
-            .map_err(iox_err(format!("open event {name}")))
+        retry_interrupted(|| {
+            self.node
+                .service_builder(&service_name)
+                .event()
+                .open_or_create()
+        })
+        .map_err(iox_err(format!("open event {name}")))
+    }
+}
+
+/// Runs `open` again while it fails only because a signal cut one of iceoryx2's waits
+/// short (the `Interrupt` variants of its errors) and the process is not shutting down.
+/// Opening a service waits while another process creates it, and any signal iceoryx2
+/// catches interrupts that wait (see [`shutdown`]): Ctrl-Z and `fg` during start-up must
+/// not fail the stack.
+fn retry_interrupted<T, E: Debug>(
+    mut open: impl FnMut() -> std::result::Result<T, E>,
+) -> std::result::Result<T, E> {
+    loop {
+        match open() {
+            Err(e) if format!("{e:?}").contains("Interrupt") && !shutdown::requested() => {
+                tracing::debug!(error = ?e, "interrupted by a signal: trying again");
+            }
+            done => return done,
+        }
     }
 }
 
