@@ -3,7 +3,8 @@
 //!
 //! 1. Filter step time over particles N × landmarks M per optimiser (synthetic workload of
 //!    `fastslam_estimation::workload`), with the growth ratios ×N and ×M.
-//! 2. End-to-end latency through the real processes at the scenario's real-time rate.
+//! 2. End-to-end latency through the real processes at the scenario's real-time rate;
+//!    optionally the same with one particle, the pipeline's floor on this machine.
 //! 3. As-fast-as-possible throughput of the whole multi-process stack against the
 //!    in-process driver on the same scenario (the ratio is the IPC overhead), with CPU
 //!    time and peak memory per process.
@@ -40,8 +41,10 @@ pub struct BenchArgs {
     /// Measured steps per grid cell (median reported; default 31, quick 11).
     #[arg(long)]
     pub steps: Option<usize>,
-    /// Only these parts, comma-separated: step, latency, throughput, memory (default: the
-    /// first three; memory runs long).
+    /// Only these parts, comma-separated: step, latency, latency-floor, throughput,
+    /// memory (default: step, latency, throughput). `latency-floor` repeats the latency
+    /// run with one particle: what the processes and the machine cost when the filter
+    /// costs nothing. `memory` runs long.
     #[arg(long, value_delimiter = ',', default_value = "step,latency,throughput")]
     pub parts: Vec<String>,
     /// Scenario of the latency measurement (real time: its simulated length is the wall
@@ -73,10 +76,13 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     for part in &args.parts {
         match part.as_str() {
             "step" => step_times(args)?,
-            "latency" => latency(args)?,
+            "latency" => latency(args, args.stack_particles)?,
+            "latency-floor" => latency(args, 1)?,
             "throughput" => throughput(args)?,
             "memory" => memory(args)?,
-            other => bail!("unknown part `{other}`: step, latency, throughput or memory"),
+            other => {
+                bail!("unknown part `{other}`: step, latency, latency-floor, throughput or memory")
+            }
         }
     }
     Ok(())
@@ -176,11 +182,11 @@ fn step_times(args: &BenchArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Runs the whole stack and returns its `metrics.json`.
+/// Runs the whole stack with `particles` and returns its `metrics.json`.
 fn stack_run(
     args: &BenchArgs,
     scenario: &str,
-    label: &str,
+    (label, particles): (&str, usize),
     realtime: bool,
 ) -> anyhow::Result<(serde_json::Value, Duration)> {
     let out = args.out.join(label);
@@ -188,7 +194,7 @@ fn stack_run(
         scenario: scenario.to_string(),
         seed: None,
         choice: Default::default(),
-        particles: Some(args.stack_particles),
+        particles: Some(particles),
         config: None,
         out: Some(out.clone()),
         runs_dir: args.out.clone(),
@@ -257,18 +263,23 @@ fn print_processes(m: &serde_json::Value) {
     println!("  {:<18} {:>10.3}", "all", num(m, "/cost/stack_cpu_s"));
 }
 
-/// Part 2: end-to-end latency at the real-time rate.
-fn latency(args: &BenchArgs) -> anyhow::Result<()> {
+/// Part 2: end-to-end latency at the real-time rate with `particles` (1 for the floor).
+fn latency(args: &BenchArgs, particles: usize) -> anyhow::Result<()> {
     let scenario = if args.quick {
         "indoor-loop"
     } else {
         &args.latency_scenario
     };
-    println!(
-        "\n[latency] {scenario}, N = {}, real time, through the processes",
-        args.stack_particles
-    );
-    let (m, wall) = stack_run(args, scenario, "latency", true)?;
+    let (label, note) = if particles == 1 {
+        (
+            "latency-floor",
+            " (the floor: the filter costs almost nothing)",
+        )
+    } else {
+        ("latency", "")
+    };
+    println!("\n[{label}] {scenario}, N = {particles}, real time, through the processes{note}");
+    let (m, wall) = stack_run(args, scenario, (label, particles), true)?;
     println!("  wall time {:.1} s", wall.as_secs_f64());
     print_spread(&m, "observation -> pose", "latency_ms");
     print_spread(&m, "filter step", "step_time_ms");
@@ -301,7 +312,7 @@ fn throughput(args: &BenchArgs) -> anyhow::Result<()> {
     let in_wall = started.elapsed().as_secs_f64();
     let in_cpu = own_cpu_s() - cpu_before;
     let simulated = offline.simulated.as_secs_f64();
-    let (m, wall) = stack_run(args, name, "throughput", false)?;
+    let (m, wall) = stack_run(args, name, ("throughput", args.stack_particles), false)?;
     let multi_wall = wall.as_secs_f64();
     let service_cpu = num(&m, "/cost/service_cpu_s");
     println!("  simulated {simulated:.1} s");
@@ -383,7 +394,7 @@ fn memory(args: &BenchArgs) -> anyhow::Result<()> {
         let (m, wall) = stack_run(
             args,
             &file.display().to_string(),
-            &format!("memory-{loops}"),
+            (&format!("memory-{loops}"), args.stack_particles),
             false,
         )?;
         let service = m
