@@ -3,7 +3,7 @@
 //! landmark it changes (ALGORITHMS.md §1 step 6, DESIGN.md "Fast").
 //!
 //! Storage is two persistent B+ trees from `imbl` (16 entries per node):
-//! - `by_cell`: key `(cell_x, cell_y, id)` → [`Landmark`]. Cells are squares of side
+//! - `by_cell`: key [`Slot`] `(cell_x, cell_y, id)` → [`Landmark`]. Cells are squares of side
 //!   `cell_size` (m); landmarks of one cell column form contiguous key ranges, so a
 //!   window query is one range scan per column. This *is* the spatial index — there is
 //!   no second copy of the landmarks to keep in step.
@@ -44,7 +44,7 @@ pub struct Landmark {
 /// Grid cell coordinates (cell_x, cell_y).
 type Cell = (i64, i64);
 
-/// Where a landmark is stored in a map: its cell and id, the key of `by_cell`. A read
+/// Where a landmark is stored in a map: its cell and id, the key the map keeps it under. A read
 /// ([`LandmarkMap::locate`], [`LandmarkMap::within`]) hands it out so that a later write
 /// of the same map ([`LandmarkMap::update_at`]) need not look the id up again. It stays
 /// valid until that landmark moves to another cell or is removed.
