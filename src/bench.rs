@@ -99,19 +99,28 @@ fn method(name: &str) -> anyhow::Result<(Proposal, OptimiserKind)> {
     Ok((Proposal::Motion, kind))
 }
 
-/// Median wall time (s) of `steps` steps of `w`, each from a clone of its filter (clone and
-/// drop not timed).
-fn median_step(w: &mut Workload, steps: usize) -> anyhow::Result<f64> {
-    let mut times = Vec::with_capacity(steps);
+/// Median wall times (s) of `steps` steps of `w`, each from a clone of its filter (clone
+/// and drop not timed): the whole step, and until the estimate was handed out (before
+/// the map updates).
+fn median_step(w: &mut Workload, steps: usize) -> anyhow::Result<(f64, f64)> {
+    let (mut whole, mut pose) = (Vec::with_capacity(steps), Vec::with_capacity(steps));
     for _ in 0..steps {
         let mut filter = w.filter.clone();
         let start = Instant::now();
-        w.step(black_box(&mut filter))?;
-        times.push(start.elapsed().as_secs_f64());
+        let mut ready = None;
+        w.step_publishing(black_box(&mut filter), |e| {
+            ready = Some(start.elapsed());
+            black_box(e);
+        })?;
+        whole.push(start.elapsed().as_secs_f64());
+        pose.push(ready.map_or(f64::NAN, |t| t.as_secs_f64()));
         drop(black_box(filter));
     }
-    times.sort_by(f64::total_cmp);
-    Ok(times[steps / 2])
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[steps / 2]
+    };
+    Ok((median(whole), median(pose)))
 }
 
 /// Part 1: the step-time grid and its growth ratios.
@@ -135,12 +144,14 @@ fn step_times(args: &BenchArgs) -> anyhow::Result<()> {
              {threads} rayon threads; rows N, columns M"
         );
         let mut table = vec![vec![f64::NAN; ms.len()]; ns.len()];
+        let mut pose_table = table.clone();
         let mut seen = vec![0; ms.len()];
         for (i, &n) in ns.iter().enumerate() {
             for (j, &m) in ms.iter().enumerate() {
                 let mut w = Workload::new(n, m, proposal, kind)?;
                 seen[j] = w.scan.len();
-                table[i][j] = median_step(&mut w, steps)? * 1e3;
+                let (whole, pose) = median_step(&mut w, steps)?;
+                (table[i][j], pose_table[i][j]) = (whole * 1e3, pose * 1e3);
             }
         }
         let header: String = ms
@@ -153,10 +164,7 @@ fn step_times(args: &BenchArgs) -> anyhow::Result<()> {
             .map(|k| format!("{:>12}", format!("({k} obs)")))
             .collect();
         println!("  {:>8}{obs}", "");
-        for (n, row) in ns.iter().zip(&table) {
-            let cells: String = row.iter().map(|t| format!("{t:>12.3}")).collect();
-            println!("  {:>8}{cells}", format!("N={n}"));
-        }
+        print_rows(&ns, &table);
         println!("  growth with M (time ratio to the previous column):");
         for (n, row) in ns.iter().zip(&table) {
             let ratios: Vec<String> = row
@@ -178,8 +186,21 @@ fn step_times(args: &BenchArgs) -> anyhow::Result<()> {
                 .collect();
             println!("    M={m:<6} {}", ratios.join("   "));
         }
+        println!(
+            "  pose ready (ms, median): when the step hands out its estimate, before the map \
+             updates"
+        );
+        print_rows(&ns, &pose_table);
     }
     Ok(())
+}
+
+/// Prints one grid row per particle count.
+fn print_rows(ns: &[usize], table: &[Vec<f64>]) {
+    for (n, row) in ns.iter().zip(table) {
+        let cells: String = row.iter().map(|t| format!("{t:>12.3}")).collect();
+        println!("  {:>8}{cells}", format!("N={n}"));
+    }
 }
 
 /// Runs the whole stack with `particles` and returns its `metrics.json`.

@@ -9,7 +9,7 @@
 //! resample. Every random draw is seeded (by M).
 
 use crate::fastslam::{FastSlam, FastSlamConfig, MapLandmark, OptimiserRefiner, PoseRefiner};
-use crate::fastslam::{Proposal, StepReport};
+use crate::fastslam::{PoseEstimate, Proposal, StepReport};
 use crate::motion::{Control, MotionModel};
 use crate::moves::MoveConfig;
 use crate::observation::{Observation, Sensor, measure};
@@ -107,10 +107,23 @@ impl Workload {
     /// # Errors
     /// The filter's error (none for a workload built by [`Workload::new`]).
     pub fn step(&mut self, filter: &mut FastSlam) -> Result<StepReport> {
+        self.step_publishing(filter, |_| {})
+    }
+
+    /// [`step`](Self::step), handing the estimate to `publish` as soon as the filter has
+    /// it, before the map updates ([`FastSlam::update_publishing`]).
+    ///
+    /// # Errors
+    /// As [`step`](Self::step).
+    pub fn step_publishing(
+        &mut self,
+        filter: &mut FastSlam,
+        publish: impl FnOnce(&PoseEstimate),
+    ) -> Result<StepReport> {
         filter.predict(&CONTROL, DT)?;
         let sensor = filter.config().sensor.clone();
         let refiner = self.refiner.as_mut().map(|r| r as &mut dyn PoseRefiner);
-        filter.update_with(&self.scan, &sensor, refiner)
+        filter.update_publishing(&self.scan, &sensor, refiner, publish)
     }
 }
 
