@@ -2,8 +2,9 @@
 //! released layout, any robot.
 //!
 //! How the files map onto the stack's messages:
-//! - `Robot<r>_Odometry.dat` (time, v, ω): differential-drive odometry, [`Odometry`] `v` and
-//!   `omega` (steering 0), each record holding until the next one (see
+//! - `Robot<r>_Odometry.dat` (time, v, ω): differential-drive odometry,
+//!   [`Odometry`](fastslam_protocol::Odometry) `v` and `omega` (steering 0), each record
+//!   holding until the next one (see
 //!   [`crate::dataset`]); the timing is irregular (≈ 100 Hz with gaps up to a second),
 //!   which the service's stamp-order merge handles: it predicts with the interval between
 //!   consecutive odometry stamps. Dead reckoning uses the unicycle model.

@@ -12,8 +12,9 @@
 //!   `v_c = v_e / (1 − tanγ·H/L)` is the centre-line speed from the encoder speed `v_e`
 //!   at the rear left wheel. (Check: the laser's velocity in the vehicle frame is
 //!   `(v_c − θ̇ b, θ̇ a)` with `θ̇ = v_c tanγ / L`; the bicycle gives `θ̇ = v sin γ' / a`.)
-//!   So `odometry.csv` becomes [`Odometry`] with `v` = that speed, `steering` = γ' and
-//!   `omega` = θ̇, and the profile runs the bicycle model with `wheelbase = 3.78`.
+//!   So `odometry.csv` becomes [`Odometry`](fastslam_protocol::Odometry) with `v` = that
+//!   speed, `steering` = γ' and `omega` = θ̇, and the profile runs the bicycle model with
+//!   `wheelbase = 3.78`.
 //! - `tree_observations.csv`: each laser scan's tree detections. The bearing runs 0…π
 //!   across the scan from the laser's right, so the vehicle-frame bearing is `β − π/2`;
 //!   the diameter goes into [`Observation::diameter`]; ids are −1 (trees carry no

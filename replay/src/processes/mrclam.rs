@@ -17,7 +17,7 @@ pub struct Args {
     /// Stack, profile, pacing and start-up flags.
     #[command(flatten)]
     pub replay: ReplayArgs,
-    /// Data set folder (Barcodes.dat, Landmark_Groundtruth.dat, Robot<r>_*.dat[.gz]).
+    /// Data set folder (Barcodes.dat, Landmark_Groundtruth.dat, `Robot<r>_*.dat[.gz]`).
     #[arg(long, default_value = "data/mrclam7")]
     pub data: PathBuf,
     /// Robot number.

@@ -32,7 +32,7 @@ pub struct Args {
     /// Stack to join.
     #[command(flatten)]
     pub stack: cli::StackArgs,
-    /// Config file (TOML): [filter], [optimizer], [moves], [output]. Default: built-in
+    /// Config file (TOML): `[filter]`, `[optimizer]`, `[moves]`, `[output]`. Default: built-in
     /// defaults.
     #[arg(long)]
     pub config: Option<PathBuf>,

@@ -118,7 +118,7 @@ impl StackConfig {
 ///
 /// iceoryx2 catches more signals than these (SIGCONT, SIGTSTP, SIGUSR1, SIGURG, SIGPROF,
 /// …), and each of them interrupts a wait with EINTR. An interrupted wait therefore asks
-/// [`requested`] whether to stop: Ctrl-Z and `fg` in a terminal, `kill -CONT` or a
+/// [`requested`](shutdown::requested) whether to stop: Ctrl-Z and `fg` in a terminal, `kill -CONT` or a
 /// sampling profiler must not end a process.
 pub mod shutdown {
     use iceoryx2_bb_posix::signal::SignalHandler;
