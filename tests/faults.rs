@@ -171,13 +171,7 @@ fn stray_signals_interrupt_waits_but_stop_no_process() {
         String::from_utf8_lossy(&output.stderr)
     );
     assert!(sent >= 200, "only {sent} signals sent while the stack ran");
-    let lidar_log = std::fs::read_to_string(out.join("logs").join("lidar-sim.log")).unwrap();
-    let scans: f64 = lidar_log
-        .split("finished messages=")
-        .nth(1)
-        .and_then(|rest| rest.split_whitespace().next())
-        .and_then(|n| n.parse().ok())
-        .unwrap_or_else(|| panic!("the lidar did not finish its route: {lidar_log}"));
+    let scans = scans_published(&out.join("logs").join("lidar-sim.log")) as f64;
     let m = metrics(&out);
     assert_eq!(m["complete"], true);
     assert_eq!(
@@ -187,30 +181,6 @@ fn stray_signals_interrupt_waits_but_stop_no_process() {
     );
     remove_stack_files(&prefix, &std::env::temp_dir().join("fsl").join(&prefix));
     assert_no_leftovers_and_remove(&prefix, &dir);
-}
-
-/// A short real-time drive (the start of `bailey-short` at 6 m/s: about 12 s simulated),
-/// written to `dir`.
-fn short_scenario(dir: &Path) -> PathBuf {
-    let text = include_str!("../sensors-sim/scenarios/bailey-short.toml");
-    let start = text
-        .find("waypoints = [")
-        .expect("bailey-short has waypoints");
-    let end = start
-        + text[start..]
-            .find("\n]")
-            .expect("the list ends on its own line")
-        + 2;
-    let text = format!(
-        "{}waypoints = [[12.649533, -41.588785], [44.736760, -54.984424]]{}",
-        &text[..start],
-        &text[end..]
-    )
-    .replace("speed_mps = 3.0", "speed_mps = 6.0")
-    .replace("name = \"bailey-short\"", "name = \"fault-short\"");
-    let path = dir.join("fault-short.toml");
-    std::fs::write(&path, text).unwrap();
-    path
 }
 
 /// The short scenario's stack started by hand ([`HandStack`]) with the flags the launcher

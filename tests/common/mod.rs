@@ -365,3 +365,38 @@ impl Drop for HandStack {
         remove_stack_files(&self.prefix, &self.root);
     }
 }
+
+/// A short real-time drive (the start of `bailey-short` at 6 m/s: about 12 s simulated),
+/// written to `dir`.
+pub fn short_scenario(dir: &Path) -> PathBuf {
+    let text = include_str!("../../sensors-sim/scenarios/bailey-short.toml");
+    let start = text
+        .find("waypoints = [")
+        .expect("bailey-short has waypoints");
+    let end = start
+        + text[start..]
+            .find("\n]")
+            .expect("the list ends on its own line")
+        + 2;
+    let text = format!(
+        "{}waypoints = [[12.649533, -41.588785], [44.736760, -54.984424]]{}",
+        &text[..start],
+        &text[end..]
+    )
+    .replace("speed_mps = 3.0", "speed_mps = 6.0")
+    .replace("name = \"bailey-short\"", "name = \"short-drive\"");
+    let path = dir.join("short-drive.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// Scans a lidar published, from the count its log `lidar_log` ends with (the test fails
+/// if the lidar did not finish its route). A launcher's run keeps it in
+/// `<run>/logs/lidar-sim.log`.
+pub fn scans_published(lidar_log: &Path) -> u64 {
+    let log = std::fs::read_to_string(lidar_log).unwrap();
+    log.split("finished messages=")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next()?.parse().ok())
+        .unwrap_or_else(|| panic!("the lidar did not finish its route: {log}"))
+}
