@@ -223,14 +223,22 @@ fn service_config_file(
 
 /// Removes the stack's shared-memory files and its iceoryx2 root directory.
 pub(crate) fn remove_iceoryx_files(prefix: &str, root: &Path) {
-    if let Ok(entries) = std::fs::read_dir("/dev/shm") {
-        for e in entries.flatten() {
-            if e.file_name().to_string_lossy().starts_with(prefix) {
-                let _ = std::fs::remove_file(e.path());
-            }
-        }
+    for file in shared_memory_files(prefix) {
+        let _ = std::fs::remove_file(file);
     }
     let _ = std::fs::remove_dir_all(root);
+}
+
+/// The files in `/dev/shm` of the stack with `prefix` (a running stack always has some).
+pub(crate) fn shared_memory_files(prefix: &str) -> Vec<PathBuf> {
+    let Ok(entries) = std::fs::read_dir("/dev/shm") else {
+        return Vec::new();
+    };
+    entries
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().starts_with(prefix))
+        .map(|e| e.path())
+        .collect()
 }
 
 /// A number in at most 8 characters: fixed point, or scientific when huge.

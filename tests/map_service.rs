@@ -81,7 +81,6 @@ fn map_get_without_a_service_fails_with_one_line() {
     let prefix = prefix("mapgetnone");
     let dir = folder(&prefix);
     let out = map_get(&prefix, &dir.join("got.csv"), "0.5");
-    remove_stack_files(&prefix, &std::env::temp_dir().join("fsl").join(&prefix));
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     let lines: Vec<&str> = stderr.lines().filter(|l| l.contains("rror")).collect();
@@ -91,5 +90,7 @@ fn map_get_without_a_service_fails_with_one_line() {
         "{stderr}"
     );
     assert!(!dir.join("got.csv").exists(), "no file without an answer");
+    let root = std::env::temp_dir().join("fsl").join(&prefix);
+    assert!(!root.exists(), "the iceoryx2 root it created is removed");
     assert_no_leftovers_and_remove(&prefix, &dir);
 }
