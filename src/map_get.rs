@@ -1,9 +1,8 @@
 //! `fastslam-stack map-get`: asks a running FastSLAM service for its current map (the
 //! `map/get` request–response service) and writes it as a saved-map CSV.
 
-use crate::run;
 use anyhow::bail;
-use fastslam_protocol::ipc::{Ipc, IpcError};
+use fastslam_protocol::ipc::{self, Ipc, IpcError};
 use fastslam_protocol::{LandmarkMapHeader, MapLandmark, MapRequest, cli, topics};
 use fastslam_service::map_file;
 use std::path::{Path, PathBuf};
@@ -33,8 +32,9 @@ pub fn run(args: &MapGetArgs) -> anyhow::Result<()> {
     let timeout = Duration::from_secs_f64(args.timeout_s.max(0.0));
     // Asking a stack that does not exist creates its first shared-memory files: they are
     // removed again when nothing answers.
-    let no_stack_yet = run::shared_memory_files(&stack.prefix).is_empty()
-        && stack.root.as_ref().is_none_or(|r| !Path::new(r).exists());
+    let root = stack.root.as_deref().map(Path::new);
+    let no_stack_yet =
+        ipc::shared_memory_files(&stack.prefix).is_empty() && root.is_none_or(|r| !r.exists());
     let ipc = Ipc::open(&stack, "map-get", timeout)?;
     let request = ipc.request_slice::<MapRequest, LandmarkMapHeader, MapLandmark>(
         &topics::MAP_GET,
@@ -44,12 +44,7 @@ pub fn run(args: &MapGetArgs) -> anyhow::Result<()> {
         Err(IpcError::Timeout { .. }) => {
             drop(ipc);
             if no_stack_yet {
-                for file in run::shared_memory_files(&stack.prefix) {
-                    let _ = std::fs::remove_file(file);
-                }
-                if let Some(root) = &stack.root {
-                    let _ = std::fs::remove_dir_all(root);
-                }
+                ipc::remove_stack_files(&stack.prefix, root);
             }
             bail!(
                 "no FastSLAM service answered on {} within {} s (is the stack `{}` running?)",

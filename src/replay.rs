@@ -2,9 +2,10 @@
 //! data set's replay process, the FastSLAM service and the metrics client, each its own
 //! process — under a fresh stack prefix, with a run folder at the end.
 
-use crate::run::{conclude, remove_iceoryx_files};
+use crate::run::conclude;
 use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::{Context, bail};
+use fastslam_protocol::ipc;
 use fastslam_replay::dataset::Association;
 use fastslam_replay::profile::Profile;
 use fastslam_service::config::{EstimatorChoice, Overrides, ServiceConfig};
@@ -237,7 +238,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<i32> {
     }
     let outcome = stack.wait(&stop, args.timeout_s.map(Duration::from_secs_f64));
     drop(stack);
-    remove_iceoryx_files(&prefix, &root);
+    ipc::remove_stack_files(&prefix, Some(&root));
     conclude(outcome, &out, &logs, started.elapsed())
 }
 

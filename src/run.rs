@@ -4,6 +4,7 @@
 use crate::progress;
 use crate::supervisor::{Outcome, Supervisor, stop_flag};
 use anyhow::{Context, bail};
+use fastslam_protocol::ipc;
 use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::scenario::{BUILT_IN, DEFAULT_SCENARIO};
 use fastslam_service::config::{EstimatorChoice, Overrides};
@@ -148,7 +149,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     if let Some(view) = live_view {
         let _ = view.join();
     }
-    remove_iceoryx_files(&prefix, &root);
+    ipc::remove_stack_files(&prefix, Some(&root));
 
     conclude(outcome, &out, &logs, started.elapsed())
 }
@@ -219,26 +220,6 @@ fn service_config_file(
     let path = out.join("service.toml");
     std::fs::write(&path, toml::to_string_pretty(table)?)?;
     Ok(Some(path))
-}
-
-/// Removes the stack's shared-memory files and its iceoryx2 root directory.
-pub(crate) fn remove_iceoryx_files(prefix: &str, root: &Path) {
-    for file in shared_memory_files(prefix) {
-        let _ = std::fs::remove_file(file);
-    }
-    let _ = std::fs::remove_dir_all(root);
-}
-
-/// The files in `/dev/shm` of the stack with `prefix` (a running stack always has some).
-pub(crate) fn shared_memory_files(prefix: &str) -> Vec<PathBuf> {
-    let Ok(entries) = std::fs::read_dir("/dev/shm") else {
-        return Vec::new();
-    };
-    entries
-        .flatten()
-        .filter(|e| e.file_name().to_string_lossy().starts_with(prefix))
-        .map(|e| e.path())
-        .collect()
 }
 
 /// A number in at most 8 characters: fixed point, or scientific when huge.

@@ -131,7 +131,10 @@ fn a_garbage_publisher_is_counted_and_the_run_still_finishes() {
         logged <= 20 && (logged as u64) < k / 4,
         "{logged} rejection lines for {k} bad messages: the log is not rate-limited"
     );
-    remove_stack_files(&prefix, &std::env::temp_dir().join("fsl").join(&prefix));
+    remove_stack_files(
+        &prefix,
+        Some(&std::env::temp_dir().join("fsl").join(&prefix)),
+    );
     assert_no_leftovers_and_remove(&prefix, &dir);
 }
 
@@ -179,7 +182,10 @@ fn stray_signals_interrupt_waits_but_stop_no_process() {
         scans,
         "a pose for every scan: no process stopped early"
     );
-    remove_stack_files(&prefix, &std::env::temp_dir().join("fsl").join(&prefix));
+    remove_stack_files(
+        &prefix,
+        Some(&std::env::temp_dir().join("fsl").join(&prefix)),
+    );
     assert_no_leftovers_and_remove(&prefix, &dir);
 }
 

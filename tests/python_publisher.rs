@@ -44,7 +44,7 @@ impl Drop for Stack {
                 let _ = c.wait();
             }
         }
-        remove_stack_files(&self.prefix, &self.root);
+        remove_stack_files(&self.prefix, Some(&self.root));
     }
 }
 

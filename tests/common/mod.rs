@@ -4,6 +4,8 @@
 
 #![allow(dead_code)] // each test binary uses a different subset
 
+pub use fastslam_protocol::ipc::remove_stack_files;
+use fastslam_protocol::ipc::shared_memory_files;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
@@ -78,12 +80,9 @@ pub fn leftovers(prefix: &str) -> (Vec<String>, Vec<String>) {
                 .then(|| format!("{}: {text}", e.file_name().to_string_lossy()))
         })
         .collect();
-    let files = std::fs::read_dir("/dev/shm")
-        .into_iter()
-        .flatten()
-        .flatten()
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.starts_with(prefix))
+    let files = shared_memory_files(prefix)
+        .iter()
+        .filter_map(|path| Some(path.file_name()?.to_string_lossy().into_owned()))
         .collect();
     (processes, files)
 }
@@ -192,21 +191,6 @@ pub fn python_venv(name: &str, requirement: &str) -> PathBuf {
     );
     std::fs::write(&done, requirement).expect("marking the venv done");
     venv
-}
-
-/// Removes a stack's shared-memory files and its iceoryx2 root directory (what the
-/// launcher does after a run; tests that start processes themselves call it).
-pub fn remove_stack_files(prefix: &str, root: &Path) {
-    for e in std::fs::read_dir("/dev/shm")
-        .into_iter()
-        .flatten()
-        .flatten()
-    {
-        if e.file_name().to_string_lossy().starts_with(prefix) {
-            let _ = std::fs::remove_file(e.path());
-        }
-    }
-    let _ = std::fs::remove_dir_all(root);
 }
 
 /// The stack's processes running now, the launcher included: process id and subcommand
@@ -362,7 +346,7 @@ impl Drop for HandStack {
                 let _ = child.wait();
             }
         }
-        remove_stack_files(&self.prefix, &self.root);
+        remove_stack_files(&self.prefix, Some(&self.root));
     }
 }
 

@@ -77,6 +77,31 @@ fn iox_err<E: Debug>(action: impl Into<String>) -> impl FnOnce(E) -> IpcError {
     }
 }
 
+/// The files in `/dev/shm` of the stack with `prefix` (its iceoryx2 file prefix): a stack
+/// with a live node always has some.
+pub fn shared_memory_files(prefix: &str) -> Vec<std::path::PathBuf> {
+    let Ok(entries) = std::fs::read_dir("/dev/shm") else {
+        return Vec::new();
+    };
+    entries
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().starts_with(prefix))
+        .map(|e| e.path())
+        .collect()
+}
+
+/// Removes what is left of the stack with `prefix` once its processes are gone: its
+/// shared-memory files and, when it has one of its own, its iceoryx2 `root` directory.
+/// Best effort: a file that cannot be removed stays.
+pub fn remove_stack_files(prefix: &str, root: Option<&std::path::Path>) {
+    for file in shared_memory_files(prefix) {
+        let _ = std::fs::remove_file(file);
+    }
+    if let Some(root) = root {
+        let _ = std::fs::remove_dir_all(root);
+    }
+}
+
 /// Where a stack lives. The prefix is used twice: as iceoryx2's file prefix (so
 /// `/dev/shm/<prefix>*` belongs to this stack alone) and as the service-name prefix.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -118,8 +143,8 @@ impl StackConfig {
 ///
 /// iceoryx2 catches more signals than these (SIGCONT, SIGTSTP, SIGUSR1, SIGURG, SIGPROF,
 /// …), and each of them interrupts a wait with EINTR. An interrupted wait therefore asks
-/// [`requested`](shutdown::requested) whether to stop: Ctrl-Z and `fg` in a terminal, `kill -CONT` or a
-/// sampling profiler must not end a process.
+/// [`requested`](shutdown::requested) whether to stop: Ctrl-Z and `fg` in a terminal,
+/// `kill -CONT` or a sampling profiler must not end a process.
 pub mod shutdown {
     use iceoryx2_bb_posix::signal::SignalHandler;
     use std::sync::atomic::{AtomicBool, Ordering};
@@ -959,16 +984,7 @@ mod tests {
 
     impl Drop for TestStack {
         fn drop(&mut self) {
-            for e in std::fs::read_dir("/dev/shm")
-                .into_iter()
-                .flatten()
-                .flatten()
-            {
-                if e.file_name().to_string_lossy().starts_with(&self.prefix) {
-                    let _ = std::fs::remove_file(e.path());
-                }
-            }
-            let _ = std::fs::remove_dir_all(&self.root);
+            remove_stack_files(&self.prefix, Some(&self.root));
         }
     }
 
