@@ -182,10 +182,6 @@ fn stray_signals_interrupt_waits_but_stop_no_process() {
         scans,
         "a pose for every scan: no process stopped early"
     );
-    remove_stack_files(
-        &prefix,
-        Some(&std::env::temp_dir().join("fsl").join(&prefix)),
-    );
     assert_no_leftovers_and_remove(&prefix, &dir);
 }
 

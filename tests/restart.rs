@@ -152,7 +152,7 @@ fn a_sigkilled_service_resumes_from_its_checkpoint_without_a_long_gap() {
     let run = dir.join("run");
     let ckpt = dir.join("run.ckpt").display().to_string();
     let every: u64 = 20;
-    let every_s = every as f64 * 0.2; // bailey-short observes every 0.2 s
+    let every_s = every as f64 * 0.2; // the short drive observes every 0.2 s, as bailey-short
     let service = [
         "--seed",
         "1",
