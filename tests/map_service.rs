@@ -29,9 +29,12 @@ fn map_get_returns_the_current_map_of_a_running_stack() {
     let prefix = prefix("mapget");
     let dir = folder(&prefix);
     let run = dir.join("run");
-    // Real-time pacing keeps the service alive long enough to be asked.
+    // Real-time pacing keeps the service alive long enough to be asked; the short route
+    // (12 s) bounds how long the launcher runs on once the service has stopped.
     let launcher = Command::new(LAUNCHER)
-        .args(["run", "--scenario", "bailey-short", "--realtime"])
+        .args(["run", "--scenario"])
+        .arg(short_scenario(&dir))
+        .arg("--realtime")
         .args(["--prefix", &prefix, "--timeout-s", "120", "--out"])
         .arg(&run)
         .stdout(Stdio::null())
