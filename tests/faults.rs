@@ -141,48 +141,141 @@ fn a_garbage_publisher_is_counted_and_the_run_still_finishes() {
 #[test]
 fn stray_signals_interrupt_waits_but_stop_no_process() {
     // iceoryx2 catches SIGCONT and SIGURG (among others), and each interrupts a wait
-    // with EINTR: Ctrl-Z and `fg` send SIGTSTP and SIGCONT to every process of a stack
-    // started from a terminal. The signals start once the stack runs: during start-up
-    // they also interrupt iceoryx2's own waits, in more places than the stack retries.
-    let prefix = prefix("stray");
-    let dir = folder(&prefix);
-    let out = dir.join("run");
-    let mut launcher = launch(&prefix, &out, &short_scenario(&dir));
-    let service_log = out.join("logs").join("service.log");
-    wait_for("the service to run", Duration::from_secs(30), || {
-        std::fs::read_to_string(&service_log).is_ok_and(|log| log.contains("running"))
-    });
-    assert_eq!(
-        stack_processes(&prefix).len(),
-        6,
-        "the launcher and its five processes"
-    );
+    // with EINTR: `fg` sends SIGCONT to every process of a stack started from a
+    // terminal, a sampling profiler SIGPROF. The signals start once the stack runs:
+    // during start-up they also interrupt iceoryx2's own waits, in more places than the
+    // stack retries.
+    let mut stack = SignalledStack::start("stray");
     let started = Instant::now();
     let mut sent = 0;
-    while started.elapsed() < Duration::from_secs(4) && launcher.try_wait().unwrap().is_none() {
-        for (pid, _) in stack_processes(&prefix) {
-            for signal in [Signal::SIGCONT, Signal::SIGURG] {
+    while started.elapsed() < Duration::from_secs(4) && stack.runs() {
+        sent += stack.signal_all(&[Signal::SIGCONT, Signal::SIGURG]);
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(sent >= 200, "only {sent} signals sent while the stack ran");
+    stack.finishes_with_a_pose_per_scan();
+}
+
+#[test]
+fn ctrl_z_suspends_every_process_and_fg_resumes_the_run() {
+    // Ctrl-Z sends SIGTSTP to every process of the terminal's foreground group, `fg`
+    // SIGCONT. iceoryx2 catches SIGTSTP; the stack gives it its default action back.
+    let stack = SignalledStack::start("ctrlz");
+    stack.signal_all(&[Signal::SIGTSTP]);
+    let stopped = || {
+        let states = stack.states();
+        states
+            .iter()
+            .all(|(_, state)| *state == 'T')
+            .then_some(states)
+    };
+    wait_for("every process to stop", Duration::from_secs(10), || {
+        stopped().is_some()
+    });
+    std::thread::sleep(Duration::from_secs(1));
+    assert!(
+        stopped().is_some(),
+        "a process ran on while suspended: {:?}",
+        stack.states()
+    );
+    stack.signal_all(&[Signal::SIGCONT]);
+    stack.finishes_with_a_pose_per_scan();
+}
+
+/// A launcher's stack on the short route in real time, running, for tests that send its
+/// processes signals. On drop, whatever still runs (a failed test may leave processes
+/// suspended) is resumed and killed.
+struct SignalledStack {
+    prefix: String,
+    dir: PathBuf,
+    out: PathBuf,
+    launcher: Option<Child>,
+}
+
+impl SignalledStack {
+    /// Starts the stack and waits until the service runs.
+    fn start(test: &str) -> Self {
+        let prefix = prefix(test);
+        let dir = folder(&prefix);
+        let out = dir.join("run");
+        let launcher = launch(&prefix, &out, &short_scenario(&dir));
+        let service_log = out.join("logs").join("service.log");
+        wait_for("the service to run", Duration::from_secs(30), || {
+            std::fs::read_to_string(&service_log).is_ok_and(|log| log.contains("running"))
+        });
+        assert_eq!(
+            stack_processes(&prefix).len(),
+            6,
+            "the launcher and its five processes"
+        );
+        Self {
+            prefix,
+            dir,
+            out,
+            launcher: Some(launcher),
+        }
+    }
+
+    /// True while the launcher runs.
+    fn runs(&mut self) -> bool {
+        let launcher = self.launcher.as_mut().expect("the launcher was started");
+        launcher.try_wait().unwrap().is_none()
+    }
+
+    /// Sends each of `signals` to every process of the stack; the number delivered.
+    fn signal_all(&self, signals: &[Signal]) -> usize {
+        let mut sent = 0;
+        for (pid, _) in stack_processes(&self.prefix) {
+            for &signal in signals {
                 sent += usize::from(kill(Pid::from_raw(pid), signal).is_ok());
             }
         }
-        std::thread::sleep(Duration::from_millis(20));
+        sent
     }
-    let output = launcher.wait_with_output().unwrap();
-    assert!(
-        output.status.success(),
-        "launcher failed: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    assert!(sent >= 200, "only {sent} signals sent while the stack ran");
-    let scans = scans_published(&out.join("logs").join("lidar-sim.log")) as f64;
-    let m = metrics(&out);
-    assert_eq!(m["complete"], true);
-    assert_eq!(
-        num(&m, "/estimate/poses"),
-        scans,
-        "a pose for every scan: no process stopped early"
-    );
-    assert_no_leftovers_and_remove(&prefix, &dir);
+
+    /// Each process's subcommand and scheduling state (`/proc/<pid>/stat`: `T` is
+    /// stopped).
+    fn states(&self) -> Vec<(String, char)> {
+        stack_processes(&self.prefix)
+            .into_iter()
+            .filter_map(|(pid, subcommand)| {
+                let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+                // The state follows the command name, which is in parentheses.
+                let state = stat.rsplit_once(") ")?.1.chars().next()?;
+                Some((subcommand, state))
+            })
+            .collect()
+    }
+
+    /// Waits for the launcher: it succeeds, the client's metrics are complete with a
+    /// pose for every scan the lidar published, and nothing is left behind.
+    fn finishes_with_a_pose_per_scan(mut self) {
+        let launcher = self.launcher.take().expect("the launcher was started");
+        let output = launcher.wait_with_output().unwrap();
+        assert!(
+            output.status.success(),
+            "launcher failed: {}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        let scans = scans_published(&self.out.join("logs").join("lidar-sim.log")) as f64;
+        let m = metrics(&self.out);
+        assert_eq!(m["complete"], true);
+        assert_eq!(
+            num(&m, "/estimate/poses"),
+            scans,
+            "a pose for every scan: no process stopped early"
+        );
+        assert_no_leftovers_and_remove(&self.prefix, &self.dir);
+    }
+}
+
+impl Drop for SignalledStack {
+    fn drop(&mut self) {
+        self.signal_all(&[Signal::SIGCONT, Signal::SIGKILL]);
+        if let Some(mut launcher) = self.launcher.take() {
+            let _ = launcher.wait();
+        }
+    }
 }
 
 /// The short scenario's stack started by hand ([`HandStack`]) with the flags the launcher

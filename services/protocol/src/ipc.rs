@@ -138,18 +138,48 @@ impl StackConfig {
     }
 }
 
-/// Process-wide shutdown flag: set once SIGINT or SIGTERM has been seen by iceoryx2's
-/// signal handler (which reports a signal only once, so it is latched here).
+/// Process-wide shutdown flag: set once SIGINT or SIGTERM arrived.
 ///
 /// iceoryx2 catches more signals than these (SIGCONT, SIGTSTP, SIGUSR1, SIGURG, SIGPROF,
 /// …), and each of them interrupts a wait with EINTR. An interrupted wait therefore asks
-/// [`requested`](shutdown::requested) whether to stop: Ctrl-Z and `fg` in a terminal,
-/// `kill -CONT` or a sampling profiler must not end a process.
+/// [`requested`](shutdown::requested) whether to stop: `kill -CONT` or a sampling
+/// profiler must not end a process.
+///
+/// [`install`](shutdown::install) sets the dispositions every stack process needs on
+/// top of iceoryx2's:
+/// - SIGINT and SIGTERM also set a flag of their own. iceoryx2 keeps only the *last*
+///   signal, so a SIGTERM followed by any other caught signal before anyone looked was
+///   lost.
+/// - SIGTSTP (Ctrl-Z) gets its default action back, which suspends the process; iceoryx2
+///   would otherwise catch it and the stack would run on. `fg` (SIGCONT) resumes it.
 pub mod shutdown {
     use iceoryx2_bb_posix::signal::SignalHandler;
+    use nix::sys::signal::{SigHandler, Signal, signal};
+    use std::sync::Once;
     use std::sync::atomic::{AtomicBool, Ordering};
 
     static REQUESTED: AtomicBool = AtomicBool::new(false);
+    static INSTALLED: Once = Once::new();
+
+    /// Sets this process's signal dispositions (see the module documentation); once per
+    /// process, and before the process waits on anything.
+    ///
+    /// iceoryx2 installs its own handlers when it is first used; this uses it first, so
+    /// that the flag's handler comes after and calls iceoryx2's in turn.
+    pub fn install() {
+        INSTALLED.call_once(|| {
+            requested();
+            for terminate in [Signal::SIGINT, Signal::SIGTERM] {
+                if let Err(e) = signal_hook::flag::register(terminate as i32, &REQUESTED) {
+                    tracing::warn!(signal = ?terminate, error = %e, "cannot watch the signal; relying on iceoryx2's");
+                }
+            }
+            // SAFETY: the default action is no handler: nothing runs in signal context.
+            if let Err(e) = unsafe { signal(Signal::SIGTSTP, SigHandler::SigDfl) } {
+                tracing::warn!(error = %e, "cannot restore Ctrl-Z's default action; it will not suspend this process");
+            }
+        });
+    }
 
     /// True once SIGINT or SIGTERM arrived (or [`request`] was called).
     pub fn requested() -> bool {
@@ -180,9 +210,9 @@ impl Ipc {
     /// [`IpcError::InvalidLocation`] for a bad prefix/root, [`IpcError::Iceoryx`] when
     /// the node cannot be created (for example `/dev/shm` is not writable).
     pub fn open(stack: &StackConfig, name: &str, wait_timeout: Duration) -> Result<Self> {
-        // Installs iceoryx2's SIGINT/SIGTERM handler now, so a signal never kills the
-        // process in the middle of writing shared memory.
-        shutdown::requested();
+        // Installs the signal handlers now, so a signal never kills the process in the
+        // middle of writing shared memory.
+        shutdown::install();
         let config = stack.iceoryx_config()?;
         let node_name = NodeName::new(name).map_err(iox_err(format!("node name {name}")))?;
         let node = NodeBuilder::new()
