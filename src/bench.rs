@@ -41,10 +41,11 @@ pub struct BenchArgs {
     /// Measured steps per grid cell (median reported; default 31, quick 11).
     #[arg(long)]
     pub steps: Option<usize>,
-    /// Only these parts, comma-separated: step, latency, latency-floor, throughput,
-    /// memory (default: step, latency, throughput). `latency-floor` repeats the latency
-    /// run with one particle: what the processes and the machine cost when the filter
-    /// costs nothing. `memory` runs long.
+    /// Only these parts, comma-separated: step, latency, latency-floor, latency-busy-poll,
+    /// throughput, memory (default: step, latency, throughput). `latency-floor` repeats
+    /// the latency run with one particle: what the processes and the machine cost when the
+    /// filter costs nothing. `latency-busy-poll` repeats it with the service and the
+    /// client polling instead of sleeping (`run --busy-poll`). `memory` runs long.
     #[arg(long, value_delimiter = ',', default_value = "step,latency,throughput")]
     pub parts: Vec<String>,
     /// Scenario of the latency measurement (real time: its simulated length is the wall
@@ -76,12 +77,16 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     for part in &args.parts {
         match part.as_str() {
             "step" => step_times(args)?,
-            "latency" => latency(args, args.stack_particles)?,
-            "latency-floor" => latency(args, 1)?,
+            "latency" => latency(args, LatencyRun::Default)?,
+            "latency-floor" => latency(args, LatencyRun::Floor)?,
+            "latency-busy-poll" => latency(args, LatencyRun::BusyPoll)?,
             "throughput" => throughput(args)?,
             "memory" => memory(args)?,
             other => {
-                bail!("unknown part `{other}`: step, latency, latency-floor, throughput or memory")
+                bail!(
+                    "unknown part `{other}`: step, latency, latency-floor, latency-busy-poll, \
+                     throughput or memory"
+                )
             }
         }
     }
@@ -203,12 +208,22 @@ fn print_rows(ns: &[usize], table: &[Vec<f64>]) {
     }
 }
 
+/// How a benchmark's stack runs: `run --realtime`, `run --busy-poll`.
+#[derive(Debug, Clone, Copy, Default)]
+struct Pacing {
+    realtime: bool,
+    busy_poll: bool,
+}
+
 /// Runs the whole stack with `particles` and returns its `metrics.json`.
 fn stack_run(
     args: &BenchArgs,
     scenario: &str,
     (label, particles): (&str, usize),
-    realtime: bool,
+    Pacing {
+        realtime,
+        busy_poll,
+    }: Pacing,
 ) -> anyhow::Result<(serde_json::Value, Duration)> {
     let out = args.out.join(label);
     let run_args = RunArgs {
@@ -223,6 +238,7 @@ fn stack_run(
         timeout_s: None,
         prefix: None,
         service_flags: Vec::new(),
+        busy_poll,
     };
     let started = Instant::now();
     let code = run::run(run_args)?;
@@ -284,23 +300,44 @@ fn print_processes(m: &serde_json::Value) {
     println!("  {:<18} {:>10.3}", "all", num(m, "/cost/stack_cpu_s"));
 }
 
-/// Part 2: end-to-end latency at the real-time rate with `particles` (1 for the floor).
-fn latency(args: &BenchArgs, particles: usize) -> anyhow::Result<()> {
+/// The variants of the latency run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum LatencyRun {
+    /// The stack as `run --realtime` starts it.
+    Default,
+    /// One particle: what the processes and the machine cost when the filter costs
+    /// nothing.
+    Floor,
+    /// The service and the client busy-poll (`run --busy-poll`).
+    BusyPoll,
+}
+
+/// Part 2: end-to-end latency at the real-time rate.
+fn latency(args: &BenchArgs, run: LatencyRun) -> anyhow::Result<()> {
     let scenario = if args.quick {
         "indoor-loop"
     } else {
         &args.latency_scenario
     };
-    let (label, note) = if particles == 1 {
-        (
+    let (label, particles, note) = match run {
+        LatencyRun::Default => ("latency", args.stack_particles, ""),
+        LatencyRun::Floor => (
             "latency-floor",
+            1,
             " (the floor: the filter costs almost nothing)",
-        )
-    } else {
-        ("latency", "")
+        ),
+        LatencyRun::BusyPoll => (
+            "latency-busy-poll",
+            args.stack_particles,
+            " (the service and the client busy-poll)",
+        ),
     };
     println!("\n[{label}] {scenario}, N = {particles}, real time, through the processes{note}");
-    let (m, wall) = stack_run(args, scenario, (label, particles), true)?;
+    let pacing = Pacing {
+        realtime: true,
+        busy_poll: run == LatencyRun::BusyPoll,
+    };
+    let (m, wall) = stack_run(args, scenario, (label, particles), pacing)?;
     println!("  wall time {:.1} s", wall.as_secs_f64());
     print_spread(&m, "observation -> pose", "latency_ms");
     print_spread(&m, "filter step", "step_time_ms");
@@ -333,7 +370,12 @@ fn throughput(args: &BenchArgs) -> anyhow::Result<()> {
     let in_wall = started.elapsed().as_secs_f64();
     let in_cpu = own_cpu_s() - cpu_before;
     let simulated = offline.simulated.as_secs_f64();
-    let (m, wall) = stack_run(args, name, ("throughput", args.stack_particles), false)?;
+    let (m, wall) = stack_run(
+        args,
+        name,
+        ("throughput", args.stack_particles),
+        Pacing::default(),
+    )?;
     let multi_wall = wall.as_secs_f64();
     let service_cpu = num(&m, "/cost/service_cpu_s");
     println!("  simulated {simulated:.1} s");
@@ -416,7 +458,7 @@ fn memory(args: &BenchArgs) -> anyhow::Result<()> {
             args,
             &file.display().to_string(),
             (&format!("memory-{loops}"), args.stack_particles),
-            false,
+            Pacing::default(),
         )?;
         let service = m
             .pointer("/cost/processes")

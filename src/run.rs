@@ -51,6 +51,11 @@ pub struct RunArgs {
     /// `--service-flag=--save-map=map.csv` or `--service-flag=--checkpoint=run.ckpt`.
     #[arg(long = "service-flag", value_name = "FLAG", allow_hyphen_values = true)]
     pub service_flags: Vec<String>,
+    /// The service and the client (the processes between a sensor sample and the pose
+    /// that used it) poll their inputs in a busy loop instead of sleeping: a lower latency
+    /// tail for one core each at 100 %. See BENCHMARKS.md ("Busy polling").
+    #[arg(long)]
+    pub busy_poll: bool,
 }
 
 /// Runs the stack; returns the process exit code (0 finished, 1 failed, 130 interrupted).
@@ -110,6 +115,10 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     service.extend(args.service_flags.iter().cloned());
     let mut client = stack_flags.clone();
     client.extend(["--out".into(), out.display().to_string()]);
+    if args.busy_poll {
+        service.push("--busy-poll".into());
+        client.push("--busy-poll".into());
+    }
     let mut truth = sim_flags(3); // odometry-sim, lidar-sim, client
     if args.realtime {
         truth.push("--realtime".into());

@@ -152,9 +152,10 @@ fn the_grid_of_the_indoor_loop_matches_its_walls() {
 }
 
 #[test]
-fn raw_scan_runs_are_the_same_in_real_time_and_as_fast_as_possible() {
+fn raw_scan_runs_are_the_same_in_real_time_as_fast_as_possible_and_busy_polling() {
     let prefix_a = prefix("pacing_fast");
     let prefix_b = prefix("pacing_real");
+    let prefix_c = prefix("pacing_poll");
     let dir = folder(&prefix_a);
     // The indoor loop cut to its first 6 m (about 6 s of simulated time).
     let text = fastslam_sensors_sim::scenario::BUILT_IN
@@ -180,7 +181,9 @@ fn raw_scan_runs_are_the_same_in_real_time_and_as_fast_as_possible() {
     };
     let fast = run(&prefix_a, "fast", &[]);
     let real = run(&prefix_b, "real", &["--realtime"]);
+    let polled = run(&prefix_c, "polled", &["--realtime", "--busy-poll"]);
     assert_eq!(fast.0["complete"], true, "{}", fast.0);
     assert_eq!(fast, real, "pacing changed the results");
+    assert_eq!(real, polled, "busy polling changed the results");
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -38,6 +38,9 @@ pub struct Args {
     /// Give up waiting for the stack's publishers after this many seconds.
     #[arg(long, default_value_t = 60.0)]
     pub wait_timeout_s: f64,
+    /// How to wait for the stack's topics.
+    #[command(flatten)]
+    pub wait: cli::WaitArgs,
     /// Align the estimate with the truth before scoring: none (simulation: the map frame
     /// is the true frame) or se2 (external data: least-squares rigid alignment).
     #[arg(long, value_enum, default_value_t = AlignMode::None)]
@@ -57,7 +60,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &args.stack.stack(),
         "client",
         Duration::from_secs_f64(args.wait_timeout_s.max(0.0)),
-    )?;
+    )?
+    .busy_polling(args.wait.busy_poll);
     // A producer starts once the subscribers of one topic are there (truth simulator:
     // ground truth; odometry: odometry; lidar: its scans or observations; service: pose),
     // and a short run may be over before a later subscription exists: end-of-stream and

@@ -57,6 +57,9 @@ pub struct Args {
     /// seconds.
     #[arg(long, default_value_t = 60.0)]
     pub wait_timeout_s: f64,
+    /// How to wait for the inputs.
+    #[command(flatten)]
+    pub wait: cli::WaitArgs,
     /// Checkpoints and saved maps.
     #[command(flatten)]
     pub persist: PersistArgs,
@@ -406,7 +409,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let config = args.config()?;
     let (slam, resumed) = args.persist.start(&config)?;
     let timeout = Duration::from_secs_f64(args.wait_timeout_s.max(0.0));
-    let ipc = Ipc::open(&args.stack.stack(), "fastslam-service", timeout)?;
+    let ipc = Ipc::open(&args.stack.stack(), "fastslam-service", timeout)?
+        .busy_polling(args.wait.busy_poll);
     // Publishers first, then subscribers (which wait for publishers): no wait cycles.
     let mut out = Outputs::open(&ipc)?;
     if let Some(checkpoint) = &resumed {

@@ -26,6 +26,17 @@ impl StackArgs {
     }
 }
 
+/// How a process that consumes topics waits for them.
+#[derive(Debug, Clone, Copy, Default, clap::Args)]
+pub struct WaitArgs {
+    /// Poll the inputs in a busy loop instead of sleeping until a publisher's notification
+    /// wakes the process. This takes out the time a sleeping process needs to run again
+    /// once woken, which dominates the latency tail on virtual machines, and keeps one core
+    /// at 100 % for as long as the process runs. See BENCHMARKS.md ("Busy polling").
+    #[arg(long)]
+    pub busy_poll: bool,
+}
+
 /// Sends `tracing` output to stderr, filtered by `RUST_LOG` (default `info`), each line
 /// tagged with the process name so interleaved logs of a stack stay readable.
 pub fn init_logging(process: &'static str) {

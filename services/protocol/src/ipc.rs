@@ -200,6 +200,7 @@ pub struct Ipc {
     node: Node<Service>,
     prefix: String,
     wait_timeout: Duration,
+    busy_poll: bool,
 }
 
 impl Ipc {
@@ -224,7 +225,15 @@ impl Ipc {
             node,
             prefix: stack.prefix.clone(),
             wait_timeout,
+            busy_poll: false,
         })
+    }
+
+    /// The same connection, whose [`Ipc::wake_loop`] busy-polls when `on` (see
+    /// [`WaitArgs`](crate::cli::WaitArgs)).
+    pub fn busy_polling(mut self, on: bool) -> Self {
+        self.busy_poll = on;
+        self
     }
 
     /// The underlying iceoryx2 node.
@@ -365,6 +374,9 @@ impl Ipc {
     /// receives, so a wake-up costs one clearing per source that fired or has samples,
     /// not one per source.
     ///
+    /// A connection that is [busy polling](Ipc::busy_polling) calls `on_wake` over and
+    /// over instead, without sleeping; `tick` is then moot.
+    ///
     /// # Errors
     /// [`IpcError::Iceoryx`] when the WaitSet fails, or whatever `on_wake` returns.
     pub fn wake_loop<E: From<IpcError>>(
@@ -373,6 +385,9 @@ impl Ipc {
         tick: Option<Duration>,
         mut on_wake: impl FnMut() -> std::result::Result<Flow, E>,
     ) -> std::result::Result<Ended, E> {
+        if self.busy_poll {
+            return Self::poll_loop(on_wake);
+        }
         let waitset = WaitSetBuilder::new()
             .create::<Service>()
             .map_err(iox_err("create waitset"))?;
@@ -427,6 +442,28 @@ impl Ipc {
             if fired && on_wake()? == Flow::Stop {
                 return Ok(Ended::Done);
             }
+        }
+    }
+
+    /// [`Ipc::wake_loop`] without sleeping: the subscribers are looked at again as soon
+    /// as `on_wake` returns. No listener is attached, so a drain clears a listener only
+    /// when it finds samples (see [`Sub::drain`]).
+    ///
+    /// Between two looks the thread yields: a sensor process woken on the same core runs
+    /// at once instead of waiting for the poller's time slice to end. With a bare spin,
+    /// two pollers on a 2-core machine delayed the sensors' samples, and the latency's
+    /// p99 got worse rather than better (BENCHMARKS.md, "Busy polling").
+    fn poll_loop<E>(
+        mut on_wake: impl FnMut() -> std::result::Result<Flow, E>,
+    ) -> std::result::Result<Ended, E> {
+        loop {
+            if on_wake()? == Flow::Stop {
+                return Ok(Ended::Done);
+            }
+            if shutdown::requested() {
+                return Ok(Ended::Signal);
+            }
+            std::thread::yield_now();
         }
     }
 
