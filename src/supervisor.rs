@@ -1,7 +1,8 @@
 //! Starts the stack's processes, watches them, and stops them: SIGINT, then SIGTERM,
 //! then SIGKILL, each after a grace period (as ROS 2 launch does). Each child runs in its
 //! own process group, so a Ctrl-C in the terminal reaches only the launcher, which then
-//! stops the children in order.
+//! stops the children in order. Ctrl-Z, too, reaches only the launcher: it suspends the
+//! children, then itself, and resumes them when `fg` resumes it.
 
 use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
@@ -116,8 +117,16 @@ impl Supervisor {
 
     /// Waits until every process has exited, one fails, `stop` is raised or `timeout`
     /// passes; in the last three cases the remaining processes are stopped.
+    ///
+    /// Time spent suspended (Ctrl-Z until `fg`) does not count towards `timeout`.
     pub fn wait(&mut self, stop: &AtomicBool, timeout: Option<Duration>) -> Outcome {
         let start = Instant::now();
+        let mut suspended = Duration::ZERO;
+        let suspend = Arc::new(AtomicBool::new(false));
+        let watch = signal_hook::flag::register(signal_hook::consts::SIGTSTP, Arc::clone(&suspend));
+        if let Err(e) = &watch {
+            tracing::warn!(error = %e, "cannot watch Ctrl-Z: it will stop the launcher only");
+        }
         let outcome = loop {
             if let Some(failed) = self.poll().find(|p| p.status.is_some_and(|s| !s.success())) {
                 break Outcome::Failed {
@@ -131,13 +140,46 @@ impl Supervisor {
             if stop.load(Ordering::SeqCst) {
                 break Outcome::Interrupted;
             }
-            if timeout.is_some_and(|t| start.elapsed() > t) {
+            if timeout.is_some_and(|t| start.elapsed().saturating_sub(suspended) > t) {
                 break Outcome::TimedOut;
+            }
+            if suspend.swap(false, Ordering::SeqCst) {
+                let since = Instant::now();
+                self.suspend_all();
+                suspended += since.elapsed();
             }
             std::thread::sleep(POLL);
         };
+        if let Ok(id) = watch {
+            signal_hook::low_level::unregister(id);
+        }
         self.stop_all();
         outcome
+    }
+
+    /// Ctrl-Z: stops every running process (SIGSTOP, which no process can catch), then
+    /// the launcher itself, as the shell expects of the job it suspended. When `fg` or
+    /// `bg` resumes the launcher, it resumes the processes.
+    fn suspend_all(&mut self) {
+        let running: Vec<Pid> = self
+            .poll()
+            .filter(|p| p.status.is_none())
+            .map(|p| Pid::from_raw(p.child.id() as i32))
+            .collect();
+        for &pid in &running {
+            let _ = kill(pid, Signal::SIGSTOP);
+        }
+        tracing::info!(
+            processes = running.len(),
+            "suspended (Ctrl-Z); fg resumes the run"
+        );
+        if let Err(e) = signal_hook::low_level::raise(signal_hook::consts::SIGSTOP) {
+            tracing::warn!(error = %e, "cannot suspend the launcher itself");
+        }
+        for &pid in &running {
+            let _ = kill(pid, Signal::SIGCONT);
+        }
+        tracing::info!("resumed");
     }
 
     /// Refreshes exit statuses and returns the processes.

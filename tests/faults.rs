@@ -9,6 +9,7 @@ use fastslam_protocol::status::{RejectionKind, ServiceStatus, flags};
 use fastslam_protocol::{EndOfStream, Header, Odometry, StreamId, topics};
 use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
+use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -29,16 +30,23 @@ fn stack(prefix: &str) -> StackConfig {
 
 /// Starts `fastslam-stack run` on `scenario` in real time in the background.
 fn launch(prefix: &str, out: &Path, scenario: &Path) -> Child {
-    Command::new(LAUNCHER)
+    launcher(prefix, out, scenario)
+        .spawn()
+        .expect("starting the launcher")
+}
+
+/// The command of [`launch`].
+fn launcher(prefix: &str, out: &Path, scenario: &Path) -> Command {
+    let mut command = Command::new(LAUNCHER);
+    command
         .args(["run", "--prefix", prefix, "--realtime", "--scenario"])
         .arg(scenario)
         .arg("--out")
         .arg(out)
         .args(["--timeout-s", "120"])
         .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("starting the launcher")
+        .stderr(Stdio::piped());
+    command
 }
 
 /// Odometry no sane publisher sends: non-finite numbers, stamps going back, stamps far
@@ -158,33 +166,55 @@ fn stray_signals_interrupt_waits_but_stop_no_process() {
 
 #[test]
 fn ctrl_z_suspends_every_process_and_fg_resumes_the_run() {
-    // Ctrl-Z sends SIGTSTP to every process of the terminal's foreground group, `fg`
-    // SIGCONT. iceoryx2 catches SIGTSTP; the stack gives it its default action back.
+    // Ctrl-Z sends SIGTSTP to the terminal's foreground process group: the launcher's.
+    // The launcher suspends its processes (each in a group of its own), then itself;
+    // `fg` sends SIGCONT to the launcher, which resumes them.
     let stack = SignalledStack::start("ctrlz");
-    stack.signal_all(&[Signal::SIGTSTP]);
-    let stopped = || {
-        let states = stack.states();
-        states
-            .iter()
-            .all(|(_, state)| *state == 'T')
-            .then_some(states)
-    };
-    wait_for("every process to stop", Duration::from_secs(10), || {
-        stopped().is_some()
-    });
+    stack.signal_group(Signal::SIGTSTP);
+    let all_stopped = || stack.states().iter().all(|(_, state)| *state == 'T');
+    wait_for(
+        "every process to stop",
+        Duration::from_secs(10),
+        all_stopped,
+    );
     std::thread::sleep(Duration::from_secs(1));
     assert!(
-        stopped().is_some(),
+        all_stopped(),
         "a process ran on while suspended: {:?}",
         stack.states()
     );
-    stack.signal_all(&[Signal::SIGCONT]);
+    stack.signal_group(Signal::SIGCONT);
+    wait_for(
+        "every process to run again",
+        Duration::from_secs(10),
+        || stack.states().iter().all(|(_, state)| *state != 'T'),
+    );
+    // A process started on its own (its own job in a terminal) stops on Ctrl-Z too:
+    // iceoryx2 catches SIGTSTP, and the stack's processes give it its default action back.
+    let service = Pid::from_raw(service_pid(&stack.prefix).expect("the service runs"));
+    kill(service, Signal::SIGTSTP).unwrap();
+    let service_state = || {
+        stack
+            .states()
+            .into_iter()
+            .find_map(|(name, state)| (name == "service").then_some(state))
+    };
+    wait_for("the service to stop", Duration::from_secs(10), || {
+        service_state() == Some('T')
+    });
+    kill(service, Signal::SIGCONT).unwrap();
     stack.finishes_with_a_pose_per_scan();
 }
 
 /// A launcher's stack on the short route in real time, running, for tests that send its
 /// processes signals. On drop, whatever still runs (a failed test may leave processes
 /// suspended) is resumed and killed.
+///
+/// The launcher leads a process group of its own, as a shell with job control starts a
+/// command, so the test can signal it as a terminal does. (Its processes each lead their
+/// own group too. Since their parent, the launcher, is in another group of the same
+/// session, their groups are not orphaned: the kernel would discard a SIGTSTP whose
+/// action is the default sent to an orphaned group.)
 struct SignalledStack {
     prefix: String,
     dir: PathBuf,
@@ -198,7 +228,10 @@ impl SignalledStack {
         let prefix = prefix(test);
         let dir = folder(&prefix);
         let out = dir.join("run");
-        let launcher = launch(&prefix, &out, &short_scenario(&dir));
+        let launcher = launcher(&prefix, &out, &short_scenario(&dir))
+            .process_group(0)
+            .spawn()
+            .expect("starting the launcher");
         let service_log = out.join("logs").join("service.log");
         wait_for("the service to run", Duration::from_secs(30), || {
             std::fs::read_to_string(&service_log).is_ok_and(|log| log.contains("running"))
@@ -231,6 +264,13 @@ impl SignalledStack {
             }
         }
         sent
+    }
+
+    /// Sends `signal` to the launcher's process group, as a terminal does.
+    fn signal_group(&self, signal: Signal) {
+        let launcher = self.launcher.as_ref().expect("the launcher was started");
+        let group = Pid::from_raw(launcher.id() as i32);
+        nix::sys::signal::killpg(group, signal).expect("signalling the stack's group");
     }
 
     /// Each process's subcommand and scheduling state (`/proc/<pid>/stat`: `T` is
