@@ -12,11 +12,12 @@
 
 use crate::run::{self, RunArgs};
 use anyhow::{Context, bail};
+use fastslam_client::stats::percentile;
 use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::optimise::OptimiserKind;
 use fastslam_estimation::workload::{Workload, machine};
 use fastslam_sensors_sim::Scenario;
-use fastslam_service::config::Overrides;
+use fastslam_service::config::{Overrides, ServiceConfig};
 use fastslam_stack::{offline, settings};
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
@@ -56,6 +57,11 @@ pub struct BenchArgs {
     /// Scenario of the throughput comparison.
     #[arg(long, default_value = "bailey-webmap")]
     pub throughput_scenario: String,
+    /// Rounds of the throughput comparison, each an in-process run then a multi-process
+    /// one; the ratios are reported per round and as their median (default 5, quick 2).
+    /// On a shared machine one round's ratio can be off by a quarter either way.
+    #[arg(long)]
+    pub throughput_rounds: Option<usize>,
     /// Particles of the latency and throughput runs.
     #[arg(long, default_value_t = 100)]
     pub stack_particles: usize,
@@ -364,54 +370,113 @@ fn throughput(args: &BenchArgs) -> anyhow::Result<()> {
         args.stack_particles,
         config.method()
     );
+    let rounds = args
+        .throughput_rounds
+        .unwrap_or(if args.quick { 2 } else { 5 })
+        .max(1);
+    let mut results = Vec::with_capacity(rounds);
+    for _ in 0..rounds {
+        results.push(throughput_round(args, name, &scenario, &config)?);
+    }
+    // After the rounds, whose runs print their own summaries.
+    println!(
+        "\n[throughput] {rounds} rounds: {:>12} {:>10} {:>14} {:>12} {:>12} {:>14} {:>12}",
+        "in-proc s",
+        "CPU s",
+        "multi-proc s",
+        "streamed s",
+        "streamed/in",
+        "service CPU s",
+        "svc/in CPU"
+    );
+    for (round, r) in results.iter().enumerate() {
+        println!(
+            "  round {:>13} {:>12.3} {:>10.3} {:>14.3} {:>12.3} {:>11.2}x {:>14.3} {:>11.2}x",
+            round + 1,
+            r.in_wall,
+            r.in_cpu,
+            r.multi_wall,
+            r.streamed,
+            r.streamed / r.in_wall,
+            r.service_cpu,
+            r.service_cpu / r.in_cpu
+        );
+    }
+    let last = results.last().expect("at least one round");
+    let simulated = last.simulated;
+    let spread = |ratio: fn(&Round) -> f64| {
+        let mut v: Vec<f64> = results.iter().map(ratio).collect();
+        v.sort_by(f64::total_cmp);
+        (percentile(&v, 50.0), v[0], v[v.len() - 1])
+    };
+    let (in_wall, ..) = spread(|r| r.in_wall);
+    let (in_cpu, ..) = spread(|r| r.in_cpu);
+    let (streamed, ..) = spread(|r| r.streamed);
+    println!("  simulated {simulated:.1} s; medians over {rounds} rounds:");
+    println!(
+        "  in process    {in_wall:>8.3} s wall  {:>8.1} sim s / wall s   CPU {in_cpu:.3} s",
+        simulated / in_wall,
+    );
+    println!(
+        "  streamed      {streamed:>8.3} s wall  {:>8.1} sim s / wall s   (first observation to last pose at the client: no start-up, shutdown or scoring)",
+        simulated / streamed
+    );
+    let (start_up, start_up_lo, start_up_hi) = spread(|r| r.multi_wall / r.in_wall);
+    let (stream, stream_lo, stream_hi) = spread(|r| r.streamed / r.in_wall);
+    let (cpu, cpu_lo, cpu_hi) = spread(|r| r.service_cpu / r.in_cpu);
+    println!(
+        "  IPC overhead (median [min, max]): streamed {stream:.2}x [{stream_lo:.2}, {stream_hi:.2}]; with start-up {start_up:.2}x [{start_up_lo:.2}, {start_up_hi:.2}]; service CPU against in-process CPU {cpu:.2}x [{cpu_lo:.2}, {cpu_hi:.2}] (targets: in-process < 1 s CPU, ratio <= 1.2x)"
+    );
+    println!(
+        "  same metrics as in process: ATE {:.3} m (in process {:.3} m)",
+        num(&last.metrics, "/estimate/ate_rmse_m"),
+        last.in_process_ate
+    );
+    println!("  last round's processes:");
+    print_processes(&last.metrics);
+    Ok(())
+}
+
+/// One in-process run and one multi-process run of the throughput comparison.
+struct Round {
+    simulated: f64,
+    in_wall: f64,
+    in_cpu: f64,
+    in_process_ate: f64,
+    multi_wall: f64,
+    streamed: f64,
+    service_cpu: f64,
+    metrics: serde_json::Value,
+}
+
+/// Runs `scenario` in process, then through the processes, as fast as possible.
+fn throughput_round(
+    args: &BenchArgs,
+    name: &str,
+    scenario: &Scenario,
+    config: &ServiceConfig,
+) -> anyhow::Result<Round> {
     let cpu_before = own_cpu_s();
     let started = Instant::now();
-    let offline = offline::run_in_process(&scenario, scenario.seed, &config)?;
+    let offline = offline::run_in_process(scenario, scenario.seed, config)?;
     let in_wall = started.elapsed().as_secs_f64();
     let in_cpu = own_cpu_s() - cpu_before;
-    let simulated = offline.simulated.as_secs_f64();
-    let (m, wall) = stack_run(
+    let (metrics, wall) = stack_run(
         args,
         name,
         ("throughput", args.stack_particles),
         Pacing::default(),
     )?;
-    let multi_wall = wall.as_secs_f64();
-    let service_cpu = num(&m, "/cost/service_cpu_s");
-    println!("  simulated {simulated:.1} s");
-    println!(
-        "  in process    {:>8.3} s wall  {:>8.1} sim s / wall s   CPU {:.3} s (filter alone {:.3} s wall)",
+    Ok(Round {
+        simulated: offline.simulated.as_secs_f64(),
         in_wall,
-        simulated / in_wall,
         in_cpu,
-        offline.filter_time.as_secs_f64()
-    );
-    println!(
-        "  multi-process {:>8.3} s wall  {:>8.1} sim s / wall s   service CPU {:.3} s, stack CPU {:.3} s (launch included)",
-        multi_wall,
-        simulated / multi_wall,
-        service_cpu,
-        num(&m, "/cost/stack_cpu_s")
-    );
-    let streamed = num(&m, "/cost/stream_wall_s");
-    println!(
-        "  streamed         {:>8.3} s wall  {:>8.1} sim s / wall s   (first observation to last pose at the client: no start-up, shutdown or scoring)",
-        streamed,
-        simulated / streamed
-    );
-    println!(
-        "  IPC overhead: wall {:.2}x with start-up, {:.2}x streamed; service CPU against in-process CPU {:.2}x (targets: in-process < 1 s CPU, ratio <= 1.2x)",
-        multi_wall / in_wall,
-        streamed / in_wall,
-        service_cpu / in_cpu
-    );
-    println!(
-        "  same metrics as in process: ATE {:.3} m (in process {:.3} m)",
-        num(&m, "/estimate/ate_rmse_m"),
-        offline.metrics.estimate.ate_rmse_m
-    );
-    print_processes(&m);
-    Ok(())
+        in_process_ate: offline.metrics.estimate.ate_rmse_m,
+        multi_wall: wall.as_secs_f64(),
+        streamed: num(&metrics, "/cost/stream_wall_s"),
+        service_cpu: num(&metrics, "/cost/service_cpu_s"),
+        metrics,
+    })
 }
 
 /// CPU time (s) this process has used so far (user + system, from `/proc/self/stat`).
