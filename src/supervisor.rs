@@ -122,11 +122,7 @@ impl Supervisor {
     pub fn wait(&mut self, stop: &AtomicBool, timeout: Option<Duration>) -> Outcome {
         let start = Instant::now();
         let mut suspended = Duration::ZERO;
-        let suspend = Arc::new(AtomicBool::new(false));
-        let watch = signal_hook::flag::register(signal_hook::consts::SIGTSTP, Arc::clone(&suspend));
-        if let Err(e) = &watch {
-            tracing::warn!(error = %e, "cannot watch Ctrl-Z: it will stop the launcher only");
-        }
+        let ctrl_z = CtrlZ::watch();
         let outcome = loop {
             if let Some(failed) = self.poll().find(|p| p.status.is_some_and(|s| !s.success())) {
                 break Outcome::Failed {
@@ -143,16 +139,13 @@ impl Supervisor {
             if timeout.is_some_and(|t| start.elapsed().saturating_sub(suspended) > t) {
                 break Outcome::TimedOut;
             }
-            if suspend.swap(false, Ordering::SeqCst) {
+            if ctrl_z.pressed() {
                 let since = Instant::now();
                 self.suspend_all();
                 suspended += since.elapsed();
             }
             std::thread::sleep(POLL);
         };
-        if let Ok(id) = watch {
-            signal_hook::low_level::unregister(id);
-        }
         self.stop_all();
         outcome
     }
@@ -209,6 +202,37 @@ impl Supervisor {
         }
         for p in self.processes.iter_mut().filter(|p| p.status.is_none()) {
             p.status = p.child.wait().ok();
+        }
+    }
+}
+
+/// Ctrl-Z (SIGTSTP) to the launcher, watched while it waits for its processes.
+struct CtrlZ {
+    pressed: Arc<AtomicBool>,
+    id: Option<signal_hook::SigId>,
+}
+
+impl CtrlZ {
+    /// Starts watching until dropped; without a handler (logged) Ctrl-Z stops the
+    /// launcher alone, as before.
+    fn watch() -> Self {
+        let pressed = Arc::new(AtomicBool::new(false));
+        let id = signal_hook::flag::register(signal_hook::consts::SIGTSTP, Arc::clone(&pressed))
+            .map_err(|e| tracing::warn!(error = %e, "cannot watch Ctrl-Z: it will stop the launcher only"))
+            .ok();
+        Self { pressed, id }
+    }
+
+    /// True once per Ctrl-Z.
+    fn pressed(&self) -> bool {
+        self.pressed.swap(false, Ordering::SeqCst)
+    }
+}
+
+impl Drop for CtrlZ {
+    fn drop(&mut self) {
+        if let Some(id) = self.id.take() {
+            signal_hook::low_level::unregister(id);
         }
     }
 }
