@@ -12,7 +12,6 @@
 
 use crate::run::{self, RunArgs};
 use anyhow::{Context, bail};
-use fastslam_client::stats::percentile;
 use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::optimise::OptimiserKind;
 use fastslam_estimation::workload::{Workload, machine};
@@ -127,11 +126,24 @@ fn median_step(w: &mut Workload, steps: usize) -> anyhow::Result<(f64, f64)> {
         pose.push(ready.map_or(f64::NAN, |t| t.as_secs_f64()));
         drop(black_box(filter));
     }
-    let median = |mut v: Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[steps / 2]
-    };
-    Ok((median(whole), median(pose)))
+    Ok((sorted(whole).median, sorted(pose).median))
+}
+
+/// The median (the upper one of an even count), smallest and largest of some samples.
+struct Sorted {
+    median: f64,
+    min: f64,
+    max: f64,
+}
+
+/// [`Sorted`] figures of `samples` (at least one).
+fn sorted(mut samples: Vec<f64>) -> Sorted {
+    samples.sort_by(f64::total_cmp);
+    Sorted {
+        median: samples[samples.len() / 2],
+        min: samples[0],
+        max: samples[samples.len() - 1],
+    }
 }
 
 /// Part 1: the step-time grid and its growth ratios.
@@ -404,28 +416,29 @@ fn throughput(args: &BenchArgs) -> anyhow::Result<()> {
     }
     let last = results.last().expect("at least one round");
     let simulated = last.simulated;
-    let spread = |ratio: fn(&Round) -> f64| {
-        let mut v: Vec<f64> = results.iter().map(ratio).collect();
-        v.sort_by(f64::total_cmp);
-        (percentile(&v, 50.0), v[0], v[v.len() - 1])
-    };
-    let (in_wall, ..) = spread(|r| r.in_wall);
-    let (in_cpu, ..) = spread(|r| r.in_cpu);
-    let (streamed, ..) = spread(|r| r.streamed);
+    let spread = |figure: fn(&Round) -> f64| sorted(results.iter().map(figure).collect());
+    let in_wall = spread(|r| r.in_wall).median;
+    let in_cpu = spread(|r| r.in_cpu).median;
+    let filter = spread(|r| r.filter).median;
+    let streamed = spread(|r| r.streamed).median;
     println!("  simulated {simulated:.1} s; medians over {rounds} rounds:");
     println!(
-        "  in process    {in_wall:>8.3} s wall  {:>8.1} sim s / wall s   CPU {in_cpu:.3} s",
+        "  in process    {in_wall:>8.3} s wall  {:>8.1} sim s / wall s   CPU {in_cpu:.3} s (filter alone {filter:.3} s wall)",
         simulated / in_wall,
     );
     println!(
         "  streamed      {streamed:>8.3} s wall  {:>8.1} sim s / wall s   (first observation to last pose at the client: no start-up, shutdown or scoring)",
         simulated / streamed
     );
-    let (start_up, start_up_lo, start_up_hi) = spread(|r| r.multi_wall / r.in_wall);
-    let (stream, stream_lo, stream_hi) = spread(|r| r.streamed / r.in_wall);
-    let (cpu, cpu_lo, cpu_hi) = spread(|r| r.service_cpu / r.in_cpu);
+    let ratio = |figure: fn(&Round) -> f64| {
+        let s = spread(figure);
+        format!("{:.2}x [{:.2}, {:.2}]", s.median, s.min, s.max)
+    };
     println!(
-        "  IPC overhead (median [min, max]): streamed {stream:.2}x [{stream_lo:.2}, {stream_hi:.2}]; with start-up {start_up:.2}x [{start_up_lo:.2}, {start_up_hi:.2}]; service CPU against in-process CPU {cpu:.2}x [{cpu_lo:.2}, {cpu_hi:.2}] (targets: in-process < 1 s CPU, ratio <= 1.2x)"
+        "  IPC overhead (median [min, max]): streamed {}; with start-up {}; service CPU against in-process CPU {} (targets: in-process < 1 s CPU, ratio <= 1.2x)",
+        ratio(|r| r.streamed / r.in_wall),
+        ratio(|r| r.multi_wall / r.in_wall),
+        ratio(|r| r.service_cpu / r.in_cpu)
     );
     println!(
         "  same metrics as in process: ATE {:.3} m (in process {:.3} m)",
@@ -442,6 +455,8 @@ struct Round {
     simulated: f64,
     in_wall: f64,
     in_cpu: f64,
+    /// The in-process run's filter time alone (wall).
+    filter: f64,
     in_process_ate: f64,
     multi_wall: f64,
     streamed: f64,
@@ -471,6 +486,7 @@ fn throughput_round(
         simulated: offline.simulated.as_secs_f64(),
         in_wall,
         in_cpu,
+        filter: offline.filter_time.as_secs_f64(),
         in_process_ate: offline.metrics.estimate.ate_rmse_m,
         multi_wall: wall.as_secs_f64(),
         streamed: num(&metrics, "/cost/stream_wall_s"),

@@ -6,3 +6,15 @@
 pub mod grid;
 pub mod offline;
 pub mod settings;
+
+/// A stack prefix of this launcher's own (`run` and `replay` without `--prefix`), so
+/// parallel runs never see each other.
+pub fn fresh_prefix() -> String {
+    format!("fs{}x", std::process::id())
+}
+
+/// The iceoryx2 root directory the launcher gives the stack `prefix`: its own, so it
+/// goes with the stack, and short, since it holds Unix sockets.
+pub fn stack_root(prefix: &str) -> std::path::PathBuf {
+    std::env::temp_dir().join("fsl").join(prefix)
+}

@@ -68,8 +68,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     let prefix = args
         .prefix
         .clone()
-        .unwrap_or_else(|| format!("fs{}x", std::process::id()));
-    let root = std::env::temp_dir().join("fsl").join(&prefix);
+        .unwrap_or_else(fastslam_stack::fresh_prefix);
+    let root = fastslam_stack::stack_root(&prefix);
     // The service's settings, checked here so a bad value fails before anything starts.
     let overrides = Overrides {
         particles: args.particles,

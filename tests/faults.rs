@@ -18,13 +18,7 @@ use std::time::{Duration, Instant};
 fn stack(prefix: &str) -> StackConfig {
     StackConfig {
         prefix: prefix.to_string(),
-        root: Some(
-            std::env::temp_dir()
-                .join("fsl")
-                .join(prefix)
-                .display()
-                .to_string(),
-        ),
+        root: Some(fastslam_stack::stack_root(prefix).display().to_string()),
     }
 }
 
@@ -139,10 +133,7 @@ fn a_garbage_publisher_is_counted_and_the_run_still_finishes() {
         logged <= 20 && (logged as u64) < k / 4,
         "{logged} rejection lines for {k} bad messages: the log is not rate-limited"
     );
-    remove_stack_files(
-        &prefix,
-        Some(&std::env::temp_dir().join("fsl").join(&prefix)),
-    );
+    remove_stack_files(&prefix, Some(&fastslam_stack::stack_root(&prefix)));
     assert_no_leftovers_and_remove(&prefix, &dir);
 }
 

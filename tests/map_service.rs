@@ -11,7 +11,7 @@ use std::time::Duration;
 
 /// `fastslam-stack map-get` on the stack `prefix` (root as the launcher sets it).
 fn map_get(prefix: &str, out: &std::path::Path, timeout_s: &str) -> Output {
-    let root = std::env::temp_dir().join("fsl").join(prefix);
+    let root = fastslam_stack::stack_root(prefix);
     Command::new(LAUNCHER)
         .args(["map-get", "--prefix", prefix, "--iox-root"])
         .arg(&root)
@@ -93,7 +93,7 @@ fn map_get_without_a_service_fails_with_one_line() {
         "{stderr}"
     );
     assert!(!dir.join("got.csv").exists(), "no file without an answer");
-    let root = std::env::temp_dir().join("fsl").join(&prefix);
+    let root = fastslam_stack::stack_root(&prefix);
     assert!(!root.exists(), "the iceoryx2 root it created is removed");
     assert_no_leftovers_and_remove(&prefix, &dir);
 }

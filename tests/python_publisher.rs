@@ -65,7 +65,7 @@ fn the_service_runs_on_what_the_python_publisher_sends() {
     let python = python_with_iceoryx2();
     let prefix = prefix("python");
     let dir = folder(&prefix);
-    let root = std::env::temp_dir().join("fsl").join(&prefix);
+    let root = fastslam_stack::stack_root(&prefix);
     let config = dir.join("service.toml");
     std::fs::write(&config, SERVICE_TOML).unwrap();
     let out = dir.join("run");

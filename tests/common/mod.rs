@@ -266,7 +266,7 @@ impl HandStack {
         std::fs::create_dir_all(&dir).expect("creating the log folder");
         Self {
             prefix: prefix.to_string(),
-            root: std::env::temp_dir().join("fsl").join(prefix),
+            root: fastslam_stack::stack_root(prefix),
             dir,
             children: Vec::new(),
         }
