@@ -124,6 +124,7 @@ fn the_structured_world_runs_end_to_end_with_raw_scans() {
         "poles found along the route: {m}"
     );
     assert!(num(&m, "/map/spurious") <= 15.0, "{m}");
+    assert_zero_copy(&out);
     let scenario = Scenario::load("structured-100m").unwrap();
     // The route leaves some corridors unvisited: only precision is judged here.
     let (precision, recall) = precision_recall(&out, &scenario, 0.4);

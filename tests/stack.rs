@@ -40,6 +40,7 @@ fn fastslam_beats_dead_reckoning_through_the_real_processes() {
         "landmarks mapped once each: {m}"
     );
     assert!(num(&m, "/map/matched") >= 10.0, "{m}");
+    assert_zero_copy(&out);
     for file in [
         "estimate.tum",
         "truth.tum",

@@ -7,9 +7,9 @@ use crate::config::{EstimatorChoice, LidarInput, Overrides, ServiceConfig};
 use crate::deadline::{Change, Watchdog};
 use crate::health::{Health, Stream};
 use crate::persist::PersistArgs;
-use crate::sequencer::{Input, Pushed, RawScan, Scan, Sequencer};
+use crate::sequencer::{Input, Pushed, RawScan, Scan, ScanPlace, Sequencer};
 use crate::slam::{PoseSink, Slam, Step};
-use fastslam_protocol::ipc::{Flow, Ipc, Pub, SliceServer, Sub, WakeSource};
+use fastslam_protocol::ipc::{Flow, HoldingSub, Ipc, Pub, SliceServer, Taken, WakeSource};
 use fastslam_protocol::status::{RejectionKind, ServiceStatus};
 use fastslam_protocol::stream::StreamEnd;
 use fastslam_protocol::validate::{self, Rejection};
@@ -212,10 +212,12 @@ impl Outputs {
     }
 }
 
-/// The lidar topic the service listens to: landmark observations or raw scans.
+/// The lidar topic the service listens to: landmark observations or raw scans. A scan
+/// that arrives before the odometry up to its stamp is held back in shared memory until
+/// that odometry is in ([`HoldingSub`]), so it too reaches the filter without a copy.
 enum Lidar {
-    Observations(Sub<[Observation], ObservationsHeader>),
-    Scans(Sub<[f32], LaserScanHeader>),
+    Observations(HoldingSub<[Observation], ObservationsHeader>),
+    Scans(HoldingSub<[f32], LaserScanHeader>),
 }
 
 impl Lidar {
@@ -240,9 +242,9 @@ impl Lidar {
             chosen => chosen,
         };
         Ok(match choice {
-            LidarInput::Scan => Self::Scans(ipc.slice_subscriber(&topics::SCAN)?),
+            LidarInput::Scan => Self::Scans(ipc.slice_subscriber(&topics::SCAN)?.holding()),
             LidarInput::Auto | LidarInput::Observations => {
-                Self::Observations(ipc.slice_subscriber(&topics::OBSERVATIONS)?)
+                Self::Observations(ipc.slice_subscriber(&topics::OBSERVATIONS)?.holding())
             }
         })
     }
@@ -254,7 +256,30 @@ impl Lidar {
             Self::Scans(_) => StreamId::Scan,
         }
     }
+
+    /// True while a scan is held back.
+    fn holds(&self) -> bool {
+        match self {
+            Self::Observations(sub) => sub.holds(),
+            Self::Scans(sub) => sub.holds(),
+        }
+    }
+
+    /// The subscriber, for the wake loop.
+    fn wake_source(&self) -> &dyn WakeSource {
+        match self {
+            Self::Observations(sub) => sub,
+            Self::Scans(sub) => sub,
+        }
+    }
 }
+
+/// The longest a scan is held back in shared memory waiting for odometry, as a share of
+/// the sensors' deadline; then it is queued (a copy). A publisher that sends both streams
+/// from one thread could otherwise wait on a full lidar buffer, with the odometry the
+/// held scan needs still unsent. Well inside the deadline, so that holding never makes
+/// the lidar look quiet.
+const HOLD_SHARE_OF_DEADLINE: u32 = 4;
 
 /// The service's state between wake-ups: the filter, its counters, the input queue and
 /// the output ports.
@@ -298,7 +323,7 @@ impl Core {
     }
 
     /// Applies a scan stamped `stamp` that the sequencer would release next
-    /// ([`Sequencer::takes_directly`]) straight from shared memory: first the odometry up
+    /// ([`ScanPlace::Direct`]) straight from shared memory: first the odometry up
     /// to its stamp, then `step` on the sample's own slice (no copy).
     fn direct(
         &mut self,
@@ -450,11 +475,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let deadline = Duration::from_secs_f64(input.deadline_s);
     let (mut odo_watch, mut lidar_watch) = (Watchdog::new(deadline), Watchdog::new(deadline));
     let (mut odo_end, mut scan_end) = (StreamEnd::default(), StreamEnd::default());
-    let lidar_source: &dyn WakeSource = match &lidar {
-        Lidar::Observations(sub) => sub,
-        Lidar::Scans(sub) => sub,
-    };
-    ipc.wake_loop::<anyhow::Error>(&[&odometry, lidar_source, &eos_in], None, || {
+    let hold_limit = deadline / HOLD_SHARE_OF_DEADLINE;
+    ipc.wake_loop::<anyhow::Error>(&[&odometry, lidar.wake_source(), &eos_in], None, || {
         let now = Instant::now();
         let (mut odo_heard, mut lidar_heard) = (None, None);
         // A scan taken straight from shared memory is applied while draining; an IPC
@@ -480,45 +502,63 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 }
             };
         })?;
-        // One lidar message with header `h`, content check `check`: skipped when the
-        // checkpoint already covers it, else admitted and then either applied straight
-        // from shared memory (`direct`) or copied into the queue (`queue`).
+        // Before the lidar: a scan held for odometry goes once the odometry has ended.
+        eos_in.drain(|s| match StreamId::from_u32(s.payload().stream) {
+            Some(StreamId::Odometry) => odo_end.announce(s.payload()),
+            Some(id) if id == lidar.stream() => scan_end.announce(s.payload()),
+            _ => {}
+        })?;
+        if odo_end.finished() {
+            core.sequencer.end_odometry();
+        }
+        // One lidar message with header `h`: when new (`held_since` is `None`), skipped if
+        // the checkpoint already covers it, else admitted after the content check
+        // `check`. Then applied straight from shared memory (`direct`), held there while
+        // it waits for odometry (up to `hold_limit`), or copied into the queue (`queue`).
         let mut on_lidar =
             |h: Header,
              what: &str,
-             check: Result<(), Rejection>,
+             held_since: Option<Instant>,
+             check: &dyn Fn() -> Result<(), Rejection>,
              direct: &mut dyn FnMut(
                 &mut Slam,
                 PoseSink<'_>,
             ) -> fastslam_estimation::Result<Step>,
              queue: &mut dyn FnMut(&mut Sequencer) -> Pushed| {
-                scan_end.saw(h.seq);
-                if !floor.admits(1, h.stamp_ns) {
-                    return;
-                }
-                match admission.lidar(check, h) {
-                    Ok(()) => {
-                        lidar_heard = lidar_watch.heard(now).or(lidar_heard);
-                        if core.sequencer.takes_directly(h.stamp_ns) {
-                            let applied = core.direct(h.stamp_ns, direct, &config, persist);
-                            failed = failed.take().or(applied.err());
-                        } else {
-                            let pushed = queue(&mut core.sequencer);
-                            queued(&mut core.health, now, what, h.seq, pushed);
-                        }
+                if held_since.is_none() {
+                    scan_end.saw(h.seq);
+                    if !floor.admits(1, h.stamp_ns) {
+                        return Taken::Done;
                     }
-                    Err(r) => {
+                    if let Err(r) = admission.lidar(check(), h) {
                         core.health.log.reject(now, what, h.seq, r.kind(), &r);
+                        return Taken::Done;
+                    }
+                    lidar_heard = lidar_watch.heard(now).or(lidar_heard);
+                }
+                let held_for =
+                    held_since.map_or(Duration::ZERO, |t| now.saturating_duration_since(t));
+                match core.sequencer.place_scan(h.stamp_ns) {
+                    ScanPlace::Direct => {
+                        let applied = core.direct(h.stamp_ns, direct, &config, persist);
+                        failed = failed.take().or(applied.err());
+                    }
+                    ScanPlace::AwaitOdometry if held_for < hold_limit => return Taken::Hold,
+                    ScanPlace::AwaitOdometry | ScanPlace::Queue => {
+                        let pushed = queue(&mut core.sequencer);
+                        queued(&mut core.health, now, what, h.seq, pushed);
                     }
                 }
+                Taken::Done
             };
         match &lidar {
-            Lidar::Observations(sub) => sub.drain(|s| {
+            Lidar::Observations(sub) => sub.drain(|s, held_since| {
                 let header = *s.user_header();
                 on_lidar(
                     header.header,
                     "observations",
-                    validate::observations(&header, s.payload()),
+                    held_since,
+                    &|| validate::observations(&header, s.payload()),
                     &mut |slam, publish| slam.observe(&header, s.payload(), publish),
                     &mut |sequencer| {
                         let observations = sequencer.copy_observations(s.payload());
@@ -527,33 +567,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                             observations,
                         })
                     },
-                );
+                )
             })?,
-            Lidar::Scans(sub) => sub.drain(|s| {
+            Lidar::Scans(sub) => sub.drain(|s, held_since| {
                 let header = *s.user_header();
                 let ranges = header.ranges_of(s.payload());
                 on_lidar(
                     header.header,
                     "scan",
-                    validate::laser_scan(&header, s.payload()),
+                    held_since,
+                    &|| validate::laser_scan(&header, s.payload()),
                     &mut |slam, publish| slam.observe_raw(&header, ranges, publish),
                     &mut |sequencer| {
                         let ranges = sequencer.copy_ranges(ranges);
                         sequencer.push_raw_scan(RawScan { header, ranges })
                     },
-                );
+                )
             })?,
         };
         if let Some(e) = failed.take() {
             return Err(e);
-        }
-        eos_in.drain(|s| match StreamId::from_u32(s.payload().stream) {
-            Some(StreamId::Odometry) => odo_end.announce(s.payload()),
-            Some(id) if id == lidar.stream() => scan_end.announce(s.payload()),
-            _ => {}
-        })?;
-        if odo_end.finished() {
-            core.sequencer.end_odometry();
         }
         if scan_end.finished() {
             core.sequencer.end_scans();
@@ -595,7 +628,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         core.health.log.flush(now);
         core.release_queued(&config, persist)?;
-        Ok(if core.sequencer.finished() {
+        Ok(if core.sequencer.finished() && !lidar.holds() {
             Flow::Stop
         } else {
             Flow::Continue

@@ -56,6 +56,19 @@ pub enum Pushed {
     Late,
 }
 
+/// Where a scan that has just arrived goes: see [`Sequencer::place_scan`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ScanPlace {
+    /// To the filter now, straight from shared memory, after the odometry up to its stamp.
+    Direct,
+    /// It goes next, but only once odometry has passed its stamp. Until then the caller
+    /// may leave it in shared memory and offer it again, or queue it (a copy).
+    AwaitOdometry,
+    /// Into the queue (a copy): a scan waits before it, a stream is quiet, or it is late
+    /// (the push then refuses it).
+    Queue,
+}
+
 /// Default most inputs waiting per lane.
 pub const DEFAULT_MAX_QUEUE: usize = 4096;
 
@@ -120,11 +133,11 @@ impl<T> Lane<T> {
 /// Merges odometry and scans into stamp order.
 ///
 /// A scan the queue would release at once goes to the filter straight from shared memory
-/// ([`Sequencer::takes_directly`]); any other is copied out once, into a buffer that is
-/// handed back with [`Sequencer::recycle`] after the filter has used it: in steady state no
-/// step allocates. (The copy releases the sample at once, so a publisher that waits for
-/// free samples never waits on the filter, and an early scan can wait here for its
-/// odometry.)
+/// ([`Sequencer::place_scan`]); so can a scan that only waits for odometry, if the caller
+/// holds its sample meanwhile. Any other is copied out once, into a buffer that is handed
+/// back with [`Sequencer::recycle`] after the filter has used it: in steady state no step
+/// allocates. (The copy releases the sample at once, so a publisher never waits on the
+/// filter for it, and a scan can wait here behind others or for a quiet stream.)
 #[derive(Debug, Clone)]
 pub struct Sequencer {
     odometry: Lane<Odometry>,
@@ -232,17 +245,23 @@ impl Sequencer {
         self.scans.ended = true;
     }
 
-    /// True when a scan stamped `stamp` that has just arrived would be released right
-    /// after the odometry up to its stamp ([`Sequencer::odometry_through`]): no scan
-    /// waits before it, it is not late, neither stream is quiet, and odometry has passed
-    /// `stamp`. Such a scan can go to the filter straight from shared memory, in the same
-    /// order the queue would give it; [`Sequencer::took_directly`] then books it.
-    pub fn takes_directly(&self, stamp: u64) -> bool {
-        self.scans.queue.is_empty()
+    /// Where a scan stamped `stamp` that has just arrived goes ([`ScanPlace`]).
+    ///
+    /// It is [`ScanPlace::Direct`] when the queue would release it right after the
+    /// odometry up to its stamp ([`Sequencer::odometry_through`]): no scan waits before
+    /// it, it is not late, neither stream is quiet, and odometry has passed `stamp`.
+    /// [`Sequencer::took_directly`] then books it. If all of that holds but odometry has
+    /// not passed `stamp` yet, it is [`ScanPlace::AwaitOdometry`].
+    pub fn place_scan(&self, stamp: u64) -> ScanPlace {
+        let next = self.scans.queue.is_empty()
             && !self.scans.quiet
             && !self.odometry.quiet
-            && self.odometry.passed(stamp)
-            && stamp >= self.newest_released()
+            && stamp >= self.newest_released();
+        match (next, self.odometry.passed(stamp)) {
+            (true, true) => ScanPlace::Direct,
+            (true, false) => ScanPlace::AwaitOdometry,
+            (false, _) => ScanPlace::Queue,
+        }
     }
 
     /// The next odometry stamped at or before `stamp`, to apply before a scan taken
@@ -359,10 +378,14 @@ mod tests {
     fn a_scan_is_taken_directly_only_where_the_queue_would_release_it_next() {
         let mut seq = Sequencer::default();
         seq.push_odometry(odo(10));
-        assert!(!seq.takes_directly(20), "odometry may still bring 15");
+        assert_eq!(
+            seq.place_scan(20),
+            ScanPlace::AwaitOdometry,
+            "odometry may still bring 15"
+        );
         seq.push_odometry(odo(20));
         seq.push_odometry(odo(30));
-        assert!(seq.takes_directly(20));
+        assert_eq!(seq.place_scan(20), ScanPlace::Direct);
         let through: Vec<u64> = std::iter::from_fn(|| seq.odometry_through(20))
             .map(|o| o.header.stamp_ns)
             .collect();
@@ -378,9 +401,25 @@ mod tests {
             vec![],
             "odometry 30 waits for the next scan"
         );
-        assert!(!seq.takes_directly(15), "late: 20 was released");
+        assert_eq!(
+            seq.place_scan(15),
+            ScanPlace::Queue,
+            "late: 20 was released"
+        );
+        seq.set_odometry_quiet(true);
+        assert_eq!(
+            seq.place_scan(40),
+            ScanPlace::Queue,
+            "nothing waits for a quiet stream"
+        );
+        seq.set_odometry_quiet(false);
+        assert_eq!(seq.place_scan(40), ScanPlace::AwaitOdometry);
         seq.push_scan(scan(40));
-        assert!(!seq.takes_directly(50), "a queued scan goes first");
+        assert_eq!(
+            seq.place_scan(50),
+            ScanPlace::Queue,
+            "a queued scan goes first"
+        );
     }
 
     #[test]

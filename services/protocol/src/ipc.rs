@@ -26,12 +26,16 @@ use iceoryx2::service::port_factory::PortFactory as _;
 use iceoryx2::service::port_factory::publish_subscribe::PortFactory;
 use iceoryx2::service::port_factory::request_response::PortFactory as RequestResponsePortFactory;
 use iceoryx2::waitset::WaitSetRunResult;
+use std::cell::RefCell;
 use std::fmt::Debug;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// The iceoryx2 service flavour the stack uses: inter-process, shared memory.
 pub type Service = ipc::Service;
+
+/// A sample received on a [`Sub`]: a header `H` and payload `P` in shared memory.
+pub type Received<P, H> = Sample<Service, P, H>;
 
 /// What can go wrong while setting up or using IPC.
 #[derive(Debug, thiserror::Error)]
@@ -970,7 +974,27 @@ where
     ///
     /// # Errors
     /// [`IpcError::Iceoryx`] when clearing the listener or receiving fails.
-    pub fn drain(&self, mut each: impl FnMut(Sample<Service, P, H>)) -> Result<usize> {
+    pub fn drain(&self, mut each: impl FnMut(Received<P, H>)) -> Result<usize> {
+        self.take(|sample| {
+            each(sample);
+            None
+        })
+        .map(|(n, _)| n)
+    }
+
+    /// This subscriber, able to hold samples back ([`HoldingSub`]).
+    pub fn holding(self) -> HoldingSub<P, H> {
+        HoldingSub {
+            sub: self,
+            held: RefCell::new(None),
+        }
+    }
+
+    /// Receives until `each` hands a sample back (returned, with the count received).
+    fn take(
+        &self,
+        mut each: impl FnMut(Received<P, H>) -> Option<Received<P, H>>,
+    ) -> Result<(usize, Option<Received<P, H>>)> {
         let fired = self.fired.swap(false, Ordering::Relaxed);
         if !fired
             && !self
@@ -978,7 +1002,7 @@ where
                 .has_samples()
                 .map_err(iox_err(format!("look for samples on {}", self.topic)))?
         {
-            return Ok(0);
+            return Ok((0, None));
         }
         self.listener
             .try_wait(|_| {})
@@ -987,10 +1011,83 @@ where
         while let Some(sample) =
             P::receive(&self.subscriber).map_err(iox_err(format!("receive on {}", self.topic)))?
         {
-            each(sample);
             n += 1;
+            if let Some(held) = each(sample) {
+                return Ok((n, Some(held)));
+            }
         }
-        Ok(n)
+        Ok((n, None))
+    }
+}
+
+/// A [`Sub`] whose consumer can leave a sample it cannot use yet in shared memory: the
+/// drain stops at it, and offers it again first on the next drain. The samples after it
+/// wait in the subscriber's buffer meanwhile (their publisher waits once that is full).
+/// One sample at a time: iceoryx2 lends a subscriber at most two by default.
+pub struct HoldingSub<P: Wire + ?Sized, H: Debug + ZeroCopySend + 'static> {
+    sub: Sub<P, H>,
+    /// The sample held back, and when it was first held (in a `RefCell`: the wake loop
+    /// borrows the subscriber while its callback drains it).
+    held: RefCell<Option<(Received<P, H>, Instant)>>,
+}
+
+/// What a [`HoldingSub::drain`] callback did with a sample.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Taken {
+    /// Used up: go on to the next sample.
+    Done,
+    /// Not usable yet: hold it and stop draining.
+    Hold,
+}
+
+impl<P, H> HoldingSub<P, H>
+where
+    P: Wire + ?Sized,
+    H: Debug + ZeroCopySend + 'static,
+{
+    /// Offers the held sample again, then the pending ones in publication order, to
+    /// `each`, until it holds one. `each` also gets the time the sample was first held
+    /// (`None` for a sample it has not seen).
+    ///
+    /// # Errors
+    /// [`IpcError::Iceoryx`] when clearing the listener or receiving fails.
+    pub fn drain(
+        &self,
+        mut each: impl FnMut(&Received<P, H>, Option<Instant>) -> Taken,
+    ) -> Result<()> {
+        let held = self.held.take();
+        if let Some((sample, since)) = held
+            && each(&sample, Some(since)) == Taken::Hold
+        {
+            self.held.replace(Some((sample, since)));
+            return Ok(());
+        }
+        let (_, held) = self.sub.take(|sample| match each(&sample, None) {
+            Taken::Done => None,
+            Taken::Hold => Some(sample),
+        })?;
+        self.held
+            .replace(held.map(|sample| (sample, Instant::now())));
+        Ok(())
+    }
+
+    /// True while a sample is held back.
+    pub fn holds(&self) -> bool {
+        self.held.borrow().is_some()
+    }
+}
+
+impl<P, H> WakeSource for HoldingSub<P, H>
+where
+    P: Wire + ?Sized,
+    H: Debug + ZeroCopySend + 'static,
+{
+    fn listener(&self) -> &Listener<Service> {
+        self.sub.listener()
+    }
+
+    fn fired(&self) {
+        self.sub.fired();
     }
 }
 
@@ -1121,6 +1218,57 @@ mod tests {
             Ok(seen)
         });
         assert_eq!(seen, Ok(2000));
+    }
+
+    /// A held sample is offered again first on the next drain, with the time it was
+    /// first held; the samples after it wait in the subscriber until then, in order.
+    #[test]
+    fn a_held_sample_comes_first_on_the_next_drain_and_the_rest_wait_behind_it() {
+        let test = TestStack::new("hld");
+        let offers = on_thread(test.config(), "a drain hung", |ipc| {
+            let out = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
+            let sub = ipc
+                .subscriber::<EndOfStream>(&topics::END_OF_STREAM)?
+                .holding();
+            let send = |k: u32| {
+                out.send(EndOfStream {
+                    stream: k,
+                    ..Default::default()
+                })
+            };
+            (0..3).try_for_each(send)?;
+            let mut offers = Vec::new();
+            for drain in 0..3 {
+                sub.drain(|s, held_since| {
+                    let k = s.payload().stream;
+                    offers.push((drain, k, held_since.is_some()));
+                    // 1 waits one drain; 3 waits for ever.
+                    if (k == 1 && held_since.is_none()) || k == 3 {
+                        Taken::Hold
+                    } else {
+                        Taken::Done
+                    }
+                })?;
+                if drain == 0 {
+                    assert!(sub.holds());
+                    (3..5).try_for_each(send)?;
+                }
+            }
+            assert!(sub.holds());
+            Ok(offers)
+        });
+        assert_eq!(
+            offers,
+            Ok(vec![
+                (0, 0, false),
+                (0, 1, false),
+                (1, 1, true),
+                (1, 2, false),
+                (1, 3, false),
+                (2, 3, true),
+            ]),
+            "(drain, sample, offered before)"
+        );
     }
 
     /// Without notifications a wake loop still looks again (see [`LOST_WAKEUP_GUARD`]);
