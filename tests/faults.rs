@@ -6,7 +6,9 @@ mod common;
 use common::*;
 use fastslam_protocol::ipc::{Ipc, StackConfig};
 use fastslam_protocol::status::{RejectionKind, ServiceStatus, flags};
-use fastslam_protocol::{EndOfStream, Header, Odometry, StreamId, topics};
+use fastslam_protocol::{
+    EndOfStream, Header, Observation, ObservationsHeader, Odometry, PoseEstimate, StreamId, topics,
+};
 use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
 use std::os::unix::process::CommandExt;
@@ -629,5 +631,116 @@ fn an_odometry_flood_stays_bounded_and_poses_keep_coming() {
     );
     let prefix = stack.stack.prefix.clone();
     drop(stack);
+    assert_no_leftovers(&prefix);
+}
+
+/// One publisher that sends both streams from one thread, and more scans ahead of their
+/// odometry than the service's lidar buffer holds: the service holds the first scan in
+/// shared memory waiting for odometry, the buffer fills and the publisher's next send
+/// waits, with the odometry still unsent. The service must give up holding (a copy) so
+/// the publisher goes on; the run then ends with a pose for every scan.
+#[test]
+fn scans_sent_far_ahead_of_their_odometry_by_one_thread_do_not_stall_the_service() {
+    let mut sim = SimStack::new("ahead");
+    // A deadline (and so a hold limit) with room to spare on a loaded machine: the
+    // odometry must never be given up for quiet here.
+    let config = sim.dir.join("service.toml");
+    std::fs::write(&config, "[input]\ndeadline_s = 4.0\n").unwrap();
+    sim.service_flags = ["--lidar", "observations", "--config"]
+        .map(String::from)
+        .into_iter()
+        .chain([config.display().to_string()])
+        .collect();
+    let scans = 4 * topics::OBSERVATIONS.buffer as u64;
+    let (period_ns, v) = (25_000_000u64, 1.0);
+    let header = move |k: u64| Header {
+        stamp_ns: k * period_ns,
+        seq: k,
+    };
+    let odometry_at = move |k: u64| Odometry {
+        header: header(k),
+        v,
+        x: v * (k * period_ns) as f64 * 1e-9,
+        ..Default::default()
+    };
+    let pole = Observation {
+        range: 5.0,
+        id: 0,
+        ..Default::default()
+    };
+    // The publisher: a thread of its own (iceoryx2's ports stay on the thread that made
+    // them), so that the test can watch for a stall while its sends wait.
+    let config = stack(&sim.stack.prefix);
+    let publisher = std::thread::spawn(move || {
+        let ipc = Ipc::open(&config, "ahead", Duration::from_secs(30)).unwrap();
+        let odometry = ipc.publisher::<Odometry>(&topics::ODOMETRY).unwrap();
+        let lidar = ipc
+            .slice_publisher::<ObservationsHeader, Observation>(&topics::OBSERVATIONS)
+            .unwrap();
+        let eos = ipc
+            .publisher::<EndOfStream>(&topics::END_OF_STREAM)
+            .unwrap();
+        lidar.wait_for_subscribers(&ipc, 1).unwrap();
+        odometry.send(odometry_at(0)).unwrap();
+        for k in 1..=scans {
+            let h = ObservationsHeader {
+                header: header(k),
+                count: 1,
+                max_range: 30.0,
+                min_bearing: -1.5,
+                max_bearing: 1.5,
+                ..Default::default()
+            };
+            lidar.send(h, &[pole]).unwrap();
+        }
+        for k in 1..=scans {
+            odometry.send(odometry_at(k)).unwrap();
+        }
+        eos.send(EndOfStream::new(StreamId::Odometry, Some(header(scans))))
+            .unwrap();
+        eos.send(EndOfStream::new(
+            StreamId::Observations,
+            Some(header(scans)),
+        ))
+        .unwrap();
+        // The lidar's samples live in its own segment: stay until the service has them.
+        lidar.wait_until_unsubscribed(&ipc).unwrap();
+    });
+    sim.start("service");
+    let ipc = sim.ipc();
+    let pose = ipc.subscriber::<PoseEstimate>(&topics::POSE).unwrap();
+    let started = Instant::now();
+    let mut poses = 0;
+    while sim.stack.child("service").try_wait().unwrap().is_none() {
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "the service stalls: {poses} poses of {scans}"
+        );
+        poses += pose.drain(|_| {}).unwrap();
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    poses += pose.drain(|_| {}).unwrap();
+    publisher.join().expect("the publisher failed");
+    sim.wait_all(Duration::from_secs(1));
+    drop((pose, ipc));
+    assert_eq!(poses as u64, scans, "a pose per scan");
+    let log_path = sim.stack.dir.join("service.0.log");
+    let log = std::fs::read_to_string(&log_path).unwrap();
+    let rejections = log
+        .rsplit("rejections=[")
+        .next()
+        .and_then(|r| r.split(']').next());
+    assert!(
+        !log.contains("degraded") && rejections.is_some_and(|r| r.split(", ").all(|n| n == "0")),
+        "the odometry was given up for quiet or refused: {log}"
+    );
+    let (applied, direct) = scans_from_shared_memory(&log_path);
+    assert_eq!(applied, scans);
+    assert!(
+        direct < scans,
+        "every scan from shared memory: the service never gave up holding ({direct})"
+    );
+    let prefix = sim.stack.prefix.clone();
+    drop(sim);
     assert_no_leftovers(&prefix);
 }
