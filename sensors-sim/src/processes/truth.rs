@@ -39,7 +39,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "truth-sim",
         args.sim.wait_timeout(),
     )?;
-    let truth = ipc.publisher::<GroundTruth>(&topics::GROUND_TRUTH)?;
+    // As fast as possible, several samples share a wake-up of the sensors and the client.
+    let truth = ipc
+        .publisher::<GroundTruth>(&topics::GROUND_TRUTH)?
+        .coalescing();
     let landmarks =
         ipc.slice_publisher::<LandmarkMapHeader, MapLandmark>(&topics::TRUE_LANDMARKS)?;
     let eos = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
@@ -71,12 +74,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         truth.send(sample)?;
         last = header;
         if args.realtime {
+            truth.flush()?;
             let due = Duration::from_secs_f64(header.stamp_s());
             ipc.sleep(due.saturating_sub(start.elapsed()))?;
         } else if shutdown::requested() {
             return Err(IpcError::Shutdown.into());
         }
     }
+    truth.flush()?;
     send_map(Header {
         stamp_ns: last.stamp_ns,
         seq: last.seq / TRUE_MAP_EVERY + 1,

@@ -114,11 +114,12 @@ fn next_header(last: Option<Header>, stamp_ns: u64) -> Header {
 impl Outputs {
     fn open(ipc: &Ipc) -> anyhow::Result<Self> {
         Ok(Self {
-            pose: ipc.publisher(&topics::POSE)?,
+            // As fast as possible, the pose and status of several steps share a wake-up.
+            pose: ipc.publisher(&topics::POSE)?.coalescing(),
             map_get: ipc.slice_server(&topics::MAP_GET)?,
             map: ipc.slice_publisher(&topics::MAP)?,
             grid: ipc.slice_publisher(&topics::GRID)?,
-            status: ipc.publisher(&topics::STATUS)?,
+            status: ipc.publisher(&topics::STATUS)?.coalescing(),
             eos: ipc.publisher(&topics::END_OF_STREAM)?,
             last_pose: None,
             last_map: None,
@@ -196,7 +197,16 @@ impl Outputs {
         Ok(())
     }
 
+    /// Wakes the subscribers of poses and status sent without a wake-up of their own:
+    /// before the service sleeps, and at the end.
+    fn flush(&self) -> anyhow::Result<()> {
+        self.pose.flush()?;
+        self.status.flush()?;
+        Ok(())
+    }
+
     fn finish(&self, ipc: &Ipc) -> anyhow::Result<()> {
+        self.flush()?;
         for (stream, last) in [
             (StreamId::Pose, self.last_pose),
             (StreamId::Map, self.last_map),
@@ -628,6 +638,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         core.health.log.flush(now);
         core.release_queued(&config, persist)?;
+        core.out.flush()?;
         Ok(if core.sequencer.finished() && !lidar.holds() {
             Flow::Stop
         } else {
