@@ -64,12 +64,16 @@ impl SensorProcess {
         let truth = GroundTruthFollower::open(&self.ipc)?;
         output.wait_for_subscribers(&self.ipc, self.wait_subscribers)?;
         let mut last: Option<Header> = None;
-        truth.follow(&self.ipc, |gt| {
-            if let Some(sent) = each(gt, last.map_or(0, |h| h.seq + 1))? {
-                last = Some(sent);
-            }
-            Ok(())
-        })?;
+        truth.follow(
+            &self.ipc,
+            |gt| {
+                if let Some(sent) = each(gt, last.map_or(0, |h| h.seq + 1))? {
+                    last = Some(sent);
+                }
+                Ok(())
+            },
+            || Ok(output.flush()?),
+        )?;
         self.eos.send(EndOfStream::new(self.stream, last))?;
         tracing::info!(messages = last.map_or(0, |h| h.seq + 1), stream = ?self.stream, "finished");
         output.wait_until_unsubscribed(&self.ipc)?;
@@ -97,7 +101,8 @@ impl GroundTruthFollower {
     }
 
     /// Calls `each` for every valid ground-truth sample, in order, until the ground-truth
-    /// stream ends (or a signal arrives). Invalid samples are logged and skipped.
+    /// stream ends (or a signal arrives), and `flush` after each wake-up's samples (before
+    /// the loop sleeps again). Invalid samples are logged and skipped.
     ///
     /// # Errors
     /// IPC failures, or the first error `each` returns.
@@ -105,6 +110,7 @@ impl GroundTruthFollower {
         &self,
         ipc: &Ipc,
         mut each: impl FnMut(&GroundTruth) -> anyhow::Result<()>,
+        flush: impl Fn() -> anyhow::Result<()>,
     ) -> anyhow::Result<Ended> {
         let mut end = StreamEnd::default();
         let mut order = validate::StampOrder::default();
@@ -126,6 +132,7 @@ impl GroundTruthFollower {
                     end.announce(sample.payload());
                 }
             })?;
+            flush()?;
             match failure {
                 Some(e) => Err(e),
                 None if end.finished() => Ok(Flow::Stop),

@@ -40,7 +40,8 @@ fn run_scans(args: &Args, spec: LidarSpec) -> anyhow::Result<()> {
     let process = SensorProcess::open(&args.sim, "lidar-sim", StreamId::Scan)?;
     let scans = process
         .ipc
-        .slice_publisher::<LaserScanHeader, f32>(&topics::SCAN)?;
+        .slice_publisher::<LaserScanHeader, f32>(&topics::SCAN)?
+        .coalescing();
     let scenario = &process.scenario;
     let rng = stream(process.seed, &[streams::LIDAR]);
     let mut lidar = Lidar::new(spec, &scenario.world, rng);
@@ -60,7 +61,8 @@ fn run_features(args: &Args) -> anyhow::Result<()> {
     let process = SensorProcess::open(&args.sim, "lidar-sim", StreamId::Observations)?;
     let observations = process
         .ipc
-        .slice_publisher::<ObservationsHeader, Observation>(&topics::OBSERVATIONS)?;
+        .slice_publisher::<ObservationsHeader, Observation>(&topics::OBSERVATIONS)?
+        .coalescing();
     let mut sensor = LandmarkSensor::for_scenario(&process.scenario, process.seed);
     process.relay(&observations, |gt, seq| {
         let Some((header, seen)) = sensor.scan(gt, seq) else {

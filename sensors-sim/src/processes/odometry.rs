@@ -22,7 +22,10 @@ pub struct Args {
 /// Scenario, IPC or timeout errors, with their reason.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let process = SensorProcess::open(&args.sim, "odometry-sim", StreamId::Odometry)?;
-    let odometry = process.ipc.publisher::<Odometry>(&topics::ODOMETRY)?;
+    let odometry = process
+        .ipc
+        .publisher::<Odometry>(&topics::ODOMETRY)?
+        .coalescing();
     let mut sensor = OdometrySensor::for_scenario(&process.scenario, process.seed);
     process.relay(&odometry, |gt, _| {
         odometry.send(sensor.measure(gt))?;
