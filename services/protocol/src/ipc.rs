@@ -163,6 +163,9 @@ pub mod shutdown {
     use std::sync::atomic::{AtomicBool, Ordering};
 
     static REQUESTED: AtomicBool = AtomicBool::new(false);
+    /// True when SIGINT and SIGTERM both set [`REQUESTED`]: iceoryx2's record (behind a
+    /// mutex) then need not be asked on every look.
+    static WATCHED: AtomicBool = AtomicBool::new(false);
     static INSTALLED: Once = Once::new();
 
     /// Sets this process's signal dispositions (see the module documentation); once per
@@ -172,12 +175,17 @@ pub mod shutdown {
     /// that the flag's handler comes after and calls iceoryx2's in turn.
     pub fn install() {
         INSTALLED.call_once(|| {
-            requested();
+            if SignalHandler::termination_requested() {
+                request();
+            }
+            let mut watched = true;
             for terminate in [Signal::SIGINT, Signal::SIGTERM] {
                 if let Err(e) = signal_hook::flag::register(terminate as i32, &REQUESTED) {
                     tracing::warn!(signal = ?terminate, error = %e, "cannot watch the signal; relying on iceoryx2's");
+                    watched = false;
                 }
             }
+            WATCHED.store(watched, Ordering::SeqCst);
             // SAFETY: the default action is no handler: nothing runs in signal context.
             if let Err(e) = unsafe { signal(Signal::SIGTSTP, SigHandler::SigDfl) } {
                 tracing::warn!(error = %e, "cannot restore Ctrl-Z's default action; it will not suspend this process");
@@ -185,12 +193,17 @@ pub mod shutdown {
         });
     }
 
-    /// True once SIGINT or SIGTERM arrived (or [`request`] was called).
+    /// True once SIGINT or SIGTERM arrived (or [`request`] was called). Once
+    /// [`install`]ed, a load of an atomic flag: cheap enough for a busy-polling loop.
     pub fn requested() -> bool {
-        if SignalHandler::termination_requested() {
-            REQUESTED.store(true, Ordering::SeqCst);
+        if REQUESTED.load(Ordering::SeqCst) {
+            return true;
         }
-        REQUESTED.load(Ordering::SeqCst)
+        if !WATCHED.load(Ordering::SeqCst) && SignalHandler::termination_requested() {
+            request();
+            return true;
+        }
+        false
     }
 
     /// Marks the process as shutting down (for example when a `WaitSet` reported a signal).
