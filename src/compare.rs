@@ -1,5 +1,5 @@
-//! `fastslam-stack compare`: the whole multi-process stack for every optimiser × particle
-//! count × seed, then a comparison table (Markdown and CSV, the papers' table shape —
+//! `fastslam-stack compare`: the whole multi-process stack for every optimiser × proposal
+//! × particle count × seed, then a comparison table (Markdown and CSV, the papers' table shape —
 //! particles, time, trajectory RMSE, landmark RMSE — plus NEES) and a plot of trajectory
 //! RMSE against the service's CPU time.
 //!
@@ -14,6 +14,7 @@ use crate::supervisor::stop_flag;
 use anyhow::Context;
 use fastslam_client::plot::{self, CostPlot, CostSeries};
 use fastslam_client::stats::{mean, std_dev};
+use fastslam_estimation::fastslam::Proposal;
 use fastslam_sensors_sim::scenario::DEFAULT_SCENARIO;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde_json::Value;
@@ -33,6 +34,10 @@ pub struct CompareArgs {
     /// Optimisers to compare, comma-separated (passed to the service's --optimizer).
     #[arg(long, value_delimiter = ',', default_value = "none")]
     pub optimizers: Vec<String>,
+    /// Proposals, comma-separated: motion (FastSLAM 1.0) and/or fastslam2; every
+    /// optimiser runs with each.
+    #[arg(long, value_delimiter = ',', default_value = "motion")]
+    pub proposals: Vec<Proposal>,
     /// Particle counts, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "25,50,100")]
     pub particles: Vec<usize>,
@@ -57,7 +62,7 @@ pub struct CompareArgs {
 /// One configuration of the comparison.
 #[derive(Debug, Clone, PartialEq, Eq)]
 struct Config {
-    optimizer: String,
+    method: Method,
     particles: usize,
     seed: u64,
 }
@@ -65,7 +70,39 @@ struct Config {
 impl Config {
     /// The run folder's name.
     fn folder(&self) -> String {
-        format!("{}_n{}_seed{}", self.optimizer, self.particles, self.seed)
+        format!("{}_n{}_seed{}", self.method, self.particles, self.seed)
+    }
+}
+
+/// An optimiser (its name as given) with a proposal: one line of the tables.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct Method {
+    optimizer: String,
+    proposal: Proposal,
+}
+
+impl Method {
+    /// Every optimiser with every proposal, in the order of the flags.
+    fn all(args: &CompareArgs) -> Vec<Method> {
+        let pairs = args.optimizers.iter().flat_map(|o| {
+            args.proposals.iter().map(|&proposal| Method {
+                optimizer: o.clone(),
+                proposal,
+            })
+        });
+        pairs.collect()
+    }
+}
+
+/// The method's name as `run` writes it: the optimiser, with `+fastslam2` for FastSLAM
+/// 2.0's proposal.
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.optimizer)?;
+        if self.proposal == Proposal::FastSlam2 {
+            f.write_str("+fastslam2")?;
+        }
+        Ok(())
     }
 }
 
@@ -121,12 +158,13 @@ pub fn compare(args: CompareArgs) -> anyhow::Result<i32> {
         .unwrap_or_else(|| args.runs_dir.join(format!("compare_{}", scenario.name)));
     std::fs::create_dir_all(out.join("runs"))
         .with_context(|| format!("creating {}", out.display()))?;
+    let methods = Method::all(&args);
     let mut configs = Vec::new();
-    for optimizer in &args.optimizers {
+    for method in &methods {
         for &particles in &args.particles {
             for &seed in &args.seeds {
                 configs.push(Config {
-                    optimizer: optimizer.clone(),
+                    method: method.clone(),
                     particles,
                     seed,
                 });
@@ -135,15 +173,15 @@ pub fn compare(args: CompareArgs) -> anyhow::Result<i32> {
     }
     anyhow::ensure!(
         !configs.is_empty(),
-        "nothing to compare: give optimizers, particles and seeds"
+        "nothing to compare: give optimizers, proposals, particles and seeds"
     );
     let exe = std::env::current_exe().context("locating the launcher's own executable")?;
     let stop = stop_flag()?;
     eprintln!(
-        "compare on {}: {} runs ({} optimisers × {} particle counts × {} seeds), {} at a time",
+        "compare on {}: {} runs ({} methods × {} particle counts × {} seeds), {} at a time",
         scenario.name,
         configs.len(),
-        args.optimizers.len(),
+        methods.len(),
         args.particles.len(),
         args.seeds.len(),
         args.jobs.max(1)
@@ -179,8 +217,8 @@ pub fn compare(args: CompareArgs) -> anyhow::Result<i32> {
     // Table order is the order of the flags, whatever order the runs finished in.
     results.sort_by_key(|r| configs.iter().position(|c| *c == r.config));
 
-    let markdown = write_tables(&out, &args, &results)?;
-    plot::save(&cost_plot(&args, &results), &out, "rmse_vs_cpu")?;
+    let markdown = write_tables(&out, &args, &methods, &results)?;
+    plot::save(&cost_plot(&args, &methods, &results), &out, "rmse_vs_cpu")?;
     println!("comparison folder: {}", out.display());
     print!("{markdown}");
     let interrupted = stop.load(Ordering::SeqCst);
@@ -210,7 +248,9 @@ fn run_one(
         "--scenario",
         &args.scenario,
         "--optimizer",
-        &config.optimizer,
+        &config.method.optimizer,
+        "--proposal",
+        &config.method.proposal.to_string(),
     ])
     .args(["--particles", &config.particles.to_string()])
     .args([
@@ -289,9 +329,14 @@ fn mean_std(xs: &[f64], digits: usize) -> String {
 }
 
 /// Writes `runs.csv`, `summary.csv` and `summary.md`; returns the Markdown.
-fn write_tables(out: &Path, args: &CompareArgs, results: &[RunResult]) -> std::io::Result<String> {
+fn write_tables(
+    out: &Path,
+    args: &CompareArgs,
+    methods: &[Method],
+    results: &[RunResult],
+) -> std::io::Result<String> {
     // One row per run.
-    let mut csv = String::from("optimizer,particles,seed,status,wall_s");
+    let mut csv = String::from("optimizer,proposal,particles,seed,status,wall_s");
     for (name, _) in RUN_COLUMNS {
         write!(csv, ",{name}").ok();
     }
@@ -304,8 +349,12 @@ fn write_tables(out: &Path, args: &CompareArgs, results: &[RunResult]) -> std::i
             .map_or("ok".into(), |e| e.replace(',', ";"));
         write!(
             csv,
-            "{},{},{},{status},{:.3}",
-            r.config.optimizer, r.config.particles, r.config.seed, r.wall_s
+            "{},{},{},{},{status},{:.3}",
+            r.config.method.optimizer,
+            r.config.method.proposal,
+            r.config.particles,
+            r.config.seed,
+            r.wall_s
         )
         .ok();
         for (_, pointer) in RUN_COLUMNS {
@@ -315,22 +364,22 @@ fn write_tables(out: &Path, args: &CompareArgs, results: &[RunResult]) -> std::i
     }
     std::fs::write(out.join("runs.csv"), csv)?;
 
-    // One row per optimiser × particle count, over the seeds that finished.
+    // One row per method × particle count, over the seeds that finished.
     let mut summary = String::from(
-        "optimizer,particles,runs,failed,service_cpu_s_mean,service_cpu_s_std,wall_s_mean,\
+        "optimizer,proposal,particles,runs,failed,service_cpu_s_mean,service_cpu_s_std,wall_s_mean,\
          ate_rmse_m_mean,ate_rmse_m_std,landmark_rmse_m_mean,landmark_rmse_m_std,\
          nees_mean_mean,nees_within_95_mean\n",
     );
     let mut md = String::from(
-        "| optimizer | particles | runs | time (s, service CPU) | trajectory RMSE (m) | \
+        "| method | particles | runs | time (s, service CPU) | trajectory RMSE (m) | \
          landmark RMSE (m) | NEES mean | NEES within 95 % |\n|---|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     let mut failures = String::new();
-    for o in &args.optimizers {
+    for o in methods {
         for &n in &args.particles {
             let group: Vec<&RunResult> = results
                 .iter()
-                .filter(|r| r.config.optimizer == *o && r.config.particles == n)
+                .filter(|r| r.config.method == *o && r.config.particles == n)
                 .collect();
             let ok: Vec<&RunResult> = group
                 .iter()
@@ -352,7 +401,9 @@ fn write_tables(out: &Path, args: &CompareArgs, results: &[RunResult]) -> std::i
             );
             writeln!(
                 summary,
-                "{o},{n},{},{},{},{},{},{},{},{},{},{},{}",
+                "{},{},{n},{},{},{},{},{},{},{},{},{},{},{}",
+                o.optimizer,
+                o.proposal,
                 ok.len(),
                 group.len() - ok.len(),
                 cell(mean(&cpu)),
@@ -387,26 +438,26 @@ fn write_tables(out: &Path, args: &CompareArgs, results: &[RunResult]) -> std::i
             .ok();
         }
     }
-    // Failures, one line per optimiser and reason (a rejected name fails every run alike).
-    let mut reasons: Vec<(&str, &str, Vec<String>)> = Vec::new();
+    // Failures, one line per method and reason (a rejected name fails every run alike).
+    let mut reasons: Vec<(&Method, &str, Vec<String>)> = Vec::new();
     for r in results {
         if let Err(e) = &r.metrics {
             match reasons
                 .iter_mut()
-                .find(|x| x.0 == r.config.optimizer && x.1 == e)
+                .find(|x| *x.0 == r.config.method && x.1 == e)
             {
                 Some(x) => x.2.push(r.config.folder()),
-                None => reasons.push((&r.config.optimizer, e, vec![r.config.folder()])),
+                None => reasons.push((&r.config.method, e, vec![r.config.folder()])),
             }
         }
     }
-    for (optimizer, e, runs) in &reasons {
+    for (method, e, runs) in &reasons {
         let which = if runs.len() == 1 {
             format!("`{}`", runs[0])
         } else {
             format!("{} runs", runs.len())
         };
-        writeln!(failures, "- `{optimizer}` ({which}): {e}").ok();
+        writeln!(failures, "- `{method}` ({which}): {e}").ok();
     }
     std::fs::write(out.join("summary.csv"), summary)?;
     let mut text = format!(
@@ -436,15 +487,14 @@ fn cell(v: f64) -> String {
 }
 
 /// RMSE against service CPU time: every run, and the per-particle-count means joined.
-fn cost_plot(args: &CompareArgs, results: &[RunResult]) -> CostPlot {
+fn cost_plot(args: &CompareArgs, methods: &[Method], results: &[RunResult]) -> CostPlot {
     let point = |r: &RunResult| (r.num("/cost/service_cpu_s"), r.num("/estimate/ate_rmse_m"));
-    let series = args
-        .optimizers
+    let series = methods
         .iter()
         .map(|o| {
             let mine: Vec<&RunResult> = results
                 .iter()
-                .filter(|r| r.config.optimizer == *o && r.metrics.is_ok())
+                .filter(|r| r.config.method == *o && r.metrics.is_ok())
                 .collect();
             let means = args
                 .particles
@@ -462,7 +512,7 @@ fn cost_plot(args: &CompareArgs, results: &[RunResult]) -> CostPlot {
                 })
                 .collect();
             CostSeries {
-                name: o.clone(),
+                name: o.to_string(),
                 runs: mine.iter().map(|r| point(r)).collect(),
                 means,
             }

@@ -1,5 +1,5 @@
 //! `fastslam-stack compare` through the real stack: every configuration runs the whole
-//! multi-process stack; the table has one row per optimiser × particle count, its numbers
+//! multi-process stack; the table has one row per method × particle count, its numbers
 //! are those of individual runs with the same seeds, and a name the service rejects is
 //! reported with the service's reason while the other runs still happen.
 
@@ -97,7 +97,7 @@ fn compare_tables_every_configuration_with_the_numbers_of_individual_runs() {
         md.contains("magic") && md.contains("expected one of"),
         "{md}"
     );
-    assert!(stdout.contains("| optimizer | particles |"), "{stdout}");
+    assert!(stdout.contains("| method | particles |"), "{stdout}");
     for ext in ["svg", "png"] {
         let plot = out.join(format!("rmse_vs_cpu.{ext}"));
         assert!(
@@ -170,6 +170,65 @@ fn compare_tables_every_configuration_with_the_numbers_of_individual_runs() {
     assert_eq!(
         leftovers(&dir.display().to_string()).0,
         Vec::<String>::new()
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `--proposals` runs every optimiser with each proposal: a table line per method, and
+/// the FastSLAM 2.0 run equals an individual `run --proposal fastslam2`.
+#[test]
+fn compare_runs_each_optimiser_with_each_proposal() {
+    let prefix = prefix("compare_proposals");
+    let dir = folder(&prefix);
+    let out = dir.join("cmp");
+    let result = Command::new(LAUNCHER)
+        .args([
+            "compare",
+            "--scenario",
+            "bailey-short",
+            "--optimizers",
+            "none",
+        ])
+        .args(["--proposals", "motion,fastslam2", "--particles", "10"])
+        .args(["--seeds", "1", "--timeout-s", "300", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&result.stdout);
+    assert!(
+        result.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    let summary = csv(&out.join("summary.csv"));
+    let keys: Vec<(&str, &str, &str)> = summary
+        .iter()
+        .map(|r| (&*r["optimizer"], &*r["proposal"], &*r["runs"]))
+        .collect();
+    assert_eq!(keys, [("none", "motion", "1"), ("none", "fastslam2", "1")]);
+    assert!(stdout.contains("| none+fastslam2 | 10 | 1 |"), "{stdout}");
+    let single = dir.join("single");
+    assert_success(&run_stack(
+        &prefix,
+        &single,
+        &[
+            "--scenario",
+            "bailey-short",
+            "--proposal",
+            "fastslam2",
+            "--particles",
+            "10",
+            "--seed",
+            "1",
+        ],
+    ));
+    let in_compare = out.join("runs").join("none+fastslam2_n10_seed1");
+    assert_eq!(reproducible(&single), reproducible(&in_compare));
+    let motion = out.join("runs").join("none_n10_seed1");
+    assert_ne!(
+        reproducible(&motion),
+        reproducible(&in_compare),
+        "the proposal made no difference"
     );
     std::fs::remove_dir_all(&dir).ok();
 }
