@@ -42,10 +42,12 @@ pub struct BenchArgs {
     #[arg(long)]
     pub steps: Option<usize>,
     /// Only these parts, comma-separated: step, latency, latency-floor, latency-busy-poll,
-    /// throughput, memory (default: step, latency, throughput). `latency-floor` repeats
-    /// the latency run with one particle: what the processes and the machine cost when the
-    /// filter costs nothing. `latency-busy-poll` repeats it with the service and the
-    /// client polling instead of sleeping (`run --busy-poll`). `memory` runs long.
+    /// latency-spin, throughput, memory (default: step, latency, throughput).
+    /// `latency-floor` repeats the latency run with one particle: what the processes and
+    /// the machine cost when the filter costs nothing. `latency-busy-poll` repeats it with
+    /// the service and the client polling instead of sleeping (`run --busy-poll`);
+    /// `latency-spin` with them polling after each wake-up until the inputs have been quiet
+    /// for `--spin-us` (`run --spin-us`). `memory` runs long.
     #[arg(long, value_delimiter = ',', default_value = "step,latency,throughput")]
     pub parts: Vec<String>,
     /// Scenario of the latency measurement (real time: its simulated length is the wall
@@ -61,6 +63,10 @@ pub struct BenchArgs {
     /// On a shared machine one round's ratio can be off by a quarter either way.
     #[arg(long)]
     pub throughput_rounds: Option<usize>,
+    /// Spin period of the `latency-spin` part (`run --spin-us`: µs without a sample
+    /// before a poller sleeps again).
+    #[arg(long, default_value_t = 1000, value_name = "US")]
+    pub spin_us: u64,
     /// Particles of the latency and throughput runs.
     #[arg(long, default_value_t = 100)]
     pub stack_particles: usize,
@@ -85,12 +91,13 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             "latency" => latency(args, LatencyRun::Default)?,
             "latency-floor" => latency(args, LatencyRun::Floor)?,
             "latency-busy-poll" => latency(args, LatencyRun::BusyPoll)?,
+            "latency-spin" => latency(args, LatencyRun::Spin)?,
             "throughput" => throughput(args)?,
             "memory" => memory(args)?,
             other => {
                 bail!(
                     "unknown part `{other}`: step, latency, latency-floor, latency-busy-poll, \
-                     throughput or memory"
+                     latency-spin, throughput or memory"
                 )
             }
         }
@@ -226,11 +233,12 @@ fn print_rows(ns: &[usize], table: &[Vec<f64>]) {
     }
 }
 
-/// How a benchmark's stack runs: `run --realtime`, `run --busy-poll`.
+/// How a benchmark's stack runs: `run --realtime`, `--busy-poll`, `--spin-us`.
 #[derive(Debug, Clone, Copy, Default)]
 struct Pacing {
     realtime: bool,
     busy_poll: bool,
+    spin_us: u64,
 }
 
 /// Runs the whole stack with `particles` and returns its `metrics.json`.
@@ -241,6 +249,7 @@ fn stack_run(
     Pacing {
         realtime,
         busy_poll,
+        spin_us,
     }: Pacing,
 ) -> anyhow::Result<(serde_json::Value, Duration)> {
     let out = args.out.join(label);
@@ -257,6 +266,7 @@ fn stack_run(
         prefix: None,
         service_flags: Vec::new(),
         busy_poll,
+        spin_us,
     };
     let started = Instant::now();
     let code = run::run(run_args)?;
@@ -328,6 +338,8 @@ enum LatencyRun {
     Floor,
     /// The service and the client busy-poll (`run --busy-poll`).
     BusyPoll,
+    /// The service and the client poll for a while after each wake-up (`run --spin-us`).
+    Spin,
 }
 
 /// Part 2: end-to-end latency at the real-time rate.
@@ -338,22 +350,35 @@ fn latency(args: &BenchArgs, run: LatencyRun) -> anyhow::Result<()> {
         &args.latency_scenario
     };
     let (label, particles, note) = match run {
-        LatencyRun::Default => ("latency", args.stack_particles, ""),
+        LatencyRun::Default => ("latency", args.stack_particles, String::new()),
         LatencyRun::Floor => (
             "latency-floor",
             1,
-            " (the floor: the filter costs almost nothing)",
+            " (the floor: the filter costs almost nothing)".to_string(),
         ),
         LatencyRun::BusyPoll => (
             "latency-busy-poll",
             args.stack_particles,
-            " (the service and the client busy-poll)",
+            " (the service and the client busy-poll)".to_string(),
+        ),
+        LatencyRun::Spin => (
+            "latency-spin",
+            args.stack_particles,
+            format!(
+                " (after each wake-up the service and the client poll until {} us pass without a sample)",
+                args.spin_us
+            ),
         ),
     };
     println!("\n[{label}] {scenario}, N = {particles}, real time, through the processes{note}");
     let pacing = Pacing {
         realtime: true,
         busy_poll: run == LatencyRun::BusyPoll,
+        spin_us: if run == LatencyRun::Spin {
+            args.spin_us
+        } else {
+            0
+        },
     };
     let (m, wall) = stack_run(args, scenario, (label, particles), pacing)?;
     println!("  wall time {:.1} s", wall.as_secs_f64());

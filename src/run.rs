@@ -56,6 +56,12 @@ pub struct RunArgs {
     /// tail for one core each at 100 %. See BENCHMARKS.md ("Busy polling").
     #[arg(long)]
     pub busy_poll: bool,
+    /// The service and the client go on polling their inputs after each wake-up until
+    /// none has arrived for this many microseconds, then sleep again: part of busy
+    /// polling's latency gain for a few percent of a core. See BENCHMARKS.md ("Busy
+    /// polling").
+    #[arg(long, default_value_t = 0, value_name = "US")]
+    pub spin_us: u64,
 }
 
 /// Runs the stack; returns the process exit code (0 finished, 1 failed, 130 interrupted).
@@ -115,9 +121,13 @@ pub fn run(args: RunArgs) -> anyhow::Result<i32> {
     service.extend(args.service_flags.iter().cloned());
     let mut client = stack_flags.clone();
     client.extend(["--out".into(), out.display().to_string()]);
-    if args.busy_poll {
-        service.push("--busy-poll".into());
-        client.push("--busy-poll".into());
+    for flags in [&mut service, &mut client] {
+        if args.busy_poll {
+            flags.push("--busy-poll".into());
+        }
+        if args.spin_us > 0 {
+            flags.push(format!("--spin-us={}", args.spin_us));
+        }
     }
     let mut truth = sim_flags(3); // odometry-sim, lidar-sim, client
     if args.realtime {

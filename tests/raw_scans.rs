@@ -153,10 +153,11 @@ fn the_grid_of_the_indoor_loop_matches_its_walls() {
 }
 
 #[test]
-fn raw_scan_runs_are_the_same_in_real_time_as_fast_as_possible_and_busy_polling() {
+fn raw_scan_runs_are_the_same_in_real_time_as_fast_as_possible_busy_polling_and_spinning() {
     let prefix_a = prefix("pacing_fast");
     let prefix_b = prefix("pacing_real");
     let prefix_c = prefix("pacing_poll");
+    let prefix_d = prefix("pacing_spin");
     let dir = folder(&prefix_a);
     // The indoor loop cut to its first 6 m (about 6 s of simulated time).
     let text = fastslam_sensors_sim::scenario::BUILT_IN
@@ -183,8 +184,10 @@ fn raw_scan_runs_are_the_same_in_real_time_as_fast_as_possible_and_busy_polling(
     let fast = run(&prefix_a, "fast", &[]);
     let real = run(&prefix_b, "real", &["--realtime"]);
     let polled = run(&prefix_c, "polled", &["--realtime", "--busy-poll"]);
+    let spun = run(&prefix_d, "spun", &["--realtime", "--spin-us", "1000"]);
     assert_eq!(fast.0["complete"], true, "{}", fast.0);
     assert_eq!(fast, real, "pacing changed the results");
     assert_eq!(real, polled, "busy polling changed the results");
+    assert_eq!(real, spun, "spinning after wake-ups changed the results");
     std::fs::remove_dir_all(&dir).ok();
 }

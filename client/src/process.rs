@@ -61,7 +61,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "client",
         Duration::from_secs_f64(args.wait_timeout_s.max(0.0)),
     )?
-    .busy_polling(args.wait.busy_poll);
+    .busy_polling(args.wait.busy_poll)
+    .spinning(args.wait.spin());
     // A producer starts once the subscribers of one topic are there (truth simulator:
     // ground truth; odometry: odometry; lidar: its scans or observations; service: pose),
     // and a short run may be over before a later subscription exists: end-of-stream and

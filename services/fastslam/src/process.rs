@@ -445,7 +445,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (slam, resumed) = args.persist.start(&config)?;
     let timeout = Duration::from_secs_f64(args.wait_timeout_s.max(0.0));
     let ipc = Ipc::open(&args.stack.stack(), "fastslam-service", timeout)?
-        .busy_polling(args.wait.busy_poll);
+        .busy_polling(args.wait.busy_poll)
+        .spinning(args.wait.spin());
     // Publishers first, then subscribers (which wait for publishers): no wait cycles.
     let mut out = Outputs::open(&ipc)?;
     if let Some(checkpoint) = &resumed {

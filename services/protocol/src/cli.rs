@@ -35,6 +35,19 @@ pub struct WaitArgs {
     /// at 100 % for as long as the process runs. See BENCHMARKS.md ("Busy polling").
     #[arg(long)]
     pub busy_poll: bool,
+    /// After each wake-up, go on polling the inputs until none has arrived for this many
+    /// microseconds, then sleep again: the samples that follow one another closely (a
+    /// scan after its odometry, a pose after its scan) are taken without waking up again.
+    /// Costs at least this much CPU per wake-up. 0: sleep at once.
+    #[arg(long, default_value_t = 0, value_name = "US")]
+    pub spin_us: u64,
+}
+
+impl WaitArgs {
+    /// The spin period after each wake-up.
+    pub fn spin(&self) -> std::time::Duration {
+        std::time::Duration::from_micros(self.spin_us)
+    }
 }
 
 /// Sends `tracing` output to stderr, filtered by `RUST_LOG` (default `info`), each line

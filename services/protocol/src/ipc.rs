@@ -28,7 +28,7 @@ use iceoryx2::service::port_factory::request_response::PortFactory as RequestRes
 use iceoryx2::waitset::WaitSetRunResult;
 use std::cell::{Cell, RefCell};
 use std::fmt::Debug;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 /// The iceoryx2 service flavour the stack uses: inter-process, shared memory.
@@ -218,6 +218,7 @@ pub struct Ipc {
     prefix: String,
     wait_timeout: Duration,
     busy_poll: bool,
+    spin: Duration,
 }
 
 impl Ipc {
@@ -243,6 +244,7 @@ impl Ipc {
             prefix: stack.prefix.clone(),
             wait_timeout,
             busy_poll: false,
+            spin: Duration::ZERO,
         })
     }
 
@@ -250,6 +252,14 @@ impl Ipc {
     /// [`WaitArgs`](crate::cli::WaitArgs)).
     pub fn busy_polling(mut self, on: bool) -> Self {
         self.busy_poll = on;
+        self
+    }
+
+    /// The same connection, whose [`Ipc::wake_loop`] goes on polling after each wake-up
+    /// until no sample has arrived for `spin`, and only then sleeps again (see
+    /// [`WaitArgs`](crate::cli::WaitArgs)).
+    pub fn spinning(mut self, spin: Duration) -> Self {
+        self.spin = spin;
         self
     }
 
@@ -403,7 +413,7 @@ impl Ipc {
         mut on_wake: impl FnMut() -> std::result::Result<Flow, E>,
     ) -> std::result::Result<Ended, E> {
         if self.busy_poll {
-            return Self::poll_loop(on_wake);
+            return Ok(Self::poll(&mut on_wake, None)?.unwrap_or(Ended::Done));
         }
         let waitset = WaitSetBuilder::new()
             .create::<Service>()
@@ -425,7 +435,14 @@ impl Ipc {
         if on_wake()? == Flow::Stop {
             return Ok(Ended::Done);
         }
+        let mut woke = true;
         loop {
+            if woke
+                && !self.spin.is_zero()
+                && let Some(ended) = Self::poll(&mut on_wake, Some(self.spin))?
+            {
+                return Ok(ended);
+            }
             let mut fired = false;
             let result = waitset
                 .wait_and_process_once(|id| {
@@ -456,32 +473,41 @@ impl Ipc {
                 | WaitSetRunResult::AllEventsHandled => {}
             }
             // A timed wait can end before the interval's deadline is due: nothing fired.
+            woke = fired;
             if fired && on_wake()? == Flow::Stop {
                 return Ok(Ended::Done);
             }
         }
     }
 
-    /// [`Ipc::wake_loop`] without sleeping: the subscribers are looked at again as soon
-    /// as `on_wake` returns. No listener is attached, so a drain clears a listener only
-    /// when it finds samples (see [`Sub::drain`]).
+    /// Calls `on_wake` over and over without sleeping: for ever when `quiet` is `None`,
+    /// else until no sample has arrived for `quiet` (each sample received restarts that
+    /// period). `Some` when the loop has to end. No listener is attached, so a drain
+    /// clears a listener only when it finds samples (see [`Sub::drain`]).
     ///
     /// Between two looks the thread yields: a sensor process woken on the same core runs
     /// at once instead of waiting for the poller's time slice to end. With a bare spin,
     /// two pollers on a 2-core machine delayed the sensors' samples, and the latency's
     /// p99 got worse rather than better (BENCHMARKS.md, "Busy polling").
-    fn poll_loop<E>(
-        mut on_wake: impl FnMut() -> std::result::Result<Flow, E>,
-    ) -> std::result::Result<Ended, E> {
-        loop {
+    fn poll<E>(
+        on_wake: &mut impl FnMut() -> std::result::Result<Flow, E>,
+        quiet: Option<Duration>,
+    ) -> std::result::Result<Option<Ended>, E> {
+        let mut last_sample = Instant::now();
+        while quiet.is_none_or(|q| last_sample.elapsed() < q) {
+            std::thread::yield_now();
+            let received = RECEIVED.load(Ordering::Relaxed);
             if on_wake()? == Flow::Stop {
-                return Ok(Ended::Done);
+                return Ok(Some(Ended::Done));
             }
             if shutdown::requested() {
-                return Ok(Ended::Signal);
+                return Ok(Some(Ended::Signal));
             }
-            std::thread::yield_now();
+            if RECEIVED.load(Ordering::Relaxed) != received {
+                last_sample = Instant::now();
+            }
         }
+        Ok(None)
     }
 
     /// Offers the request–response service `rr`: requests `Q`, responses a header `H`
@@ -706,6 +732,10 @@ impl<T: Debug + ZeroCopySend + 'static> Wire for [T] {
         subscriber.receive()
     }
 }
+
+/// Samples this process has received on any [`Sub`]: a [spinning](Ipc::spinning) wake
+/// loop polls on while it grows.
+static RECEIVED: AtomicU64 = AtomicU64::new(0);
 
 /// What an [`Ipc::wake_loop`] sleeps on: a [`Sub`], whose listener the loop attaches to
 /// its `WaitSet`. A trait so that subscribers of different types share one loop.
@@ -1081,6 +1111,7 @@ where
             P::receive(&self.subscriber).map_err(iox_err(format!("receive on {}", self.topic)))?
         {
             n += 1;
+            RECEIVED.fetch_add(1, Ordering::Relaxed);
             if let Some(held) = each(sample) {
                 return Ok((n, Some(held)));
             }
@@ -1388,6 +1419,44 @@ mod tests {
             most.as_ref().is_ok_and(|&n| (1..=quarter).contains(&n)),
             "most samples sent before a wake-up: {most:?}, at most {quarter} allowed"
         );
+    }
+
+    /// A spinning poll takes a burst of samples as they come and ends once no sample has
+    /// arrived for its period: by then it has seen every sample of the burst, although
+    /// the burst lasts longer than the period (each sample starts the period again).
+    #[test]
+    fn a_spinning_poll_lasts_until_the_inputs_go_quiet() {
+        let test = TestStack::new("spn");
+        let stack = test.config();
+        let (burst, gap, quiet) = (15, Duration::from_millis(100), Duration::from_secs(1));
+        let sender = std::thread::spawn(move || -> std::result::Result<(), String> {
+            let run = || -> Result<()> {
+                let ipc = Ipc::open(&stack, "sender", Duration::from_secs(5))?;
+                let out = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
+                out.wait_for_subscribers(&ipc, 1)?;
+                for _ in 0..burst {
+                    out.send(EndOfStream::default())?;
+                    std::thread::sleep(gap);
+                }
+                Ok(())
+            };
+            run().map_err(|e| e.to_string())
+        });
+        let seen = on_thread(test.config(), "the poll never ended", move |ipc| {
+            let sub = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
+            let mut seen = 0;
+            let ended = Ipc::poll(
+                &mut || -> Result<Flow> {
+                    seen += sub.drain(|_| {})?;
+                    Ok(Flow::Continue)
+                },
+                Some(quiet),
+            )?;
+            assert_eq!(ended, None, "the poll ended on its own");
+            Ok(seen)
+        });
+        assert_eq!(sender.join().expect("the sender panicked"), Ok(()));
+        assert_eq!(seen, Ok(burst), "samples seen when the poll stopped");
     }
 
     /// Without notifications a wake loop still looks again (see [`LOST_WAKEUP_GUARD`]);
