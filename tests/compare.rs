@@ -7,6 +7,7 @@ mod common;
 
 use common::*;
 use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The optimisers compared: the first three the service knows (`none`, `coa`, `icoa`), the
@@ -36,6 +37,16 @@ fn csv(path: &std::path::Path) -> Vec<std::collections::BTreeMap<String, String>
                 .collect()
         })
         .collect()
+}
+
+/// An individual `run` on `bailey-short` with `flags`, into `<dir>/single`: what a line
+/// of compare's table must equal.
+fn single_run(prefix: &str, dir: &Path, flags: &[&str]) -> PathBuf {
+    let out = dir.join("single");
+    let mut all = vec!["--scenario", "bailey-short"];
+    all.extend(flags);
+    assert_success(&run_stack(prefix, &out, &all));
+    out
 }
 
 #[test]
@@ -128,13 +139,10 @@ fn compare_tables_every_configuration_with_the_numbers_of_individual_runs() {
         "{runs:?}"
     );
     let (optimizer, particles, seed) = (good[good.len() - 1].as_str(), PARTICLES[1], SEEDS[1]);
-    let single = dir.join("single");
-    assert_success(&run_stack(
+    let single = single_run(
         &prefix,
-        &single,
+        &dir,
         &[
-            "--scenario",
-            "bailey-short",
             "--optimizer",
             optimizer,
             "--particles",
@@ -142,7 +150,7 @@ fn compare_tables_every_configuration_with_the_numbers_of_individual_runs() {
             "--seed",
             &seed.to_string(),
         ],
-    ));
+    );
     let in_compare = out
         .join("runs")
         .join(format!("{optimizer}_n{particles}_seed{seed}"));
@@ -207,13 +215,10 @@ fn compare_runs_each_optimiser_with_each_proposal() {
         .collect();
     assert_eq!(keys, [("none", "motion", "1"), ("none", "fastslam2", "1")]);
     assert!(stdout.contains("| none+fastslam2 | 10 | 1 |"), "{stdout}");
-    let single = dir.join("single");
-    assert_success(&run_stack(
+    let single = single_run(
         &prefix,
-        &single,
+        &dir,
         &[
-            "--scenario",
-            "bailey-short",
             "--proposal",
             "fastslam2",
             "--particles",
@@ -221,7 +226,7 @@ fn compare_runs_each_optimiser_with_each_proposal() {
             "--seed",
             "1",
         ],
-    ));
+    );
     let in_compare = out.join("runs").join("none+fastslam2_n10_seed1");
     assert_eq!(reproducible(&single), reproducible(&in_compare));
     let motion = out.join("runs").join("none_n10_seed1");
