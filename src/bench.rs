@@ -349,6 +349,9 @@ fn latency(args: &BenchArgs, run: LatencyRun) -> anyhow::Result<()> {
     } else {
         &args.latency_scenario
     };
+    if run == LatencyRun::Spin && args.spin_us == 0 {
+        bail!("latency-spin needs --spin-us above 0 (0 is the plain latency part)");
+    }
     let (label, particles, note) = match run {
         LatencyRun::Default => ("latency", args.stack_particles, String::new()),
         LatencyRun::Floor => (

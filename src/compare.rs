@@ -35,8 +35,9 @@ pub struct CompareArgs {
     #[arg(long, value_delimiter = ',', default_value = "none")]
     pub optimizers: Vec<String>,
     /// Proposals, comma-separated: motion (FastSLAM 1.0) and/or fastslam2; every
-    /// optimiser runs with each.
-    #[arg(long, value_delimiter = ',', default_value = "motion")]
+    /// optimiser runs with each (default: the service config's, as `run` without
+    /// `--proposal`).
+    #[arg(long, value_delimiter = ',')]
     pub proposals: Vec<Proposal>,
     /// Particle counts, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "25,50,100")]
@@ -74,23 +75,34 @@ impl Config {
     }
 }
 
-/// An optimiser (its name as given) with a proposal: one line of the tables.
+/// An optimiser (its name as given) with a proposal (`None`: the config's): one line of
+/// the tables.
 #[derive(Debug, Clone, PartialEq, Eq)]
 struct Method {
     optimizer: String,
-    proposal: Proposal,
+    proposal: Option<Proposal>,
 }
 
 impl Method {
     /// Every optimiser with every proposal, in the order of the flags.
     fn all(args: &CompareArgs) -> Vec<Method> {
+        let proposals: Vec<Option<Proposal>> = if args.proposals.is_empty() {
+            vec![None]
+        } else {
+            args.proposals.iter().copied().map(Some).collect()
+        };
         let pairs = args.optimizers.iter().flat_map(|o| {
-            args.proposals.iter().map(|&proposal| Method {
+            proposals.iter().map(|&proposal| Method {
                 optimizer: o.clone(),
                 proposal,
             })
         });
         pairs.collect()
+    }
+
+    /// The proposal column of the CSV files: empty for the config's.
+    fn proposal_cell(&self) -> String {
+        self.proposal.map(|p| p.to_string()).unwrap_or_default()
     }
 }
 
@@ -99,7 +111,7 @@ impl Method {
 impl std::fmt::Display for Method {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(&self.optimizer)?;
-        if self.proposal == Proposal::FastSlam2 {
+        if self.proposal == Some(Proposal::FastSlam2) {
             f.write_str("+fastslam2")?;
         }
         Ok(())
@@ -249,8 +261,6 @@ fn run_one(
         &args.scenario,
         "--optimizer",
         &config.method.optimizer,
-        "--proposal",
-        &config.method.proposal.to_string(),
     ])
     .args(["--particles", &config.particles.to_string()])
     .args([
@@ -262,6 +272,9 @@ fn run_one(
     ])
     .arg(&folder)
     .stdin(Stdio::null());
+    if let Some(proposal) = config.method.proposal {
+        cmd.args(["--proposal", &proposal.to_string()]);
+    }
     if let Some(t) = args.timeout_s {
         cmd.args(["--timeout-s", &t.to_string()]);
     }
@@ -351,7 +364,7 @@ fn write_tables(
             csv,
             "{},{},{},{},{status},{:.3}",
             r.config.method.optimizer,
-            r.config.method.proposal,
+            r.config.method.proposal_cell(),
             r.config.particles,
             r.config.seed,
             r.wall_s
@@ -403,7 +416,7 @@ fn write_tables(
                 summary,
                 "{},{},{n},{},{},{},{},{},{},{},{},{},{},{}",
                 o.optimizer,
-                o.proposal,
+                o.proposal_cell(),
                 ok.len(),
                 group.len() - ok.len(),
                 cell(mean(&cpu)),

@@ -487,7 +487,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (mut odo_watch, mut lidar_watch) = (Watchdog::new(deadline), Watchdog::new(deadline));
     let (mut odo_end, mut scan_end) = (StreamEnd::default(), StreamEnd::default());
     let hold_limit = deadline / HOLD_SHARE_OF_DEADLINE;
-    ipc.wake_loop::<anyhow::Error>(&[&odometry, lidar.wake_source(), &eos_in], None, || {
+    // The tick: a held scan's limit is checked in time even with no input waking the loop.
+    let sources: [&dyn WakeSource; 3] = [&odometry, lidar.wake_source(), &eos_in];
+    ipc.wake_loop::<anyhow::Error>(&sources, Some(hold_limit), || {
         let now = Instant::now();
         let (mut odo_heard, mut lidar_heard) = (None, None);
         // A scan taken straight from shared memory is applied while draining; an IPC

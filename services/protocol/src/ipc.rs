@@ -186,6 +186,11 @@ pub mod shutdown {
                 }
             }
             WATCHED.store(watched, Ordering::SeqCst);
+            // A signal between the first look and the registration is only in iceoryx2's
+            // record.
+            if SignalHandler::termination_requested() {
+                request();
+            }
             // SAFETY: the default action is no handler: nothing runs in signal context.
             if let Err(e) = unsafe { signal(Signal::SIGTSTP, SigHandler::SigDfl) } {
                 tracing::warn!(error = %e, "cannot restore Ctrl-Z's default action; it will not suspend this process");
@@ -473,10 +478,13 @@ impl Ipc {
                 | WaitSetRunResult::AllEventsHandled => {}
             }
             // A timed wait can end before the interval's deadline is due: nothing fired.
-            woke = fired;
+            // Spin again only after a wake-up that brought samples: not after the interval,
+            // nor after a notification whose sample the last spin already took.
+            let received = RECEIVED.load(Ordering::Relaxed);
             if fired && on_wake()? == Flow::Stop {
                 return Ok(Ended::Done);
             }
+            woke = RECEIVED.load(Ordering::Relaxed) != received;
         }
     }
 
@@ -847,6 +855,8 @@ where
         }
         Ok(())
     }
+
+    /// Number of subscribers connected right now.
     pub fn subscribers(&self) -> usize {
         self.service.dynamic_config().number_of_subscribers()
     }
@@ -1089,6 +1099,15 @@ where
         }
     }
 
+    /// Empties the listener: a listener left with wake-ups makes the `WaitSet` fire again
+    /// at once, for ever.
+    fn clear_wakeups(&self) -> Result<()> {
+        self.listener
+            .try_wait(|_| {})
+            .map(|_| ())
+            .map_err(iox_err(format!("clear the wake-ups on {}", self.topic)))
+    }
+
     /// Receives until `each` hands a sample back (returned, with the count received).
     fn take(
         &self,
@@ -1103,9 +1122,7 @@ where
         {
             return Ok((0, None));
         }
-        self.listener
-            .try_wait(|_| {})
-            .map_err(iox_err(format!("clear the wake-ups on {}", self.topic)))?;
+        self.clear_wakeups()?;
         let mut n = 0;
         while let Some(sample) =
             P::receive(&self.subscriber).map_err(iox_err(format!("receive on {}", self.topic)))?
@@ -1160,6 +1177,11 @@ where
             && each(&sample, Some(since)) == Taken::Hold
         {
             self.held.replace(Some((sample, since)));
+            // The samples behind it wait; their wake-ups must not (the next sample's
+            // notification, or anyone else's, wakes the loop to offer it again).
+            if self.sub.fired.swap(false, Ordering::Relaxed) {
+                self.sub.clear_wakeups()?;
+            }
             return Ok(());
         }
         let (_, held) = self.sub.take(|sample| match each(&sample, None) {
@@ -1368,6 +1390,42 @@ mod tests {
                 (2, 3, true),
             ]),
             "(drain, sample, offered before)"
+        );
+    }
+
+    /// While a sample is held, the wake-ups of the samples behind it are cleared and the
+    /// loop sleeps; before, a wake-up that arrived during a hold kept the `WaitSet`
+    /// firing, and the loop was called back about a million times a second.
+    #[test]
+    fn a_held_sample_lets_the_wake_loop_sleep() {
+        let test = TestStack::new("hls");
+        let calls = on_thread(test.config(), "the loop hangs", |ipc| {
+            let out = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
+            let sub = ipc
+                .subscriber::<EndOfStream>(&topics::END_OF_STREAM)?
+                .holding();
+            out.send(EndOfStream::default())?;
+            let started = Instant::now();
+            let mut calls = 0;
+            ipc.wake_loop::<IpcError>(&[&sub], None, || {
+                calls += 1;
+                sub.drain(|_, _| Taken::Hold)?;
+                if calls == 1 {
+                    out.send(EndOfStream::default())?; // wakes the loop during the hold
+                }
+                Ok(if started.elapsed() > 3 * LOST_WAKEUP_GUARD {
+                    Flow::Stop
+                } else {
+                    Flow::Continue
+                })
+            })?;
+            Ok(calls)
+        })
+        .expect("the loop failed");
+        assert!(
+            calls <= 10,
+            "{calls} calls in {:?}: the loop does not sleep while a sample is held",
+            3 * LOST_WAKEUP_GUARD
         );
     }
 
