@@ -1268,6 +1268,13 @@ mod tests {
         result.recv_timeout(Duration::from_secs(10)).expect(hang)
     }
 
+    /// A publisher and a subscriber of the end-of-stream topic, the topic these tests
+    /// send on (the publisher first: a subscriber waits for one).
+    fn eos_ports(ipc: &Ipc) -> Result<(Pub<EndOfStream, ()>, Sub<EndOfStream, ()>)> {
+        let out = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
+        Ok((out, ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?))
+    }
+
     impl Drop for TestStack {
         fn drop(&mut self) {
             remove_stack_files(&self.prefix, Some(&self.root));
@@ -1325,8 +1332,7 @@ mod tests {
     fn a_listener_never_cleared_never_blocks_its_notifier() {
         let test = TestStack::new("unc");
         let seen = on_thread(test.config(), "a notifier blocked", |ipc| {
-            let out = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
-            let sub = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
+            let (out, sub) = eos_ports(ipc)?;
             let _never_cleared = ipc
                 .event(&topics::END_OF_STREAM)?
                 .listener_builder()
@@ -1348,10 +1354,8 @@ mod tests {
     fn a_held_sample_comes_first_on_the_next_drain_and_the_rest_wait_behind_it() {
         let test = TestStack::new("hld");
         let offers = on_thread(test.config(), "a drain hung", |ipc| {
-            let out = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
-            let sub = ipc
-                .subscriber::<EndOfStream>(&topics::END_OF_STREAM)?
-                .holding();
+            let (out, sub) = eos_ports(ipc)?;
+            let sub = sub.holding();
             let send = |k: u32| {
                 out.send(EndOfStream {
                     stream: k,
@@ -1400,10 +1404,8 @@ mod tests {
     fn a_held_sample_lets_the_wake_loop_sleep() {
         let test = TestStack::new("hls");
         let calls = on_thread(test.config(), "the loop hangs", |ipc| {
-            let out = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
-            let sub = ipc
-                .subscriber::<EndOfStream>(&topics::END_OF_STREAM)?
-                .holding();
+            let (out, sub) = eos_ports(ipc)?;
+            let sub = sub.holding();
             out.send(EndOfStream::default())?;
             let started = Instant::now();
             let mut calls = 0;
@@ -1436,10 +1438,8 @@ mod tests {
     fn a_coalescing_publisher_wakes_at_least_every_quarter_buffer_and_on_flush() {
         let test = TestStack::new("coa");
         let most = on_thread(test.config(), "a send hung", |ipc| {
-            let out = ipc
-                .publisher::<EndOfStream>(&topics::END_OF_STREAM)?
-                .coalescing();
-            let sub = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
+            let (out, sub) = eos_ports(ipc)?;
+            let out = out.coalescing();
             let woken = || -> Result<bool> {
                 let mut events = 0;
                 sub.listener
@@ -1526,8 +1526,7 @@ mod tests {
             test.config(),
             "the loop never woke up without a notification",
             |ipc| {
-                let _publisher = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
-                let sub = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
+                let (_publisher, sub) = eos_ports(ipc)?;
                 let mut calls = 0;
                 ipc.wake_loop::<IpcError>(&[&sub], None, || {
                     calls += 1;
