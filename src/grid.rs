@@ -10,8 +10,9 @@ pub struct Grid {
     /// Optimisers, comma-separated: none, coa, icoa, ba, iba, gwo, qpso, pso (default: all).
     #[arg(long, value_delimiter = ',')]
     pub optimizers: Vec<OptimiserKind>,
-    /// Move corrections, comma-separated: none (the papers) and/or mh (default: both).
-    /// Rows without an optimiser have nothing to correct and appear once.
+    /// Move corrections, comma-separated: none (the papers), proposal, resample-move
+    /// (default: all three). Rows without an optimiser have nothing to correct and appear
+    /// once.
     #[arg(long, value_delimiter = ',')]
     pub move_corrections: Vec<MoveCorrection>,
     /// Particle counts, comma-separated (default: the command's).
@@ -47,11 +48,13 @@ fn or_all<T: Clone>(given: &[T], all: &[T]) -> Vec<T> {
     if given.is_empty() { all } else { given }.to_vec()
 }
 
-/// A method's label: the optimiser's name, `+mh` for corrected moves.
+/// A method's label: the optimiser's name, then `+proposal` or `+resample-move` for the
+/// corrected modes.
 pub fn label(kind: OptimiserKind, correction: MoveCorrection) -> String {
-    match (kind, correction) {
-        (OptimiserKind::None, _) | (_, MoveCorrection::None) => kind.to_string(),
-        (_, MoveCorrection::Mh) => format!("{kind}+mh"),
+    if kind == OptimiserKind::None || !correction.is_valid() {
+        kind.to_string()
+    } else {
+        format!("{kind}+{correction}")
     }
 }
 
@@ -75,19 +78,23 @@ mod tests {
             [
                 (OptimiserKind::None, MoveCorrection::None),
                 (OptimiserKind::Coa, MoveCorrection::None),
-                (OptimiserKind::Coa, MoveCorrection::Mh),
+                (OptimiserKind::Coa, MoveCorrection::Proposal),
+                (OptimiserKind::Coa, MoveCorrection::ResampleMove),
             ]
         );
         assert_eq!(cli.grid.particles_or(&[5]), [30, 100]);
         let all = Cli::parse_from(["x"]).grid;
-        assert_eq!(all.methods().len(), 1 + 7 * 2);
+        assert_eq!(all.methods().len(), 1 + 7 * 3);
         assert_eq!(all.particles_or(&[5]), [5]);
         let err = Cli::try_parse_from(["x", "--optimizers", "magic"])
             .err()
             .map(|e| e.to_string())
             .unwrap_or_default();
         assert!(err.contains("none, coa, icoa"), "{err}");
-        assert_eq!(label(OptimiserKind::Pso, MoveCorrection::Mh), "pso+mh");
-        assert_eq!(label(OptimiserKind::None, MoveCorrection::Mh), "none");
+        assert_eq!(
+            label(OptimiserKind::Pso, MoveCorrection::ResampleMove),
+            "pso+resample-move"
+        );
+        assert_eq!(label(OptimiserKind::None, MoveCorrection::Proposal), "none");
     }
 }

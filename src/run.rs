@@ -31,7 +31,7 @@ pub struct RunArgs {
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Run folder (default: <runs-dir>/<scenario>_<method>_seed<seed>, the method being
-    /// the optimiser with +fastslam2 and +mh when they apply).
+    /// the optimiser with +fastslam2, +proposal or +resample-move when they apply).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Where run folders go by default.

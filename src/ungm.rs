@@ -99,7 +99,7 @@ pub fn run(args: &UngmArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The methods of the table with their labels (`coa`, `coa+mh`), in the order given.
+/// The methods of the table with their labels (`coa`, `coa+proposal`), in the order given.
 fn methods(args: &UngmArgs) -> anyhow::Result<Vec<(String, Method)>> {
     args.grid
         .methods()
@@ -115,6 +115,7 @@ fn methods(args: &UngmArgs) -> anyhow::Result<Vec<(String, Method)>> {
                     bound_sigmas: args.bound_sigmas,
                     prior_weight: args.prior_weight,
                     correction,
+                    ..MoveConfig::default()
                 },
             };
             method.optimiser.validate()?;

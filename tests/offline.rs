@@ -26,7 +26,7 @@ fn in_process_run_gives_the_metrics_of_the_run_through_the_processes() {
         "--proposal",
         "fastslam2",
         "--move-correction",
-        "mh",
+        "proposal",
     ];
     let prefix = prefix("offline_equal");
     let dir = folder(&prefix);
@@ -41,7 +41,7 @@ fn in_process_run_gives_the_metrics_of_the_run_through_the_processes() {
         choice: EstimatorChoice {
             optimizer: Some("icoa".into()),
             proposal: Some("fastslam2".into()),
-            move_correction: Some("mh".into()),
+            move_correction: Some("proposal".into()),
         },
     };
     let config = settings::service_config(&scenario, None, &overrides).unwrap();

@@ -2,24 +2,31 @@
 //! model says how `X₀` is drawn, the Gaussian law of `Xₜ` given `Xₜ₋₁`, and the observation
 //! log-likelihood; the filter is the same algorithm for every model. It shares [`Weights`],
 //! the resampling schemes ([`ResamplingConfig`]) and the optimiser moves ([`Mover`],
-//! ALGORITHMS.md §3) with FastSLAM, so the UNGM benchmark (§5) measures the very code the
-//! SLAM filter runs.
+//! docs/ALGORITHMS.md §3) with FastSLAM, so the UNGM benchmark (§5) measures the very code
+//! the SLAM filter runs.
 //!
 //! One step `t` (observations are `y₁..y_T`):
-//! 1. propagate: `xᵢ ~ N(f(t, xᵢ), diag σ²)` (the bootstrap proposal);
-//! 2. move (optional): the [`Mover`] on offsets from the weighted mean of the propagated
-//!    cloud, with the fitness `−log p(yₜ | x) + λ Σ_d ((x − f(t, x_prev))_d / σ_d)² / 2`;
-//! 3. weigh: `log wᵢ += log p(yₜ | xᵢ)` at the final position, or what the move's
+//! 1. propose: `xᵢ ~ N(f(t, xᵢ), diag σ²)` (the bootstrap proposal), or, with an
+//!    optimiser in the `proposal` mode, from the optimised proposal of §3.1 around
+//!    `f(t, xᵢ)`, weighed by target / proposal;
+//! 2. move (optional, the papers' mode): the [`Mover`] on offsets from the weighted mean
+//!    of the propagated cloud, with the fitness
+//!    `−log p(yₜ | x) + λ Σ_d ((x − f(t, x_prev))_d / σ_d)² / 2`;
+//! 3. weigh: `log wᵢ += log p(yₜ | xᵢ)` at the final position, or what the
 //!    [`WeightBasis`] says;
 //! 4. summarise the weighted cloud ([`Posterior`]);
-//! 5. resample when due.
+//! 5. resample when due; in the `resample-move` mode each duplicated particle then takes
+//!    Metropolis–Hastings steps toward `p(yₜ | x) N(x; f(t, x_prev), σ²)` (§3.1).
+//!
+//! The corrected modes handle scalar states (`D = 1`), as the UNGM is.
 
 use crate::check::require;
-use crate::moves::{MoveTarget, Mover, WeightBasis};
+use crate::moves::{LocalTarget, MoveCorrection, MoveTarget, Mover, WeightBasis};
 use crate::resample::ResamplingConfig;
 use crate::rng::SimRng;
 use crate::weights::Weights;
 use crate::{Error, Result};
+use nalgebra::{Matrix1, Vector1};
 use rand::RngExt;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
@@ -43,6 +50,11 @@ pub trait StateSpaceModel: Sync {
 
     /// `log p(yₜ | xₜ = x)`.
     fn log_likelihood(&self, t: usize, x: &[f64], y: &Self::Observation) -> f64;
+
+    /// Gauss–Newton information `Hᵀ R⁻¹ H` of observation `y` about a scalar state at `x`
+    /// (`H = ∂h/∂x`): what the optimised proposal's Laplace covariance needs. Models of
+    /// dimension above 1 never have it asked for.
+    fn observation_information(&self, t: usize, x: f64, y: &Self::Observation) -> f64;
 }
 
 /// Size and resampling of the generic filter.
@@ -95,6 +107,8 @@ impl FilterConfig {
 pub struct Posterior {
     /// Weighted mean (the estimate).
     pub mean: Vec<f64>,
+    /// Weighted variance around the mean.
+    pub variance: Vec<f64>,
     /// Lower end of the central interval (the `(1 − interval)/2` weighted quantile).
     pub lower: Vec<f64>,
     /// Upper end of the central interval.
@@ -170,17 +184,40 @@ impl<M: StateSpaceModel> MoveTarget for Step<'_, M> {
     }
 }
 
+/// One particle's scalar target of step `t` around its prediction `mean`.
+struct ScalarTarget<'a, M: StateSpaceModel> {
+    model: &'a M,
+    t: usize,
+    y: &'a M::Observation,
+    mean: f64,
+}
+
+impl<M: StateSpaceModel> LocalTarget<1> for ScalarTarget<'_, M> {
+    fn log_likelihood(&self, offset: &Vector1<f64>) -> f64 {
+        self.model
+            .log_likelihood(self.t, &[self.mean + offset[0]], self.y)
+    }
+
+    fn information(&self, offset: &Vector1<f64>) -> Matrix1<f64> {
+        Matrix1::new(
+            self.model
+                .observation_information(self.t, self.mean + offset[0], self.y),
+        )
+    }
+}
+
 /// Runs the filter on `observations` (`yₜ` for `t = 1..=T`) and returns the posterior
-/// summary of every step. `mover` (the optimiser of §3, or `None` for the bootstrap
-/// filter) runs between propagation and weighing. Every draw comes from `rng`, in
-/// particle order.
+/// summary of every step. `mover` (an optimiser in one of the modes of §3 and §3.1, or
+/// `None` for the bootstrap filter) runs as the module documentation says. Every draw
+/// comes from `rng`, in particle order.
 ///
 /// # Errors
-/// [`Error::InvalidParameter`] for a bad config, [`Error::DegenerateWeights`] when every
-/// particle's weight vanishes, or the mover's error.
+/// [`Error::InvalidParameter`] for a bad config or a corrected mode on a state of
+/// dimension above 1, [`Error::DegenerateWeights`] when every particle's weight vanishes,
+/// or the mover's error.
 ///
 /// # Performance
-/// O(T · N) plus the mover's evaluations and an O(N log N) sort per step and component for
+/// O(T · N) plus the mover's evaluations and an O(N) selection per step and component for
 /// the interval.
 pub fn run<M: StateSpaceModel>(
     model: &M,
@@ -198,25 +235,62 @@ pub fn run<M: StateSpaceModel>(
             reason: format!("needs {d} finite values > 0, got {sigma:?}"),
         });
     }
+    let correction = mover.as_deref().map(|m| m.config().correction);
+    require(
+        d == 1 || !correction.is_some_and(MoveCorrection::is_valid),
+        "moves.correction",
+        || format!("the corrected modes handle scalar states, this one has {d} dimensions"),
+    )?;
+    let proposing = correction == Some(MoveCorrection::Proposal);
     let mut states = vec![0.0; n * d];
     for x in states.chunks_exact_mut(d) {
         model.sample_initial(rng, x);
     }
     let mut log_weights = vec![-(n as f64).ln(); n];
     let mut means = vec![0.0; n * d];
+    let mut basis = vec![WeightBasis::FinalPosition; n];
     let mut out = Vec::with_capacity(observations.len());
     for (k, y) in observations.iter().enumerate() {
         let t = k + 1;
-        // 1. Propagate through the transition.
-        for (x, mean) in states.chunks_exact_mut(d).zip(means.chunks_exact_mut(d)) {
+        basis.fill(WeightBasis::FinalPosition);
+        // 1. Propose: the bootstrap draw, or the optimised proposal.
+        for (i, (x, mean)) in states
+            .chunks_exact_mut(d)
+            .zip(means.chunks_exact_mut(d))
+            .enumerate()
+        {
             model.transition_mean(t, x, mean);
-            for c in 0..d {
-                x[c] = mean[c] + sigma[c] * rng.sample::<f64, _>(StandardNormal);
+            match mover.as_deref_mut() {
+                Some(mover) if proposing => {
+                    let target = ScalarTarget {
+                        model,
+                        t,
+                        y,
+                        mean: mean[0],
+                    };
+                    let prior = Matrix1::new(sigma[0] * sigma[0]);
+                    let laplace = mover.laplace(&target, &prior, &[], rng)?;
+                    let (offset, correction) = laplace.draw(rng);
+                    x[0] = mean[0] + offset[0];
+                    basis[i] = WeightBasis::Corrected(correction);
+                    mover.record(crate::moves::MoveStats {
+                        steps: u64::from(i == 0),
+                        proposed: 1,
+                        accepted: 1,
+                        evaluations: laplace.evaluations,
+                    });
+                }
+                _ => {
+                    for c in 0..d {
+                        x[c] = mean[c] + sigma[c] * rng.sample::<f64, _>(StandardNormal);
+                    }
+                }
             }
         }
-        // 2. Move with the optimiser.
-        let mut basis = vec![WeightBasis::FinalPosition; n];
-        if let Some(mover) = mover.as_deref_mut() {
+        // 2. Move the cloud (the papers' mode).
+        if let Some(mover) = mover.as_deref_mut()
+            && correction == Some(MoveCorrection::None)
+        {
             let weights = Weights::from_log(&log_weights)?;
             let (centre, spread) = weighted_moments(&states, d, weights.as_slice());
             let bounds = mover.config().bounds(&spread, &sigma)?;
@@ -248,27 +322,85 @@ pub fn run<M: StateSpaceModel>(
             .zip(states.chunks_exact(d))
             .zip(&basis)
         {
-            *lw += match *b {
-                WeightBasis::FinalPosition => model.log_likelihood(t, x, y),
-                WeightBasis::Given(increment) => increment,
-            };
+            *lw += b.increment(model.log_likelihood(t, x, y));
         }
         let weights = Weights::from_log(&log_weights)?;
         // 4. Summarise.
         out.push(posterior(&states, d, &weights, config.interval));
-        // 5. Resample when due.
+        // 5. Resample when due; resample-move rejuvenates the duplicates.
         log_weights.copy_from_slice(weights.log_weights());
         if config.resampling.due(&weights) {
             let resampled = config.resampling.draw(&weights, rng);
             let mut next = Vec::with_capacity(states.len());
+            let mut next_means = Vec::with_capacity(means.len());
             for &a in &resampled.ancestors {
                 next.extend_from_slice(&states[a * d..(a + 1) * d]);
+                next_means.extend_from_slice(&means[a * d..(a + 1) * d]);
             }
             states = next;
+            means = next_means;
             log_weights = resampled.log_weights;
+            if let Some(mover) = mover.as_deref_mut()
+                && correction == Some(MoveCorrection::ResampleMove)
+            {
+                rejuvenate(
+                    model,
+                    t,
+                    y,
+                    mover,
+                    &resampled.ancestors,
+                    &mut states,
+                    &means,
+                    sigma[0],
+                    rng,
+                )?;
+            }
         }
     }
     Ok(out)
+}
+
+/// Resample-move for scalar states: each copy beyond the first of its ancestor takes the
+/// mover's Metropolis–Hastings steps toward `p(yₜ | x) N(x; mean, σ²)`.
+#[allow(clippy::too_many_arguments)]
+fn rejuvenate<M: StateSpaceModel>(
+    model: &M,
+    t: usize,
+    y: &M::Observation,
+    mover: &mut Mover,
+    ancestors: &[usize],
+    states: &mut [f64],
+    means: &[f64],
+    sigma: f64,
+    rng: &mut SimRng,
+) -> Result<()> {
+    let steps = mover.config().mh_steps;
+    let mut first = vec![true; ancestors.len()];
+    let mut stats = crate::moves::MoveStats {
+        steps: 1,
+        ..Default::default()
+    };
+    for (k, &a) in ancestors.iter().enumerate() {
+        if std::mem::replace(&mut first[a], false) {
+            continue;
+        }
+        let target = ScalarTarget {
+            model,
+            t,
+            y,
+            mean: means[k],
+        };
+        let current = Vector1::new(states[k] - means[k]);
+        let prior = Matrix1::new(sigma * sigma);
+        let laplace = mover.laplace(&target, &prior, std::slice::from_ref(&current), rng)?;
+        let (offset, accepted) = laplace.rejuvenate(&target, current, steps, rng);
+        states[k] = means[k] + offset[0];
+        stats.proposed += steps as u64;
+        stats.accepted += accepted;
+        stats.evaluations += laplace.evaluations + steps as u64 + 1;
+    }
+    mover.record(stats);
+    Ok(())
 }
 
 /// Weighted mean and standard deviation per component of row-major `states`.
@@ -288,7 +420,7 @@ fn weighted_moments(states: &[f64], d: usize, weights: &[f64]) -> (Vec<f64>, Vec
 
 /// The [`Posterior`] of a weighted cloud with a central interval of mass `interval`.
 fn posterior(states: &[f64], d: usize, weights: &Weights, interval: f64) -> Posterior {
-    let (mean, _) = weighted_moments(states, d, weights.as_slice());
+    let (mean, std) = weighted_moments(states, d, weights.as_slice());
     let tail = (1.0 - interval) / 2.0;
     let mut lower = Vec::with_capacity(d);
     let mut upper = Vec::with_capacity(d);
@@ -303,6 +435,7 @@ fn posterior(states: &[f64], d: usize, weights: &Weights, interval: f64) -> Post
     }
     Posterior {
         mean,
+        variance: std.iter().map(|s| s * s).collect(),
         lower,
         upper,
         ess: weights.ess(),
@@ -338,6 +471,9 @@ mod tests {
         }
         fn log_likelihood(&self, _: usize, x: &[f64], y: &f64) -> f64 {
             -0.5 * (y - x[0]).powi(2) / self.r
+        }
+        fn observation_information(&self, _: usize, _: f64, _: &f64) -> f64 {
+            1.0 / self.r
         }
     }
 

@@ -115,6 +115,11 @@ impl StateSpaceModel for Ungm {
     fn log_likelihood(&self, _: usize, x: &[f64], y: &f64) -> f64 {
         -0.5 * (y - x[0] * x[0] / 20.0).powi(2) / self.r
     }
+
+    /// `H = ∂(x²/20)/∂x = x/10`, so `H² / R`.
+    fn observation_information(&self, _: usize, x: f64, _: &f64) -> f64 {
+        (x / 10.0).powi(2) / self.r
+    }
 }
 
 /// One filter of the comparison: an optimiser (`none` = the bootstrap filter) with its
@@ -290,7 +295,7 @@ mod tests {
                 ..OptimiserConfig::default()
             },
             moves: MoveConfig {
-                correction: MoveCorrection::Mh,
+                correction: MoveCorrection::Proposal,
                 ..MoveConfig::default()
             },
         };

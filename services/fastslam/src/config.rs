@@ -21,7 +21,7 @@
 //! [moves]             # fastslam_estimation::moves::MoveConfig
 //! bound_sigmas = 3.0
 //! prior_weight = 1.0
-//! correction = "mh"   # or "none" (the papers)
+//! correction = "proposal"   # or "resample-move", or "none" (the papers)
 //! [output]
 //! map_every = 5
 //! grid_every = 50
@@ -222,9 +222,10 @@ pub struct EstimatorChoice {
     /// config's, else motion).
     #[arg(long)]
     pub proposal: Option<String>,
-    /// What an optimiser's move does to the weights: none (the papers: weigh at the moved
-    /// pose) or mh (Metropolis–Hastings accept/reject, weights from before the move;
-    /// default: the config's, else none).
+    /// What the optimiser's answer does: none (the papers: move the cloud, weigh at the
+    /// moved poses; biased), proposal (per particle: draw from the Laplace Gaussian at
+    /// the optimum, weigh by target / proposal) or resample-move (Metropolis–Hastings
+    /// moves of the resampled duplicates); default: the config's, else none.
     #[arg(long)]
     pub move_correction: Option<String>,
 }
@@ -341,15 +342,16 @@ impl ServiceConfig {
     }
 
     /// A short name of the estimator: the optimiser, then `+fastslam2` for FastSLAM 2.0's
-    /// proposal and `+mh` for corrected moves (`none`, `coa+mh`, `none+fastslam2`).
+    /// proposal and `+proposal` or `+resample-move` for the corrected optimiser modes
+    /// (`none`, `coa+proposal`, `none+fastslam2`).
     pub fn method(&self) -> String {
         let mut name = self.optimizer.kind.to_string();
         if self.filter.proposal == Proposal::FastSlam2 {
             name.push_str("+fastslam2");
         }
-        if self.optimizer.kind != OptimiserKind::None && self.moves.correction == MoveCorrection::Mh
-        {
-            name.push_str("+mh");
+        if self.optimizer.kind != OptimiserKind::None && self.moves.correction.is_valid() {
+            name.push('+');
+            name.push_str(self.moves.correction.name());
         }
         name
     }
@@ -410,7 +412,7 @@ mod tests {
                     move_correction: Some("metropolis".into()),
                     ..EstimatorChoice::default()
                 },
-                "none, mh",
+                "none, proposal, resample-move",
             ),
         ] {
             let overrides = Overrides {
@@ -435,21 +437,21 @@ mod tests {
             choice: EstimatorChoice {
                 optimizer: Some("gwo".into()),
                 proposal: Some("motion".into()),
-                move_correction: Some("mh".into()),
+                move_correction: Some("resample-move".into()),
             },
         };
         overrides.apply(&mut c).unwrap();
         let flags = overrides.flags().join(" ");
         assert_eq!(
             flags,
-            "--particles 30 --seed 4 --optimizer gwo --proposal motion --move-correction mh"
+            "--particles 30 --seed 4 --optimizer gwo --proposal motion --move-correction resample-move"
         );
         assert_eq!((c.filter.particles, c.filter.seed), (30, 4));
         assert_eq!(c.optimizer.kind, OptimiserKind::Gwo);
         assert_eq!(c.filter.proposal, Proposal::Motion);
-        assert_eq!(c.moves.correction, MoveCorrection::Mh);
+        assert_eq!(c.moves.correction, MoveCorrection::ResampleMove);
         c.validate().unwrap();
-        assert_eq!(c.method(), "gwo+mh");
+        assert_eq!(c.method(), "gwo+resample-move");
         c.optimizer.kind = OptimiserKind::None;
         c.filter.proposal = Proposal::FastSlam2;
         assert_eq!(

@@ -109,9 +109,12 @@ impl Slam {
         config.features.validate()?;
         let refiner =
             OptimiserRefiner::new(&config.optimizer, config.moves.clone(), config.filter.seed)?;
-        // Plain FastSLAM 1.0 never reads the motion prior: skip propagating it.
+        // Plain FastSLAM 1.0 never reads the motion prior: skip propagating it. An
+        // optimiser that draws every pose (the `proposal` mode) wants sampling deferred.
         let filter = if refiner.is_none() && filter.config().proposal == Proposal::Motion {
             filter.without_motion_prior()?
+        } else if refiner.as_ref().is_some_and(|r| r.draws_poses()) {
+            filter.defer_sampling()?
         } else {
             filter
         };

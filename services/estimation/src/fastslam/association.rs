@@ -27,7 +27,7 @@ use crate::Result;
 use crate::check::{positive, require};
 use crate::observation::{self, Observation, Sensor};
 use crate::pose::Pose2;
-use nalgebra::Matrix2;
+use nalgebra::{Matrix2, Matrix3};
 use serde::{Deserialize, Serialize};
 
 /// How observations find their landmarks.
@@ -200,6 +200,38 @@ impl<'a> Scan<'a> {
     /// O(n · (log M + k)) for n observations and k landmarks per search window.
     pub fn log_likelihood(&self, map: &LandmarkMap, pose: &Pose2) -> f64 {
         self.associate(map, pose).log_likelihood
+    }
+
+    /// The Gauss–Newton information of the scan about the pose at `pose`,
+    /// `Σⱼ H_xⱼᵀ Sⱼ⁻¹ H_xⱼ` over the observations that update a landmark of `map`
+    /// (`H_x` the measurement Jacobian w.r.t. the pose, `S = H_m Σ H_mᵀ + R` the
+    /// innovation covariance given the pose), and whether any observation did: zero
+    /// information when none does. The Laplace covariance of the corrected optimiser
+    /// modes is built from it (docs/ALGORITHMS.md §3.1).
+    ///
+    /// # Performance
+    /// One association plus O(matched) 3 × 3 products.
+    pub fn pose_information(&self, map: &LandmarkMap, pose: &Pose2) -> (Matrix3<f64>, bool) {
+        let association = self.associate(map, pose);
+        let mut information = Matrix3::zeros();
+        let mut matched = false;
+        for decision in &association.decisions {
+            let Decision::Update {
+                slot, innovation, ..
+            } = decision
+            else {
+                continue;
+            };
+            let Some(p) = map
+                .at(*slot)
+                .and_then(|landmark| observation::predict(pose, &landmark.mean))
+            else {
+                continue;
+            };
+            information += p.wrt_pose.transpose() * innovation.s_inv * p.wrt_pose;
+            matched = true;
+        }
+        (0.5 * (information + information.transpose()), matched)
     }
 
     /// Associates every observation with `map` as seen from `pose`; see the module docs.

@@ -20,24 +20,39 @@ impl PoseEstimate {
     /// # Performance
     /// O(n), two passes.
     pub fn from_weighted(poses: impl Iterator<Item = Pose2> + Clone, weights: &[f64]) -> Self {
+        Self::from_mixture(poses.map(|p| (p, Matrix3::zeros())), weights)
+    }
+
+    /// Estimate from a Gaussian mixture: components `(μᵢ, Σᵢ)` with normalised `weights`.
+    /// Mean `Σ wᵢ μᵢ` (circular mean heading), covariance `Σ wᵢ (Σᵢ + dᵢ dᵢᵀ)` with
+    /// `dᵢ = μᵢ − μ` (heading wrapped): positive definite as soon as one component with
+    /// weight is.
+    ///
+    /// # Performance
+    /// O(n), two passes.
+    pub fn from_mixture(
+        components: impl Iterator<Item = (Pose2, Matrix3<f64>)> + Clone,
+        weights: &[f64],
+    ) -> Self {
         let (mut x, mut y, mut sin, mut cos) = (0.0, 0.0, 0.0, 0.0);
-        for (pose, &w) in poses.clone().zip(weights) {
+        for ((pose, _), &w) in components.clone().zip(weights) {
             x += w * pose.x;
             y += w * pose.y;
             sin += w * pose.theta.sin();
             cos += w * pose.theta.cos();
         }
         let mean = Pose2::new(x, y, sin.atan2(cos));
-        let covariance = poses
-            .zip(weights)
-            .fold(Matrix3::zeros(), |acc, (pose, &w)| {
-                let d = Vector3::new(
-                    pose.x - mean.x,
-                    pose.y - mean.y,
-                    wrap_angle(pose.theta - mean.theta),
-                );
-                acc + w * d * d.transpose()
-            });
+        let covariance =
+            components
+                .zip(weights)
+                .fold(Matrix3::zeros(), |acc, ((pose, spread), &w)| {
+                    let d = Vector3::new(
+                        pose.x - mean.x,
+                        pose.y - mean.y,
+                        wrap_angle(pose.theta - mean.theta),
+                    );
+                    acc + w * (spread + d * d.transpose())
+                });
         Self { mean, covariance }
     }
 }
@@ -89,6 +104,23 @@ mod tests {
         assert!((e.covariance[(0, 1)] - 1.0).abs() < 1e-12);
         assert!((e.covariance[(0, 2)] - 0.1).abs() < 1e-12);
         assert!((e.covariance - e.covariance.transpose()).norm() < 1e-15);
+    }
+
+    #[test]
+    fn a_mixture_adds_the_components_spread_to_the_spread_of_their_means() {
+        let components = [
+            (Pose2::new(0.0, 0.0, 0.0), Matrix3::identity() * 0.5),
+            (Pose2::new(2.0, 0.0, 0.0), Matrix3::identity() * 1.5),
+        ];
+        let e = PoseEstimate::from_mixture(components.iter().copied(), &[0.5, 0.5]);
+        assert!((e.mean.x - 1.0).abs() < 1e-12);
+        // Within 1.0, between 1.0 in x.
+        assert!((e.covariance[(0, 0)] - 2.0).abs() < 1e-12);
+        assert!((e.covariance[(1, 1)] - 1.0).abs() < 1e-12);
+        // Two equal points alone would be singular; their Gaussians are not.
+        let same = [(Pose2::default(), Matrix3::identity() * 1e-6); 2];
+        let e = PoseEstimate::from_mixture(same.iter().copied(), &[0.5, 0.5]);
+        assert!(e.covariance.cholesky().is_some());
     }
 
     #[test]

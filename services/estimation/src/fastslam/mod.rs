@@ -1,8 +1,8 @@
-//! FastSLAM 1.0 and 2.0 with per-particle landmark EKFs (ALGORITHMS.md §1).
+//! FastSLAM 1.0 and 2.0 with per-particle landmark EKFs (docs/ALGORITHMS.md §1).
 //!
 //! The filter reads top to bottom in [`FastSlam::predict`] and
-//! [`FastSlam::update_publishing`], one comment per stage of §1; the stages that the pose
-//! estimate needs (weighing, the resampling draw) come before the map updates, so the
+//! [`FastSlam::update_publishing`], one private method per stage of §1; the stages that
+//! the pose estimate needs (proposal, weighing) come before the map updates, so the
 //! estimate can be published first. Parts:
 //! - [`landmarks`]: the per-particle map, persistent and spatially indexed, shared
 //!   between resampled copies and copied only where written;
@@ -12,8 +12,24 @@
 //! - [`trail`]: each particle's pose history at keyframes, shared between resampled
 //!   copies, for the occupancy grid of the best particle;
 //! - [`proposal`]: FastSLAM 2.0's proposal, drawn after step 1 when configured;
-//! - [`PoseRefiner`]: the seam for step 2 (an optimiser moving predicted poses), with
-//!   [`refine::OptimiserRefiner`] the optimisers of ALGORITHMS.md §4 behind it.
+//! - [`PoseRefiner`]: the seam for step 2 (an optimiser), with
+//!   [`refine::OptimiserRefiner`] the optimisers of §4 behind it in the mode §3 and §3.1
+//!   describe.
+//!
+//! **Deferred sampling.** With FastSLAM 2.0's proposal, or an optimiser in the
+//! `proposal` mode, a particle's pose is not sampled control by control: between
+//! observations it *is* its motion prior `N(x̂, P)` (the noise-free prediction from its
+//! last sampled pose, with the control noise accumulated), and it is drawn once, when an
+//! observation uses it — from the proposal when a landmark is matched, from the prior
+//! when the scan only starts landmarks — as Bailey & Nieto's FastSLAM 2.0 does. A scan
+//! that uses nothing of a particle leaves its Gaussian open, so the next proposal
+//! corrects the whole stretch since its last draw.
+//!
+//! **The published estimate** is the weighted cloud *before* resampling (resampling adds
+//! noise and duplicates, never information): the weighted mixture of each particle's
+//! component — its Gaussian proposal after FastSLAM 2.0's draw, its prior while open, its
+//! pose otherwise — with mean `Σ wᵢ μᵢ` (circular heading) and covariance
+//! `Σ wᵢ (Σᵢ + dᵢ dᵢᵀ)`, `dᵢ = μᵢ − μ`.
 //!
 //! Per-particle work runs on rayon when the batch is large enough to pay for the hand-off
 //! (`crate::parallel`); every random draw comes from a stream labelled
@@ -48,13 +64,15 @@ pub use snapshot::FilterState;
 pub use trail::Trail;
 
 use crate::motion::Control;
+use crate::moves::gaussian::Gaussian;
 use crate::observation::{Observation, Sensor};
 use crate::parallel;
 use crate::pose::Pose2;
 use crate::rng::{Streams, stream};
 use crate::weights::Weights;
 use crate::{Error, Result};
-use association::ScanAssociation;
+use association::{Decision, ScanAssociation};
+use nalgebra::{Matrix3, Vector3};
 use particle::MapChanges;
 
 /// Stream label for the motion noise of one particle in one step.
@@ -67,17 +85,19 @@ const PURPOSE_PROPOSAL: u64 = 2;
 pub(crate) const PURPOSE_OPTIMISE: u64 = 3;
 /// Stream label for seeding ICOA's persistent chaotic sequence, once per filter.
 pub(crate) const PURPOSE_CHAOS: u64 = 4;
+/// Stream label for the Metropolis–Hastings moves of one duplicated particle ([`refine`]).
+pub(crate) const PURPOSE_REJUVENATE: u64 = 5;
+/// Stream label for a deferred particle's draw from its motion prior.
+const PURPOSE_PRIOR_DRAW: u64 = 6;
 
-/// Step 2 of ALGORITHMS.md §1: an optimiser that moves the predicted poses before they are
-/// weighed. `None` in [`FastSlam::update_with`] runs no optimiser (plain FastSLAM 1.0 with
-/// the motion proposal, FastSLAM 2.0 with `fastslam2`).
+/// Step 2 of docs/ALGORITHMS.md §1: an optimiser that moves or draws the predicted poses.
+/// `None` in [`FastSlam::update_with`] runs no optimiser (plain FastSLAM 1.0 with the
+/// motion proposal, FastSLAM 2.0 with `fastslam2`).
 pub trait PoseRefiner {
-    /// Moves particles (through [`Particle::set_pose`]) for this scan, and says in `basis`
-    /// (one entry per particle) how each particle's weight of this step is then obtained:
-    /// [`WeightBasis::FinalPosition`] weighs it at its pose after the move,
-    /// [`WeightBasis::Given`] sets the log-likelihood increment (a corrected move keeps the
-    /// weight from before the move). `basis` arrives filled by the proposal
-    /// (`FinalPosition`, or FastSLAM 2.0's marginal likelihood).
+    /// Before weighing: moves or draws particles (through [`Particle::set_pose`]) for this
+    /// scan, and says in `basis` (one entry per particle) how each particle's weight of
+    /// this step is then obtained ([`WeightBasis`]). `basis` arrives filled by the
+    /// proposal (`FinalPosition`, or FastSLAM 2.0's marginal likelihood).
     ///
     /// [`Scan::log_likelihood`] gives the observation log-likelihood of a candidate pose
     /// under a particle's own map, [`Particle::prior`] the motion prior, and [`Scan::step`]
@@ -92,6 +112,30 @@ pub trait PoseRefiner {
         particles: &mut [Particle],
         basis: &mut [WeightBasis],
     ) -> Result<()>;
+
+    /// After the resampling draw, before the maps are updated: may move the particles
+    /// marked in `duplicates` (copies beyond the first of their ancestor) by moves that
+    /// leave the step's posterior invariant, keeping their weights, and marks each one
+    /// it moved in `moved`. The default moves nothing.
+    ///
+    /// # Errors
+    /// Whatever the optimiser reports; the step then fails as in
+    /// [`refine`](Self::refine).
+    fn rejuvenate(
+        &mut self,
+        _scan: &Scan<'_>,
+        _particles: &mut [Particle],
+        _duplicates: &[bool],
+        _moved: &mut [bool],
+    ) -> Result<()> {
+        Ok(())
+    }
+
+    /// Whether [`refine`](Self::refine) draws every pose an observation uses, so the
+    /// filter should defer sampling ([`FastSlam::defer_sampling`]). Default false.
+    fn draws_poses(&self) -> bool {
+        false
+    }
 }
 
 /// What one [`FastSlam::update`] did, for filter-health metrics.
@@ -139,10 +183,27 @@ pub struct FastSlam {
     step: u64,
     /// Whether [`predict`](Self::predict) propagates every particle's [`MotionPrior`].
     motion_prior: bool,
+    /// Whether poses are drawn at observations instead of control by control (see the
+    /// module documentation).
+    deferred: bool,
     /// Localisation only: the maps are read, never written ([`FastSlam::fix_map`]).
     map_fixed: bool,
     /// Buffers a step fills, kept for the next step.
     scratch: Scratch,
+}
+
+/// What a particle stands for in this step's published mixture.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Component {
+    /// Its pose, a sample.
+    Point,
+    /// The Gaussian its pose was drawn from (FastSLAM 2.0's proposal).
+    Drawn {
+        mean: Pose2,
+        covariance: Matrix3<f64>,
+    },
+    /// Its motion prior `N(x̂, P)`: deferred and not drawn in this step.
+    Open,
 }
 
 /// The buffers of one step, kept between steps so that a step allocates no scratch space
@@ -158,6 +219,8 @@ pub(crate) struct Scratch {
     basis: Vec<WeightBasis>,
     /// FastSLAM 2.0's draw per particle.
     drawn: Vec<Option<proposal::Drawn>>,
+    /// What each particle stands for in the published estimate.
+    components: Vec<Component>,
     /// Per particle: its association (step 3) and map changes (step 4).
     particles: Vec<ParticleStep>,
     /// Unnormalised log-weights (step 5).
@@ -166,6 +229,9 @@ pub(crate) struct Scratch {
     spare_weights: Option<Weights>,
     /// The particles before resampling, emptied after each resampling (capacity kept).
     spare_particles: Vec<Particle>,
+    /// Resample-move: which copies are duplicates, and which of them moved.
+    duplicates: Vec<bool>,
+    moved: Vec<bool>,
 }
 
 /// What one scan does to one particle.
@@ -173,6 +239,8 @@ pub(crate) struct Scratch {
 struct ParticleStep {
     association: ScanAssociation,
     changes: MapChanges,
+    /// Deferred and not drawn: its motion prior stays open (step 4 does not settle it).
+    open: bool,
 }
 
 impl FastSlam {
@@ -245,6 +313,7 @@ impl FastSlam {
         Ok(Self {
             particles: vec![particle; n],
             weights: Weights::from_log(&vec![log_weight; n])?,
+            deferred: config.proposal == Proposal::FastSlam2,
             config,
             step: 0,
             motion_prior: true,
@@ -260,21 +329,44 @@ impl FastSlam {
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] when the filter is configured with FastSLAM 2.0's
-    /// proposal, which needs the prior.
+    /// proposal or defers sampling, which need the prior.
     ///
     /// # Performance
     /// Saves one 3 × 3 covariance propagation (two Jacobians, a sine and a cosine) per
     /// particle per prediction: about a quarter of FastSLAM 1.0's instructions on Bailey's
     /// webmap.
     pub fn without_motion_prior(mut self) -> Result<Self> {
-        if self.config.proposal == Proposal::FastSlam2 {
+        if self.config.proposal == Proposal::FastSlam2 || self.deferred {
             return Err(Error::InvalidParameter {
                 name: "proposal",
-                reason: "fastslam2 needs the motion prior".into(),
+                reason: "fastslam2 and the optimised proposal need the motion prior".into(),
             });
         }
         self.motion_prior = false;
         Ok(self)
+    }
+
+    /// The same filter with deferred sampling (see the module documentation): what a
+    /// [`PoseRefiner`] that [draws every pose](PoseRefiner::draws_poses) needs. FastSLAM
+    /// 2.0's proposal defers by itself.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] on a filter
+    /// [`without_motion_prior`](Self::without_motion_prior).
+    pub fn defer_sampling(mut self) -> Result<Self> {
+        if !self.motion_prior {
+            return Err(Error::InvalidParameter {
+                name: "proposal",
+                reason: "deferred sampling needs the motion prior".into(),
+            });
+        }
+        self.deferred = true;
+        Ok(self)
+    }
+
+    /// Whether poses are drawn at observations (see the module documentation).
+    pub fn defers_sampling(&self) -> bool {
+        self.deferred
     }
 
     /// Localisation only from now on: updates weigh the particles against their maps but
@@ -298,8 +390,9 @@ impl FastSlam {
         &self.weights
     }
 
-    /// Step 1: samples every particle's pose from the motion model for `control` held
-    /// over `dt` seconds, and propagates its [`MotionPrior`].
+    /// Step 1: propagates every particle's [`MotionPrior`] over `control` held for `dt`
+    /// seconds and samples its pose from the motion model — or, with deferred sampling,
+    /// sets the pose to the prior's mean (the pose is drawn when an observation uses it).
     ///
     /// # Errors
     /// [`Error::InvalidInput`] for a non-finite control, a negative or non-finite `dt`,
@@ -317,19 +410,21 @@ impl FastSlam {
         }
         let step = self.step + 1;
         let (seed, motion) = (self.config.seed, &self.config.motion);
-        let with_prior = self.motion_prior;
+        let (with_prior, deferred) = (self.motion_prior, self.deferred);
         let predicted = &mut self.scratch.predicted;
         let parallel = parallel::pays(self.particles.len(), 1);
         let streams = Streams::new(seed, &[step]);
         parallel::map_into(parallel, &self.particles, predicted, |i, p| {
-            let mut rng = streams.stream(&[i as u64, PURPOSE_PREDICT]);
-            let pose = motion.sample(&p.pose, control, dt, &mut rng);
             let prior = if with_prior {
                 p.prior.predict(motion, control, dt)
             } else {
                 p.prior
             };
-            (pose, prior)
+            if deferred {
+                return (prior.mean, prior);
+            }
+            let mut rng = streams.stream(&[i as u64, PURPOSE_PREDICT]);
+            (motion.sample(&p.pose, control, dt, &mut rng), prior)
         });
         let broken = predicted.iter().position(|(pose, prior)| {
             !(pose.is_finite() && prior.mean.is_finite())
@@ -363,9 +458,9 @@ impl FastSlam {
     }
 
     /// One scan taken by `sensor` (a scan may carry its own noise, range and field of
-    /// view): FastSLAM 2.0's proposal when configured, optional pose refinement (step 2),
-    /// association and weighing (3), map updates and negative evidence (4),
-    /// normalisation (5), resampling (6).
+    /// view): FastSLAM 2.0's proposal when configured, the optional refiner (step 2),
+    /// association and weighing (3), normalisation (5), resampling (6), map updates and
+    /// negative evidence (4).
     ///
     /// A particle's weight increment is the scan's likelihood at its final pose, unless
     /// the proposal or the refiner gave it another ([`WeightBasis`]).
@@ -394,11 +489,9 @@ impl FastSlam {
     }
 
     /// [`update_with`](Self::update_with), handing the step's pose estimate to `publish`
-    /// the moment it is known: after weighing and the resampling draw, before the map
-    /// updates. A caller can send the pose while the maps are still being written, which
-    /// takes about half of a step. The estimate is the very one [`estimate`](Self::estimate)
-    /// returns after the step: the map updates move no pose, and the draw reads only the
-    /// weights.
+    /// the moment it is known: after weighing, before resampling and the map updates
+    /// (see the module documentation for what it is). A caller can send the pose while
+    /// the maps are still being written, which takes about half of a step.
     ///
     /// `publish` is called once if the step succeeds, never if it fails.
     ///
@@ -418,137 +511,354 @@ impl FastSlam {
                 reason: "a pose refiner needs the motion prior".into(),
             });
         }
-        let step = self.step + 1;
+        let mut accepted = std::mem::take(&mut self.scratch.accepted);
+        accepted.clear();
+        let association = self.config.association.clone();
+        accepted.extend(observations.iter().copied().filter(|obs| {
+            obs.validate().is_ok() && sensor.can_report(obs) && association.accepts(obs)
+        }));
+        let scan = Scan::new(&accepted, sensor, &association, self.step + 1);
+        let result = self.run_stages(&scan, refiner, publish);
+        self.scratch.accepted = accepted;
+        let mut report = result?;
+        report.rejected = observations.len() - self.scratch.accepted.len();
+        Ok(report)
+    }
+
+    /// The stages of one update, in the order they run.
+    fn run_stages(
+        &mut self,
+        scan: &Scan<'_>,
+        mut refiner: Option<&mut dyn PoseRefiner>,
+        publish: impl FnOnce(&PoseEstimate),
+    ) -> Result<StepReport> {
+        let parallel = parallel::pays(self.particles.len(), scan.observations().len() + 1);
+        self.start_step();
+        // 1b. FastSLAM 2.0: draw each pose from the proposal that uses this scan.
+        if self.config.proposal == Proposal::FastSlam2 {
+            self.propose_fastslam2(scan, parallel);
+        }
+        // 2. Optimise (optional): move or draw the poses.
+        if let Some(refiner) = refiner.as_deref_mut() {
+            self.refine(scan, refiner)?;
+        }
+        // 3. Associate at the final poses; deferred particles the scan uses but nothing
+        // drew are drawn from their prior now.
+        self.associate(scan, parallel, None);
+        if self.deferred {
+            self.draw_from_priors(scan, parallel);
+        }
+        // 5. Weigh and normalise (log-sum-exp); N_eff.
+        let mut weights = self.weigh()?;
+        let neff = weights.ess();
+        // 7. The estimate: the weighted cloud before resampling, handed out now.
+        publish(&self.mixture(&weights));
+        // 6a. Draw the resampling ancestors when N_eff < neff_ratio · N.
+        let resampled = self.draw_ancestors(&mut weights, scan.step())?;
+        // 4 and 6b. Update the maps and make the resampled copies: copies first when a
+        // refiner moves them (resample-move), so each updates its map from its own pose.
+        let rejuvenating = resampled.is_some() && refiner.is_some();
+        if let (Some(r), Some(refiner), true) = (&resampled, refiner, rejuvenating) {
+            self.replace_by_copies(r);
+            self.rejuvenate(scan, r, refiner, parallel)?;
+            self.update_maps(scan, parallel);
+        } else {
+            self.update_maps(scan, parallel);
+            match &resampled {
+                Some(r) => self.replace_by_copies(r),
+                None => {
+                    for (p, &lw) in self.particles.iter_mut().zip(weights.log_weights()) {
+                        p.log_weight = lw;
+                    }
+                }
+            }
+        }
+        std::mem::swap(&mut self.weights, &mut weights);
+        self.scratch.spare_weights = Some(weights);
+        self.step = scan.step();
+        let steps = &self.scratch.particles;
+        let total =
+            |f: fn(&MapChanges) -> usize| -> usize { steps.iter().map(|s| f(&s.changes)).sum() };
+        Ok(StepReport {
+            neff,
+            resampled: resampled.is_some(),
+            distinct: resampled
+                .as_ref()
+                .map_or(self.particles.len(), |r| r.distinct()),
+            matched: total(|c| c.matched),
+            new_landmarks: total(|c| c.created),
+            ignored: total(|c| c.ignored),
+            removed: total(|c| c.removed),
+            rejected: 0,
+        })
+    }
+
+    /// Resets the per-particle bookkeeping of a step: every weight from the final pose,
+    /// every deferred particle open, the others points.
+    fn start_step(&mut self) {
         let n = self.particles.len();
-        let association = &self.config.association;
         let Scratch {
-            accepted,
+            basis, components, ..
+        } = &mut self.scratch;
+        basis.clear();
+        basis.resize(n, WeightBasis::FinalPosition);
+        components.clear();
+        let start = if self.deferred {
+            Component::Open
+        } else {
+            Component::Point
+        };
+        components.resize(n, start);
+    }
+
+    /// Stage 1b: FastSLAM 2.0's draw for every particle with a matched landmark.
+    fn propose_fastslam2(&mut self, scan: &Scan<'_>, parallel: bool) {
+        let streams = Streams::new(self.config.seed, &[scan.step()]);
+        let Scratch {
             basis,
             drawn,
+            components,
+            ..
+        } = &mut self.scratch;
+        parallel::map_into(parallel, &self.particles, drawn, |i, p| {
+            let mut rng = streams.stream(&[i as u64, PURPOSE_PROPOSAL]);
+            proposal::fastslam2(scan, p, &mut rng)
+        });
+        for (((p, b), c), d) in self
+            .particles
+            .iter_mut()
+            .zip(basis.iter_mut())
+            .zip(components.iter_mut())
+            .zip(drawn.iter())
+        {
+            if let Some(d) = d {
+                p.pose = d.pose;
+                *b = WeightBasis::Given(d.log_likelihood);
+                *c = Component::Drawn {
+                    mean: d.mean,
+                    covariance: d.covariance,
+                };
+            }
+        }
+    }
+
+    /// Stage 2: the refiner; a particle it moved or drew is a point from now on.
+    fn refine(&mut self, scan: &Scan<'_>, refiner: &mut dyn PoseRefiner) -> Result<()> {
+        let Scratch {
+            predicted,
+            basis,
+            components,
+            ..
+        } = &mut self.scratch;
+        // The poses before the refiner, to see which it changed (reusing step 1's buffer).
+        predicted.clear();
+        predicted.extend(self.particles.iter().map(|p| (p.pose, p.prior)));
+        let before: Vec<WeightBasis> = basis.clone();
+        refiner.refine(scan, &mut self.particles, basis)?;
+        for (((p, (pose, _)), c), (b, old)) in self
+            .particles
+            .iter()
+            .zip(predicted.iter())
+            .zip(components.iter_mut())
+            .zip(basis.iter().zip(before))
+        {
+            if p.pose != *pose || *b != old {
+                *c = Component::Point;
+            }
+        }
+        Ok(())
+    }
+
+    /// Stage 3: each particle's association at its current pose, into the step buffers;
+    /// with `only`, just the particles it marks.
+    fn associate(&mut self, scan: &Scan<'_>, parallel: bool, only: Option<&[bool]>) {
+        let steps = &mut self.scratch.particles;
+        steps.resize_with(self.particles.len(), ParticleStep::default);
+        match only {
+            None => parallel::zip_mut(parallel, &mut self.particles, steps, |p, s| {
+                scan.associate_into(&p.map, &p.pose, &mut s.association);
+            }),
+            Some(only) => {
+                for ((p, s), _) in self
+                    .particles
+                    .iter()
+                    .zip(steps.iter_mut())
+                    .zip(only)
+                    .filter(|(_, o)| **o)
+                {
+                    scan.associate_into(&p.map, &p.pose, &mut s.association);
+                }
+            }
+        }
+    }
+
+    /// Stage 3, deferred sampling: an open particle whose association updates or starts
+    /// a landmark is drawn from its motion prior (its weight is then the likelihood at the
+    /// drawn pose, the bootstrap filter's) and associated again there.
+    fn draw_from_priors(&mut self, scan: &Scan<'_>, parallel: bool) {
+        let streams = Streams::new(self.config.seed, &[scan.step()]);
+        let Scratch {
+            particles: steps,
+            components,
+            moved,
+            ..
+        } = &mut self.scratch;
+        moved.clear();
+        moved.extend(components.iter().zip(steps.iter()).map(|(c, s)| {
+            *c == Component::Open
+                && s.association
+                    .decisions
+                    .iter()
+                    .any(|d| !matches!(d, Decision::Ignore))
+        }));
+        if !moved.iter().any(|&m| m) {
+            return;
+        }
+        for (i, ((p, c), &draw)) in self
+            .particles
+            .iter_mut()
+            .zip(components.iter_mut())
+            .zip(moved.iter())
+            .enumerate()
+        {
+            if !draw {
+                continue;
+            }
+            let mut rng = streams.stream(&[i as u64, PURPOSE_PRIOR_DRAW]);
+            if let Some(prior) = Gaussian::new(Vector3::zeros(), p.prior.covariance) {
+                let d = prior.sample(&mut rng);
+                let x = &p.prior.mean;
+                p.pose = Pose2::new(x.x + d[0], x.y + d[1], x.theta + d[2]);
+            }
+            *c = Component::Point;
+        }
+        let only = std::mem::take(&mut self.scratch.moved);
+        self.associate(scan, parallel, Some(&only));
+        self.scratch.moved = only;
+    }
+
+    /// Stage 5: the new weights, `log wᵢ + increment`, normalised.
+    fn weigh(&mut self) -> Result<Weights> {
+        let Scratch {
+            basis,
             particles: steps,
             log_weights,
             spare_weights,
             ..
         } = &mut self.scratch;
-        accepted.clear();
-        accepted.extend(observations.iter().copied().filter(|obs| {
-            obs.validate().is_ok() && sensor.can_report(obs) && association.accepts(obs)
-        }));
-        let scan = Scan::new(accepted, sensor, association, step);
-        let parallel = parallel::pays(n, accepted.len() + 1);
-        basis.clear();
-        basis.resize(n, WeightBasis::FinalPosition);
-
-        // 1b. FastSLAM 2.0: draw each pose from the proposal that uses this scan.
-        if self.config.proposal == Proposal::FastSlam2 {
-            let streams = Streams::new(self.config.seed, &[step]);
-            parallel::map_into(parallel, &self.particles, drawn, |i, p| {
-                let mut rng = streams.stream(&[i as u64, PURPOSE_PROPOSAL]);
-                proposal::fastslam2(&scan, p, &mut rng)
-            });
-            for ((p, b), d) in self
-                .particles
-                .iter_mut()
-                .zip(basis.iter_mut())
-                .zip(drawn.iter())
-            {
-                if let Some(d) = d {
-                    p.pose = d.pose;
-                    *b = WeightBasis::Given(d.log_likelihood);
-                }
-            }
-        }
-
-        // 2. Optimise (optional): move the poses.
-        if let Some(refiner) = refiner {
-            refiner.refine(&scan, &mut self.particles, basis)?;
-        }
-
-        // 3. Associate and weigh, read-only, so nothing changes if normalising fails.
-        steps.resize_with(n, ParticleStep::default);
-        parallel::zip_mut(parallel, &mut self.particles, steps, |p, s| {
-            scan.associate_into(&p.map, &p.pose, &mut s.association);
-        });
         log_weights.clear();
         log_weights.extend(
             self.particles
                 .iter()
                 .zip(steps.iter())
                 .zip(basis.iter())
-                .map(|((p, s), b)| match *b {
-                    WeightBasis::FinalPosition => p.log_weight + s.association.log_likelihood,
-                    WeightBasis::Given(increment) => p.log_weight + increment,
-                }),
+                .map(|((p, s), b)| p.log_weight + b.increment(s.association.log_likelihood)),
         );
-
-        // 5. Normalise (log-sum-exp) and N_eff.
         let mut weights = spare_weights.take().unwrap_or_else(|| self.weights.clone());
         weights.renormalise(log_weights)?;
-        let neff = weights.ess();
+        Ok(weights)
+    }
 
-        // 6a. Draw the resampling ancestors when N_eff < neff_ratio · N: the draw reads only
-        // the weights, so the step's estimate is known before any map is written.
-        let resampled = if self.config.resampling.due(&weights) {
-            let mut rng = stream(self.config.seed, &[step, 0, PURPOSE_RESAMPLE]);
-            let resampled = self.config.resampling.draw(&weights, &mut rng);
-            weights.renormalise(&resampled.log_weights)?;
-            Some(resampled)
-        } else {
-            None
-        };
+    /// Stage 7: the mixture of the particles' components under `weights`.
+    fn mixture(&self, weights: &Weights) -> PoseEstimate {
+        let zero = Matrix3::zeros();
+        let components =
+            self.particles
+                .iter()
+                .zip(&self.scratch.components)
+                .map(|(p, c)| match *c {
+                    Component::Point => (p.pose, zero),
+                    Component::Drawn { mean, covariance } => (mean, covariance),
+                    Component::Open => (p.prior.mean, p.prior.covariance),
+                });
+        PoseEstimate::from_mixture(components, weights.as_slice())
+    }
 
-        // 7. The estimate, handed out now.
-        let estimate = match &resampled {
-            Some(r) => PoseEstimate::from_weighted(
-                r.ancestors.iter().map(|&a| self.particles[a].pose),
-                weights.as_slice(),
-            ),
-            None => PoseEstimate::from_weighted(
-                self.particles.iter().map(|p| p.pose),
-                weights.as_slice(),
-            ),
-        };
-        publish(&estimate);
+    /// Stage 6a: the resampling ancestors when due, with `weights` replaced by the
+    /// copies' weights.
+    fn draw_ancestors(&self, weights: &mut Weights, step: u64) -> Result<Option<Resampled>> {
+        if !self.config.resampling.due(weights) {
+            return Ok(None);
+        }
+        let mut rng = stream(self.config.seed, &[step, 0, PURPOSE_RESAMPLE]);
+        let resampled = self.config.resampling.draw(weights, &mut rng);
+        weights.renormalise(&resampled.log_weights)?;
+        Ok(Some(resampled))
+    }
 
-        // 4. Update the maps: EKF updates, new landmarks, negative evidence. The pose is
-        // settled: the next step's motion prior starts from it.
+    /// Resample-move, after [`replace_by_copies`](Self::replace_by_copies): the refiner
+    /// moves duplicated copies; the moved ones become points and are associated again.
+    fn rejuvenate(
+        &mut self,
+        scan: &Scan<'_>,
+        resampled: &Resampled,
+        refiner: &mut dyn PoseRefiner,
+        parallel: bool,
+    ) -> Result<()> {
+        let Scratch {
+            components,
+            particles: steps,
+            duplicates,
+            moved,
+            ..
+        } = &mut self.scratch;
+        // The copies' components and associations are their ancestors'.
+        let (ancestor_components, ancestor_steps) = (components.clone(), std::mem::take(steps));
+        components.clear();
+        components.extend(resampled.ancestors.iter().map(|&a| ancestor_components[a]));
+        steps.extend(
+            resampled
+                .ancestors
+                .iter()
+                .map(|&a| ancestor_steps[a].clone()),
+        );
+        let mut first = vec![true; resampled.ancestors.len()];
+        duplicates.clear();
+        duplicates.extend(
+            resampled
+                .ancestors
+                .iter()
+                .map(|&a| !std::mem::replace(&mut first[a], false)),
+        );
+        moved.clear();
+        moved.resize(resampled.ancestors.len(), false);
+        refiner.rejuvenate(scan, &mut self.particles, duplicates, moved)?;
+        for (c, &m) in components.iter_mut().zip(moved.iter()) {
+            if m {
+                *c = Component::Point;
+            }
+        }
+        let only = std::mem::take(&mut self.scratch.moved);
+        self.associate(scan, parallel, Some(&only));
+        self.scratch.moved = only;
+        Ok(())
+    }
+
+    /// Stage 4: EKF updates, new landmarks and negative evidence from each particle's
+    /// association; the motion prior of every particle whose pose is now settled starts
+    /// from it (an open one keeps accumulating).
+    fn update_maps(&mut self, scan: &Scan<'_>, parallel: bool) {
         let evidence = &self.config.negative_evidence;
         let floor = self.config.prior_floor.covariance();
         let map_fixed = self.map_fixed;
+        let Scratch {
+            particles: steps,
+            components,
+            ..
+        } = &mut self.scratch;
+        for (s, c) in steps.iter_mut().zip(components.iter()) {
+            s.open = *c == Component::Open;
+        }
         parallel::zip_mut(parallel, &mut self.particles, steps, |p, s| {
-            p.prior = MotionPrior::settled(p.pose, &floor);
+            if !s.open {
+                p.prior = MotionPrior::settled(p.pose, &floor);
+            }
             s.changes = if map_fixed {
                 MapChanges::default()
             } else {
-                p.apply(&scan, &s.association, evidence)
+                p.apply(scan, &s.association, evidence)
             };
         });
-        let total =
-            |f: fn(&MapChanges) -> usize| -> usize { steps.iter().map(|s| f(&s.changes)).sum() };
-        let report = StepReport {
-            neff,
-            resampled: resampled.is_some(),
-            distinct: resampled.as_ref().map_or(n, |r| r.distinct()),
-            matched: total(|c| c.matched),
-            new_landmarks: total(|c| c.created),
-            ignored: total(|c| c.ignored),
-            removed: total(|c| c.removed),
-            rejected: observations.len() - accepted.len(),
-        };
-
-        // 6b. The resampled particles: copies of their updated ancestors.
-        match &resampled {
-            Some(r) => self.replace_by_copies(r),
-            None => {
-                for (p, &lw) in self.particles.iter_mut().zip(weights.log_weights()) {
-                    p.log_weight = lw;
-                }
-            }
-        }
-        std::mem::swap(&mut self.weights, &mut weights);
-        self.scratch.spare_weights = Some(weights);
-        self.step = step;
-        Ok(report)
     }
 
     /// Replaces the particles by the copies `resampled` draws (O(1) each: maps are
@@ -584,15 +894,23 @@ impl FastSlam {
         &self.particles[self.weights.argmax()]
     }
 
-    /// Step 7: weighted mean pose (circular mean heading) and weighted covariance.
+    /// The particles as they are now, weighted: each particle's pose, or its motion prior
+    /// `N(x̂, P)` with deferred sampling (where a drawn particle's prior is its pose with
+    /// the floor covariance). After an update this is the cloud after resampling; the
+    /// step's published estimate was taken before it.
     ///
     /// # Performance
     /// O(N).
     pub fn estimate(&self) -> PoseEstimate {
-        PoseEstimate::from_weighted(
-            self.particles.iter().map(|p| p.pose),
-            self.weights.as_slice(),
-        )
+        let zero = Matrix3::zeros();
+        let components = self.particles.iter().map(|p| {
+            if self.deferred {
+                (p.prior.mean, p.prior.covariance)
+            } else {
+                (p.pose, zero)
+            }
+        });
+        PoseEstimate::from_mixture(components, self.weights.as_slice())
     }
 
     /// Step 7: the highest-weight particle's map, ordered by id.

@@ -58,11 +58,15 @@ pub enum Proposal {
 
 named_choices!(Proposal, "proposal", { Motion => "motion", FastSlam2 => "fastslam2" });
 
-/// A pose drawn from FastSLAM 2.0's proposal with the log-weight increment of the step.
+/// A pose drawn from FastSLAM 2.0's proposal with the log-weight increment of the step
+/// and the Gaussian it was drawn from (the particle's component of the published
+/// estimate).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Drawn {
     pub pose: Pose2,
     pub log_likelihood: f64,
+    pub mean: Pose2,
+    pub covariance: Matrix3<f64>,
 }
 
 /// The Gaussian of steps 1–3 of the module documentation for `particle` and `scan`, and the
@@ -120,6 +124,8 @@ pub(crate) fn fastslam2(scan: &Scan<'_>, particle: &Particle, rng: &mut SimRng) 
     Some(Drawn {
         pose: Pose2::new(mean.x + d[0], mean.y + d[1], mean.theta + d[2]),
         log_likelihood,
+        mean,
+        covariance: cov,
     })
 }
 

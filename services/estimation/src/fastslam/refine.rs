@@ -1,34 +1,44 @@
-//! The optimisers of ALGORITHMS.md §4 as FastSLAM's step 2: a [`PoseRefiner`] that runs a
-//! [`Mover`] on the particle cloud, population member `i` = particle `i` (§3).
+//! The optimisers of docs/ALGORITHMS.md §4 inside FastSLAM: a [`PoseRefiner`] that runs
+//! a [`Mover`] in the configured [`MoveCorrection`] mode.
 //!
-//! Per scan:
-//! - the cloud's centre `c` is the weighted mean pose (circular mean heading) of the poses
-//!   the proposal drew, with the weights of the previous step;
-//! - member `i`'s decision vector is its pose's offset from `c`, heading wrapped;
-//! - the box is `± bound_sigmas · σ` of the cloud per dimension, never narrower than the
-//!   motion prior's standard deviation (the weighted mean of the particles' `P`);
-//! - the fitness is §3's `−log p(z | x, map_i) + λ (x − x̂_i)ᵀ P_i⁻¹ (x − x̂_i) / 2` with
-//!   [`Scan::log_likelihood`] under particle `i`'s own map and its own
-//!   [`MotionPrior`](super::MotionPrior) `N(x̂_i, P_i)`; when a particle moves, its map
-//!   goes with it;
-//! - the optimiser draws from a stream seeded per step from the filter's seed; ICOA's
-//!   chaotic sequence is seeded once, from the same seed.
+//! - **`none`, the papers' mode**, per scan, before weighing: the cloud's centre `c` is
+//!   the weighted mean pose (circular mean heading) of the poses the proposal drew, with
+//!   the weights of the previous step; member `i`'s decision vector is its pose's offset
+//!   from `c`; the box is `± bound_sigmas · σ` of the cloud per dimension, never narrower
+//!   than the motion prior's standard deviation (the weighted mean of the particles'
+//!   `P`); the fitness is `−log p(z | x, map_i) + λ (x − x̂_i)ᵀ P_i⁻¹ (x − x̂_i) / 2`.
+//!   Weighed at the moved poses: biased.
+//! - **`proposal`**, per particle, before weighing: the optimiser searches around the
+//!   particle's own prediction `x̂_i` ([`crate::moves::local`]); the pose is drawn from the
+//!   defensive mixture around the optimum and weighed by
+//!   `p(z | x, map_i) N(x; x̂_i, P_i) / q(x)` ([`WeightBasis::Corrected`]). The filter
+//!   defers sampling in this mode ([`FastSlam::defer_sampling`](super::FastSlam::defer_sampling)):
+//!   between observations a particle is its Gaussian `N(x̂_i, P_i)`.
+//! - **`resample-move`**, per duplicated particle, after the resampling draw:
+//!   Metropolis–Hastings steps toward the same target, proposing from the same density.
 //!
-//! A scan without usable observations is skipped: the likelihood is flat, and the prior
-//! term alone would only pull every particle onto its noise-free prediction.
+//! In the corrected modes a particle whose association at its pose updates no landmark
+//! is left alone: its likelihood does not depend on the pose, so the target is the
+//! motion prior, which it already follows. The papers' mode skips a scan without usable
+//! observations: the prior term alone would only pull every particle onto its noise-free
+//! prediction.
 
 use super::association::Scan;
 use super::estimate::PoseEstimate;
+use super::landmarks::LandmarkMap;
 use super::particle::Particle;
-use super::{PURPOSE_CHAOS, PURPOSE_OPTIMISE, PoseRefiner};
-use crate::moves::{MoveConfig, MoveStats, MoveTarget, Mover, WeightBasis};
+use super::{PURPOSE_CHAOS, PURPOSE_OPTIMISE, PURPOSE_REJUVENATE, PoseRefiner};
+use crate::moves::{
+    LocalTarget, MoveConfig, MoveCorrection, MoveStats, MoveTarget, Mover, WeightBasis,
+};
 use crate::optimise::OptimiserConfig;
+use crate::parallel;
 use crate::pose::{Pose2, wrap_angle};
-use crate::rng::stream;
+use crate::rng::{Streams, stream};
 use crate::{Error, Result};
 use nalgebra::{Matrix3, Vector3};
 
-/// Runs the configured optimiser on the particles before they are weighed.
+/// Runs the configured optimiser on the particles.
 ///
 /// # Example
 /// ```
@@ -64,50 +74,18 @@ impl OptimiserRefiner {
     pub fn stats(&self) -> MoveStats {
         self.mover.stats()
     }
-}
 
-/// The §3 fitness terms of one scan: offsets from `centre` to poses, each particle's map
-/// for the likelihood and its motion prior.
-struct PoseTarget<'a> {
-    scan: &'a Scan<'a>,
-    particles: &'a [Particle],
-    centre: Pose2,
-    /// `P_i⁻¹` per particle.
-    information: Vec<Matrix3<f64>>,
-}
-
-impl PoseTarget<'_> {
-    fn pose(&self, offset: &[f64]) -> Pose2 {
-        Pose2::new(
-            self.centre.x + offset[0],
-            self.centre.y + offset[1],
-            self.centre.theta + offset[2],
-        )
-    }
-}
-
-impl MoveTarget for PoseTarget<'_> {
-    fn log_likelihood(&self, member: usize, offset: &[f64]) -> f64 {
-        let p = &self.particles[member];
-        self.scan.log_likelihood(p.map(), &self.pose(offset))
+    fn correction(&self) -> MoveCorrection {
+        self.mover.config().correction
     }
 
-    fn log_prior(&self, member: usize, offset: &[f64]) -> f64 {
-        let d = self.particles[member].prior().deviation(&self.pose(offset));
-        -0.5 * (d.transpose() * self.information[member] * d)[0]
-    }
-}
-
-impl PoseRefiner for OptimiserRefiner {
-    fn refine(
+    /// The papers' mode: the cloud is the population.
+    fn move_cloud(
         &mut self,
         scan: &Scan<'_>,
         particles: &mut [Particle],
         basis: &mut [WeightBasis],
     ) -> Result<()> {
-        if scan.observations().is_empty() {
-            return Ok(());
-        }
         let weights: Vec<f64> = particles.iter().map(|p| p.log_weight().exp()).collect();
         let cloud = PoseEstimate::from_weighted(particles.iter().map(|p| *p.pose()), &weights);
         let centre = cloud.mean;
@@ -150,7 +128,7 @@ impl PoseRefiner for OptimiserRefiner {
                 ]
             })
             .collect();
-        let target = PoseTarget {
+        let target = CloudTarget {
             scan,
             particles,
             centre,
@@ -172,5 +150,215 @@ impl PoseRefiner for OptimiserRefiner {
             }
         }
         Ok(())
+    }
+
+    /// `proposal`: each particle with a matched landmark is drawn from its optimised
+    /// proposal; the optimiser starts from its prediction and, when the proposal already
+    /// moved it (FastSLAM 2.0), from that pose too.
+    fn propose(
+        &mut self,
+        scan: &Scan<'_>,
+        particles: &mut [Particle],
+        basis: &mut [WeightBasis],
+    ) -> Result<()> {
+        let streams = Streams::new(self.seed, &[scan.step()]);
+        let mover = &self.mover;
+        let drawn = per_particle(particles, scan, |i, p, target| {
+            let mut rng = streams.stream(&[i as u64, PURPOSE_OPTIMISE]);
+            let start = p.prior().deviation(p.pose());
+            let starts: &[Vector3<f64>] = if start == Vector3::zeros() {
+                &[]
+            } else {
+                std::slice::from_ref(&start)
+            };
+            let laplace = mover.laplace(target, &p.prior().covariance, starts, &mut rng)?;
+            let (offset, correction) = laplace.draw(&mut rng);
+            Ok((target.pose(&offset), correction, laplace.evaluations))
+        })?;
+        let mut stats = MoveStats {
+            steps: 1,
+            ..MoveStats::default()
+        };
+        for ((p, b), d) in particles.iter_mut().zip(basis).zip(drawn) {
+            if let Some((pose, correction, evaluations)) = d {
+                p.set_pose(pose)?;
+                *b = WeightBasis::Corrected(correction);
+                stats += MoveStats {
+                    steps: 0,
+                    proposed: 1,
+                    accepted: 1,
+                    evaluations,
+                };
+            }
+        }
+        self.mover.record(stats);
+        Ok(())
+    }
+}
+
+/// Runs `f` on every particle whose association at its pose updates a landmark (with its
+/// [`ParticleTarget`] around its prediction), in parallel when that pays; `None` for the
+/// others. Results come back in particle order whatever the thread count.
+fn per_particle<R: Send>(
+    particles: &[Particle],
+    scan: &Scan<'_>,
+    f: impl Fn(usize, &Particle, &ParticleTarget<'_>) -> Result<R> + Sync + Send,
+) -> Result<Vec<Option<R>>> {
+    per_particle_where(particles, scan, &vec![true; particles.len()], f)
+}
+
+/// [`per_particle`] restricted to the particles marked in `selected`.
+fn per_particle_where<R: Send>(
+    particles: &[Particle],
+    scan: &Scan<'_>,
+    selected: &[bool],
+    f: impl Fn(usize, &Particle, &ParticleTarget<'_>) -> Result<R> + Sync + Send,
+) -> Result<Vec<Option<R>>> {
+    // A search costs hundreds of likelihood evaluations: parallel as soon as there are
+    // two particles to search.
+    let parallel = parallel::pays(particles.len(), parallel::MIN_PARALLEL_WORK);
+    let mut out = Vec::with_capacity(particles.len());
+    parallel::map_into(parallel, particles, &mut out, |i, p| {
+        if !selected[i] {
+            return Ok(None);
+        }
+        let target = ParticleTarget {
+            scan,
+            map: p.map(),
+            prediction: p.prior().mean,
+        };
+        let (_, matched) = scan.pose_information(p.map(), p.pose());
+        if !matched {
+            return Ok(None);
+        }
+        f(i, p, &target).map(Some)
+    });
+    out.into_iter().collect()
+}
+
+impl PoseRefiner for OptimiserRefiner {
+    fn refine(
+        &mut self,
+        scan: &Scan<'_>,
+        particles: &mut [Particle],
+        basis: &mut [WeightBasis],
+    ) -> Result<()> {
+        if scan.observations().is_empty() {
+            return Ok(());
+        }
+        match self.correction() {
+            MoveCorrection::None => self.move_cloud(scan, particles, basis),
+            MoveCorrection::Proposal => self.propose(scan, particles, basis),
+            MoveCorrection::ResampleMove => Ok(()),
+        }
+    }
+
+    fn rejuvenate(
+        &mut self,
+        scan: &Scan<'_>,
+        particles: &mut [Particle],
+        duplicates: &[bool],
+        moved: &mut [bool],
+    ) -> Result<()> {
+        if self.correction() != MoveCorrection::ResampleMove || scan.observations().is_empty() {
+            return Ok(());
+        }
+        let streams = Streams::new(self.seed, &[scan.step()]);
+        let (mover, steps) = (&self.mover, self.mover.config().mh_steps);
+        let results = per_particle_where(particles, scan, duplicates, |k, p, target| {
+            let mut rng = streams.stream(&[k as u64, PURPOSE_REJUVENATE]);
+            let current = p.prior().deviation(p.pose());
+            let laplace = mover.laplace(
+                target,
+                &p.prior().covariance,
+                std::slice::from_ref(&current),
+                &mut rng,
+            )?;
+            let (offset, accepted) = laplace.rejuvenate(target, current, steps, &mut rng);
+            let pose = (offset != current).then(|| target.pose(&offset));
+            Ok((pose, accepted, laplace.evaluations + steps as u64 + 1))
+        })?;
+        let mut stats = MoveStats {
+            steps: 1,
+            ..MoveStats::default()
+        };
+        for ((p, m), r) in particles.iter_mut().zip(moved.iter_mut()).zip(results) {
+            let Some((pose, accepted, evaluations)) = r else {
+                continue;
+            };
+            stats += MoveStats {
+                steps: 0,
+                proposed: steps as u64,
+                accepted,
+                evaluations,
+            };
+            if let Some(pose) = pose {
+                p.set_pose(pose)?;
+                *m = true;
+            }
+        }
+        self.mover.record(stats);
+        Ok(())
+    }
+
+    fn draws_poses(&self) -> bool {
+        self.correction() == MoveCorrection::Proposal
+    }
+}
+
+/// The papers' fitness terms of one scan: offsets from `centre` to poses, each particle's
+/// map for the likelihood and its motion prior.
+struct CloudTarget<'a> {
+    scan: &'a Scan<'a>,
+    particles: &'a [Particle],
+    centre: Pose2,
+    /// `P_i⁻¹` per particle.
+    information: Vec<Matrix3<f64>>,
+}
+
+impl CloudTarget<'_> {
+    fn pose(&self, offset: &[f64]) -> Pose2 {
+        Pose2::new(
+            self.centre.x + offset[0],
+            self.centre.y + offset[1],
+            self.centre.theta + offset[2],
+        )
+    }
+}
+
+impl MoveTarget for CloudTarget<'_> {
+    fn log_likelihood(&self, member: usize, offset: &[f64]) -> f64 {
+        let p = &self.particles[member];
+        self.scan.log_likelihood(p.map(), &self.pose(offset))
+    }
+
+    fn log_prior(&self, member: usize, offset: &[f64]) -> f64 {
+        let d = self.particles[member].prior().deviation(&self.pose(offset));
+        -0.5 * (d.transpose() * self.information[member] * d)[0]
+    }
+}
+
+/// One particle's target in the corrected modes: poses as offsets from its prediction,
+/// the likelihood and information under its own map.
+struct ParticleTarget<'a> {
+    scan: &'a Scan<'a>,
+    map: &'a LandmarkMap,
+    prediction: Pose2,
+}
+
+impl ParticleTarget<'_> {
+    fn pose(&self, offset: &Vector3<f64>) -> Pose2 {
+        let x = &self.prediction;
+        Pose2::new(x.x + offset[0], x.y + offset[1], x.theta + offset[2])
+    }
+}
+
+impl LocalTarget<3> for ParticleTarget<'_> {
+    fn log_likelihood(&self, offset: &Vector3<f64>) -> f64 {
+        self.scan.log_likelihood(self.map, &self.pose(offset))
+    }
+
+    fn information(&self, offset: &Vector3<f64>) -> Matrix3<f64> {
+        self.scan.pose_information(self.map, &self.pose(offset)).0
     }
 }

@@ -195,6 +195,7 @@ impl FastSlam {
         Ok(Self {
             weights: Weights::from_log(&log_weights)?,
             particles,
+            deferred: config.proposal == super::Proposal::FastSlam2,
             config,
             step: state.step,
             // The service drops the prior again where it is not needed (see

@@ -421,7 +421,7 @@ pub struct RunSummary {
 ///
 /// Object safe, so the filter holds a `Box<dyn Optimiser>` built by
 /// [`OptimiserConfig::build`].
-pub trait Optimiser: Send + fmt::Debug {
+pub trait Optimiser: Send + Sync + fmt::Debug {
     /// Which optimiser this is.
     fn kind(&self) -> OptimiserKind;
 
