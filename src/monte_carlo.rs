@@ -3,6 +3,7 @@
 //! pipeline is `fastslam_stack::offline`; this parses flags and prints.
 
 use anyhow::Context;
+use fastslam_estimation::optimise::OptimiserKind;
 use fastslam_estimation::stats::Summary;
 use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::scenario::DEFAULT_SCENARIO;
@@ -21,6 +22,37 @@ pub struct MonteCarloArgs {
     /// Estimators, particle counts and seeds.
     #[command(flatten)]
     pub comparison: Comparison,
+    /// Also write the rows to this CSV file, one per method, with the columns
+    /// scenario,optimizer,correction,proposal,particles,seeds,ate_mean_m,ate_std_m,
+    /// nees_within_95,singular_fraction,cpu_s_per_run (correction: none, proposal or
+    /// resample-move, empty without an optimiser; proposal: motion or fastslam2).
+    #[arg(long)]
+    pub csv: Option<PathBuf>,
+}
+
+/// The header of `monte-carlo --csv`; tools outside the project read these names.
+pub const CSV_HEADER: &str = "scenario,optimizer,correction,proposal,particles,seeds,\
+ate_mean_m,ate_std_m,nees_within_95,singular_fraction,cpu_s_per_run";
+
+/// One line of `monte-carlo --csv`.
+fn csv_row(scenario: &str, row: &Row) -> String {
+    let correction = if row.optimizer == OptimiserKind::None {
+        ""
+    } else {
+        row.correction.name()
+    };
+    format!(
+        "{scenario},{},{correction},{},{},{},{},{},{},{},{}",
+        row.optimizer,
+        row.proposal,
+        row.particles,
+        row.ate.n,
+        row.ate.mean,
+        row.ate.std,
+        row.nees_within.mean,
+        row.singular.mean,
+        row.cpu.mean
+    )
 }
 
 /// Runs the comparison and prints its table, one row as soon as it is done.
@@ -38,7 +70,7 @@ pub fn run(args: &MonteCarloArgs) -> anyhow::Result<()> {
         seeds[seeds.len() - 1]
     );
     println!(
-        "  {:<18} {:>5}  {:>30}  {:>30}  {:>30}  {:>10}  {:>8}  {:>12}  DR ATE (m) · moves kept",
+        "  {:<28} {:>5}  {:>30}  {:>30}  {:>30}  {:>10}  {:>8}  {:>12}  {:>8}  DR ATE (m) · moves kept",
         "method",
         "N",
         "ATE RMSE (m)",
@@ -47,14 +79,20 @@ pub fn run(args: &MonteCarloArgs) -> anyhow::Result<()> {
         "NEES ≤ χ²₉₅",
         "singular",
         "filter s/run",
+        "CPU s/run",
     );
-    offline::compare(
-        &scenario,
-        args.config.as_deref(),
-        &args.comparison,
-        print_row,
-    )
+    let mut csv = vec![CSV_HEADER.to_owned()];
+    offline::compare(&scenario, args.config.as_deref(), &args.comparison, |row| {
+        print_row(row);
+        csv.push(csv_row(&scenario.name, row));
+    })
     .context("monte carlo")?;
+    if let Some(path) = &args.csv {
+        csv.push(String::new());
+        std::fs::write(path, csv.join("\n"))
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        println!("rows written to {}", path.display());
+    }
     Ok(())
 }
 
@@ -90,7 +128,7 @@ fn print_row(row: &Row) {
         )
     });
     println!(
-        "  {:<18} {:>5}  {:>30}  {:>30}  {:>30}  {:>10.3}  {:>8.3}  {:>7.2} ± {:<4.2}  {:.3}{moves}",
+        "  {:<28} {:>5}  {:>30}  {:>30}  {:>30}  {:>10.3}  {:>8.3}  {:>7.2} ± {:<4.2}  {:>8.2}  {:.3}{moves}",
         row.method,
         row.particles,
         cell(&row.ate),
@@ -100,6 +138,7 @@ fn print_row(row: &Row) {
         row.singular.mean,
         row.seconds.mean,
         row.seconds.std,
+        row.cpu.mean,
         row.dead_reckoning.mean
     );
 }

@@ -10,7 +10,8 @@ use crate::settings;
 use fastslam_client::metrics::{Alignment, ScoreAt};
 use fastslam_client::{Metrics, Recording};
 use fastslam_estimation::fastslam::Proposal;
-use fastslam_estimation::moves::MoveStats;
+use fastslam_estimation::moves::{MoveCorrection, MoveStats};
+use fastslam_estimation::optimise::OptimiserKind;
 use fastslam_estimation::stats::Summary;
 use fastslam_protocol::Header;
 use fastslam_protocol::validate::{self, StampOrder};
@@ -33,6 +34,20 @@ pub struct RunOutcome {
     pub simulated: Duration,
     /// What the optimiser's moves did (`None` without an optimiser).
     pub moves: Option<MoveStats>,
+    /// CPU time of the whole run, every thread of the process counted (simulation and
+    /// scoring included).
+    pub cpu: Duration,
+}
+
+/// CPU time the process has used so far, user and system, every thread counted.
+fn process_cpu() -> Duration {
+    use nix::sys::resource::{UsageWho, getrusage};
+    getrusage(UsageWho::RUSAGE_SELF).map_or(Duration::ZERO, |u| {
+        let tv = |t: nix::sys::time::TimeVal| {
+            Duration::new(t.tv_sec().max(0) as u64, (t.tv_usec().max(0) as u32) * 1000)
+        };
+        tv(u.user_time()) + tv(u.system_time())
+    })
 }
 
 /// Runs `scenario` with simulation seed `seed` through the service configured by `config`
@@ -49,6 +64,7 @@ pub fn run_in_process(
     seed: u64,
     config: &ServiceConfig,
 ) -> anyhow::Result<RunOutcome> {
+    let cpu_start = process_cpu();
     let mut slam = Slam::new(config)?;
     let mut sequencer = Sequencer::default();
     let mut recording = Recording::default();
@@ -101,11 +117,13 @@ pub fn run_in_process(
     apply(&mut sequencer, &mut recording);
     let stamp_ns = last_pose.map_or(0, |h| h.stamp_ns);
     recording.map = slam.map(Header { stamp_ns, seq: 0 }).1;
+    let metrics = Metrics::compute(&recording, true, Alignment::default(), ScoreAt::Estimates);
     Ok(RunOutcome {
-        metrics: Metrics::compute(&recording, true, Alignment::default(), ScoreAt::Estimates),
+        metrics,
         filter_time,
         simulated: Duration::from_nanos(stamp_ns),
         moves: slam.move_stats(),
+        cpu: process_cpu().saturating_sub(cpu_start),
     })
 }
 
@@ -115,6 +133,12 @@ pub fn run_in_process(
 pub struct Row {
     /// Short name of the estimator ([`ServiceConfig::method`]).
     pub method: String,
+    /// The optimiser.
+    pub optimizer: OptimiserKind,
+    /// What the optimiser's answer does (meaningless without an optimiser).
+    pub correction: MoveCorrection,
+    /// The proposal of the new poses.
+    pub proposal: Proposal,
     /// Number of particles.
     pub particles: usize,
     /// Absolute trajectory error RMSE per run (m).
@@ -132,6 +156,8 @@ pub struct Row {
     pub singular: Summary,
     /// Time in the filter per run (s).
     pub seconds: Summary,
+    /// CPU time per run (s): the whole in-process run, every thread.
+    pub cpu: Summary,
     /// The optimiser's moves summed over the runs (`None` without an optimiser).
     pub moves: Option<MoveStats>,
 }
@@ -204,7 +230,12 @@ pub fn compare(
                     method = config.method();
                     runs.push(run_in_process(scenario, seed, &config)?);
                 }
-                let row = summarise(method, particles, &runs);
+                let row = Row {
+                    optimizer: kind,
+                    correction,
+                    proposal,
+                    ..summarise(method, particles, &runs)
+                };
                 row_done(&row);
                 rows.push(row);
             }
@@ -220,6 +251,9 @@ fn summarise(method: String, particles: usize, runs: &[RunOutcome]) -> Row {
     let moves = runs.iter().filter_map(|r| r.moves).reduce(|a, b| a + b);
     Row {
         method,
+        optimizer: OptimiserKind::None,
+        correction: MoveCorrection::None,
+        proposal: Proposal::Motion,
         particles,
         ate: column(&|r| r.metrics.estimate.ate_rmse_m),
         dead_reckoning: column(&|r| r.metrics.dead_reckoning.ate_rmse_m),
@@ -231,6 +265,7 @@ fn summarise(method: String, particles: usize, runs: &[RunOutcome]) -> Row {
             c.singular as f64 / (c.poses + c.singular).max(1) as f64
         }),
         seconds: column(&|r| r.filter_time.as_secs_f64()),
+        cpu: column(&|r| r.cpu.as_secs_f64()),
         moves,
     }
 }

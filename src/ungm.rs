@@ -5,7 +5,7 @@
 
 use anyhow::Context;
 use fastslam_estimation::moves::MoveConfig;
-use fastslam_estimation::optimise::OptimiserConfig;
+use fastslam_estimation::optimise::{OptimiserConfig, OptimiserKind};
 use fastslam_estimation::stats::Summary;
 use fastslam_estimation::ungm::{
     self, BenchmarkConfig, HIGH_NOISE, LOW_NOISE, Method, MethodResult, Ungm,
@@ -43,6 +43,39 @@ pub struct UngmArgs {
     /// Seed of the simulated data and the filters.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Also write the rows to this CSV file, one per method × N × noise setting, with the
+    /// columns method,correction,particles,noise,runs,rmse_mean,rmse_std,coverage90,ms_per_run
+    /// (method: the optimiser, none for the bootstrap filter; correction: none, proposal,
+    /// resample-move, empty for the bootstrap filter; noise: low or high).
+    #[arg(long)]
+    pub csv: Option<std::path::PathBuf>,
+}
+
+/// The header of `ungm --csv`; tools outside the project read these names.
+pub const CSV_HEADER: &str =
+    "method,correction,particles,noise,runs,rmse_mean,rmse_std,coverage90,ms_per_run";
+
+/// One line of `ungm --csv`.
+fn csv_row(
+    kind: OptimiserKind,
+    moves: &MoveConfig,
+    particles: usize,
+    noise: &str,
+    result: &MethodResult,
+) -> String {
+    let correction = if kind == OptimiserKind::None {
+        ""
+    } else {
+        moves.correction.name()
+    };
+    format!(
+        "{kind},{correction},{particles},{noise},{},{},{},{},{}",
+        result.rmse.n,
+        result.rmse.mean,
+        result.rmse.std,
+        result.coverage.mean,
+        1e3 * result.seconds.mean
+    )
 }
 
 /// Runs the benchmark and prints one table per noise setting.
@@ -56,6 +89,7 @@ pub fn run(args: &UngmArgs) -> anyhow::Result<()> {
         ..BenchmarkConfig::default()
     };
     let methods = methods(args)?;
+    let mut csv = vec![CSV_HEADER.to_owned()];
     for noise in &args.noise {
         let (q, r) = match noise.as_str() {
             "low" => LOW_NOISE,
@@ -74,7 +108,7 @@ pub fn run(args: &UngmArgs) -> anyhow::Result<()> {
             config.seed
         );
         println!(
-            "  {:<10} {:>6}  {:>15}  {:>16}  {:>8}  {:>10}  moves kept",
+            "  {:<18} {:>6}  {:>15}  {:>16}  {:>8}  {:>10}  moves kept",
             "method", "N", "RMSE mean ± std", "95 % CI of mean", "90 % cov", "time/run",
         );
         if args.reference_particles > 0 {
@@ -85,6 +119,14 @@ pub fn run(args: &UngmArgs) -> anyhow::Result<()> {
                 &config,
             )?;
             print_row("none", args.reference_particles, &reference);
+            let bootstrap = Method::default();
+            csv.push(csv_row(
+                OptimiserKind::None,
+                &bootstrap.moves,
+                args.reference_particles,
+                noise,
+                &reference,
+            ));
             println!();
         }
         for n in args.grid.particles_or(&PAPER_PARTICLES) {
@@ -92,9 +134,17 @@ pub fn run(args: &UngmArgs) -> anyhow::Result<()> {
                 let result = ungm::evaluate(&model, method, n, &config)
                     .with_context(|| format!("{label} with N = {n}"))?;
                 print_row(label, n, &result);
+                let kind = method.optimiser.kind;
+                csv.push(csv_row(kind, &method.moves, n, noise, &result));
             }
             println!();
         }
+    }
+    if let Some(path) = &args.csv {
+        csv.push(String::new());
+        std::fs::write(path, csv.join("\n"))
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        println!("rows written to {}", path.display());
     }
     Ok(())
 }
@@ -142,7 +192,7 @@ fn print_row(label: &str, particles: usize, result: &MethodResult) {
         String::new()
     };
     println!(
-        "  {label:<10} {particles:>6}  {mean:>7.3} ± {std:<5.3}  [{:>6.3}, {:>6.3}]  {:>8.3}  {:>7.1} ms  {kept}",
+        "  {label:<18} {particles:>6}  {mean:>7.3} ± {std:<5.3}  [{:>6.3}, {:>6.3}]  {:>8.3}  {:>7.1} ms  {kept}",
         ci95.0,
         ci95.1,
         result.coverage.mean,
