@@ -21,7 +21,9 @@
 //! The corrected modes handle scalar states (`D = 1`), as the UNGM is.
 
 use crate::check::require;
-use crate::moves::{LocalTarget, MoveCorrection, MoveTarget, Mover, WeightBasis};
+use crate::moves::{
+    Laplace, LocalTarget, MoveCorrection, MoveStats, MoveTarget, Mover, WeightBasis,
+};
 use crate::resample::ResamplingConfig;
 use crate::rng::SimRng;
 use crate::weights::Weights;
@@ -115,6 +117,11 @@ pub struct Posterior {
     pub upper: Vec<f64>,
     /// Effective sample size before resampling.
     pub ess: f64,
+    /// Weighted mean of the cloud the step leaves for the next one: after resampling and
+    /// any moves when the step resampled, else the weighted cloud itself.
+    pub carried_mean: Vec<f64>,
+    /// Weighted variance of that cloud.
+    pub carried_variance: Vec<f64>,
 }
 
 /// The weighted `q`-quantile of `(value, weight)` pairs (weights summing to 1): the
@@ -273,7 +280,7 @@ pub fn run<M: StateSpaceModel>(
                     let (offset, correction) = laplace.draw(rng);
                     x[0] = mean[0] + offset[0];
                     basis[i] = WeightBasis::Corrected(correction);
-                    mover.record(crate::moves::MoveStats {
+                    mover.record(MoveStats {
                         steps: u64::from(i == 0),
                         proposed: 1,
                         accepted: 1,
@@ -327,7 +334,7 @@ pub fn run<M: StateSpaceModel>(
         let weights = Weights::from_log(&log_weights)?;
         // 4. Summarise.
         out.push(posterior(&states, d, &weights, config.interval));
-        // 5. Resample when due; resample-move rejuvenates the duplicates.
+        // 5. Resample when due; resample-move moves the copies.
         log_weights.copy_from_slice(weights.log_weights());
         if config.resampling.due(&weights) {
             let resampled = config.resampling.draw(&weights, rng);
@@ -356,12 +363,19 @@ pub fn run<M: StateSpaceModel>(
                 )?;
             }
         }
+        let carried = Weights::from_log(&log_weights)?;
+        let (mean, std) = weighted_moments(&states, d, carried.as_slice());
+        if let Some(last) = out.last_mut() {
+            last.carried_variance = std.iter().map(|s| s * s).collect();
+            last.carried_mean = mean;
+        }
     }
     Ok(out)
 }
 
-/// Resample-move for scalar states: each copy beyond the first of its ancestor takes the
-/// mover's Metropolis–Hastings steps toward `p(yₜ | x) N(x; mean, σ²)`.
+/// Resample-move for scalar states: every copy takes the mover's Metropolis–Hastings
+/// steps toward `p(yₜ | x) N(x; mean, σ²)`, with one search per ancestor serving all its
+/// copies (they share the prediction `mean`).
 #[allow(clippy::too_many_arguments)]
 fn rejuvenate<M: StateSpaceModel>(
     model: &M,
@@ -375,15 +389,13 @@ fn rejuvenate<M: StateSpaceModel>(
     rng: &mut SimRng,
 ) -> Result<()> {
     let steps = mover.config().mh_steps;
-    let mut first = vec![true; ancestors.len()];
-    let mut stats = crate::moves::MoveStats {
+    let prior = Matrix1::new(sigma * sigma);
+    let mut searched: Vec<Option<Laplace<1>>> = vec![None; ancestors.len()];
+    let mut stats = MoveStats {
         steps: 1,
-        ..Default::default()
+        ..MoveStats::default()
     };
     for (k, &a) in ancestors.iter().enumerate() {
-        if std::mem::replace(&mut first[a], false) {
-            continue;
-        }
         let target = ScalarTarget {
             model,
             t,
@@ -391,13 +403,21 @@ fn rejuvenate<M: StateSpaceModel>(
             mean: means[k],
         };
         let current = Vector1::new(states[k] - means[k]);
-        let prior = Matrix1::new(sigma * sigma);
-        let laplace = mover.laplace(&target, &prior, std::slice::from_ref(&current), rng)?;
+        let laplace = match &searched[a] {
+            Some(laplace) => laplace,
+            None => {
+                // Not started from `current`: the independence proposal may not depend
+                // on the state of the chain it moves.
+                let laplace = mover.laplace(&target, &prior, &[], rng)?;
+                stats.evaluations += laplace.evaluations;
+                searched[a].insert(laplace)
+            }
+        };
         let (offset, accepted) = laplace.rejuvenate(&target, current, steps, rng);
         states[k] = means[k] + offset[0];
         stats.proposed += steps as u64;
         stats.accepted += accepted;
-        stats.evaluations += laplace.evaluations + steps as u64 + 1;
+        stats.evaluations += steps as u64 + 1;
     }
     mover.record(stats);
     Ok(())
@@ -436,6 +456,8 @@ fn posterior(states: &[f64], d: usize, weights: &Weights, interval: f64) -> Post
     Posterior {
         mean,
         variance: std.iter().map(|s| s * s).collect(),
+        carried_mean: Vec::new(),
+        carried_variance: Vec::new(),
         lower,
         upper,
         ess: weights.ess(),

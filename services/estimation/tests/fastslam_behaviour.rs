@@ -360,7 +360,7 @@ fn scenario_with(
     };
     let mut refiner = OptimiserRefiner::new(optimiser, moves, config.seed).unwrap();
     let mut slam = FastSlam::new(config, Pose2::default()).unwrap();
-    if refiner.as_ref().is_some_and(|r| r.draws_poses()) {
+    if refiner.as_ref().is_some_and(|r| r.needs_gaussian_prior()) {
         slam = slam.defer_sampling().unwrap();
     }
     let clutter = |s: usize, _: &Pose2| {
@@ -787,7 +787,7 @@ fn every_correction_mode_moves_particles_and_tracks_better_than_dead_reckoning()
             .unwrap()
             .unwrap();
         let mut slam = FastSlam::new(config, Pose2::default()).unwrap();
-        if refiner.draws_poses() {
+        if refiner.needs_gaussian_prior() {
             slam = slam.defer_sampling().unwrap();
         }
         let errors = sim.run_refined(&mut slam, 80, |_| 0.0, no_clutter, Some(&mut refiner));

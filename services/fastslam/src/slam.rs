@@ -110,10 +110,10 @@ impl Slam {
         let refiner =
             OptimiserRefiner::new(&config.optimizer, config.moves.clone(), config.filter.seed)?;
         // Plain FastSLAM 1.0 never reads the motion prior: skip propagating it. An
-        // optimiser that draws every pose (the `proposal` mode) wants sampling deferred.
+        // optimiser in a corrected mode targets the Gaussian prior: sampling is deferred.
         let filter = if refiner.is_none() && filter.config().proposal == Proposal::Motion {
             filter.without_motion_prior()?
-        } else if refiner.as_ref().is_some_and(|r| r.draws_poses()) {
+        } else if refiner.as_ref().is_some_and(|r| r.needs_gaussian_prior()) {
             filter.defer_sampling()?
         } else {
             filter

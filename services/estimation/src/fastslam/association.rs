@@ -163,8 +163,9 @@ impl Claimed<'_> {
 
 impl<'a> Scan<'a> {
     /// A scan of `observations` (already checked: finite, with an id under known
-    /// association) taken by `sensor` at filter step `step`.
-    pub(crate) fn new(
+    /// association) taken by `sensor` at filter step `step`. The filter builds its own;
+    /// this one is for evaluating likelihoods outside it (tests, tools).
+    pub fn new(
         observations: &'a [Observation],
         sensor: &'a Sensor,
         config: &'a AssociationConfig,

@@ -113,10 +113,12 @@ pub trait PoseRefiner {
         basis: &mut [WeightBasis],
     ) -> Result<()>;
 
-    /// After the resampling draw, before the maps are updated: may move the particles
-    /// marked in `duplicates` (copies beyond the first of their ancestor) by moves that
-    /// leave the step's posterior invariant, keeping their weights, and marks each one
-    /// it moved in `moved`. The default moves nothing.
+    /// After resampling, before the maps are updated: may move the copies (`ancestors[k]`
+    /// is the particle copy `k` was drawn from) by moves that leave the step's posterior
+    /// invariant, keeping their weights, and marks each copy it moved in `moved`. Every
+    /// copy must be offered the move, not only the duplicates: which copies duplicate an
+    /// ancestor depends on its weight, so moving only those would leave the cloud
+    /// over-dispersed. The default moves nothing.
     ///
     /// # Errors
     /// Whatever the optimiser reports; the step then fails as in
@@ -125,15 +127,16 @@ pub trait PoseRefiner {
         &mut self,
         _scan: &Scan<'_>,
         _particles: &mut [Particle],
-        _duplicates: &[bool],
+        _ancestors: &[usize],
         _moved: &mut [bool],
     ) -> Result<()> {
         Ok(())
     }
 
-    /// Whether [`refine`](Self::refine) draws every pose an observation uses, so the
-    /// filter should defer sampling ([`FastSlam::defer_sampling`]). Default false.
-    fn draws_poses(&self) -> bool {
+    /// Whether the refiner's target takes each particle's prior to be its Gaussian motion
+    /// prior `N(x̂, P)`, so the filter must defer sampling ([`FastSlam::defer_sampling`])
+    /// for the particles to follow that very prior. Default false.
+    fn needs_gaussian_prior(&self) -> bool {
         false
     }
 }
@@ -229,8 +232,7 @@ pub(crate) struct Scratch {
     spare_weights: Option<Weights>,
     /// The particles before resampling, emptied after each resampling (capacity kept).
     spare_particles: Vec<Particle>,
-    /// Resample-move: which copies are duplicates, and which of them moved.
-    duplicates: Vec<bool>,
+    /// Deferred draws and resample-move: which particles moved.
     moved: Vec<bool>,
 }
 
@@ -347,8 +349,8 @@ impl FastSlam {
     }
 
     /// The same filter with deferred sampling (see the module documentation): what a
-    /// [`PoseRefiner`] that [draws every pose](PoseRefiner::draws_poses) needs. FastSLAM
-    /// 2.0's proposal defers by itself.
+    /// [`PoseRefiner`] whose target [takes the Gaussian motion prior](PoseRefiner::needs_gaussian_prior)
+    /// needs. FastSLAM 2.0's proposal defers by itself.
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] on a filter
@@ -787,7 +789,7 @@ impl FastSlam {
     }
 
     /// Resample-move, after [`replace_by_copies`](Self::replace_by_copies): the refiner
-    /// moves duplicated copies; the moved ones become points and are associated again.
+    /// moves the copies; the moved ones become points and are associated again.
     fn rejuvenate(
         &mut self,
         scan: &Scan<'_>,
@@ -798,7 +800,6 @@ impl FastSlam {
         let Scratch {
             components,
             particles: steps,
-            duplicates,
             moved,
             ..
         } = &mut self.scratch;
@@ -812,17 +813,9 @@ impl FastSlam {
                 .iter()
                 .map(|&a| ancestor_steps[a].clone()),
         );
-        let mut first = vec![true; resampled.ancestors.len()];
-        duplicates.clear();
-        duplicates.extend(
-            resampled
-                .ancestors
-                .iter()
-                .map(|&a| !std::mem::replace(&mut first[a], false)),
-        );
         moved.clear();
         moved.resize(resampled.ancestors.len(), false);
-        refiner.rejuvenate(scan, &mut self.particles, duplicates, moved)?;
+        refiner.rejuvenate(scan, &mut self.particles, &resampled.ancestors, moved)?;
         for (c, &m) in components.iter_mut().zip(moved.iter()) {
             if m {
                 *c = Component::Point;

@@ -11,11 +11,16 @@
 //! - **`proposal`**, per particle, before weighing: the optimiser searches around the
 //!   particle's own prediction `x̂_i` ([`crate::moves::local`]); the pose is drawn from the
 //!   defensive mixture around the optimum and weighed by
-//!   `p(z | x, map_i) N(x; x̂_i, P_i) / q(x)` ([`WeightBasis::Corrected`]). The filter
-//!   defers sampling in this mode ([`FastSlam::defer_sampling`](super::FastSlam::defer_sampling)):
-//!   between observations a particle is its Gaussian `N(x̂_i, P_i)`.
-//! - **`resample-move`**, per duplicated particle, after the resampling draw:
-//!   Metropolis–Hastings steps toward the same target, proposing from the same density.
+//!   `p(z | x, map_i) N(x; x̂_i, P_i) / q(x)` ([`WeightBasis::Corrected`]).
+//! - **`resample-move`**, after resampling, every copy: Metropolis–Hastings steps toward
+//!   the same target, proposing from the same density (one search per ancestor serves all
+//!   its copies).
+//!
+//! Both corrected modes take a particle's prior to be its Gaussian `N(x̂_i, P_i)`, so the
+//! filter defers sampling with them
+//! ([`FastSlam::defer_sampling`](super::FastSlam::defer_sampling)): between observations
+//! a particle *is* that Gaussian, and it is drawn from it (or from the proposal) when an
+//! observation uses it.
 //!
 //! In the corrected modes a particle whose association at its pose updates no landmark
 //! is left alone: its likelihood does not depend on the pose, so the target is the
@@ -29,7 +34,7 @@ use super::landmarks::LandmarkMap;
 use super::particle::Particle;
 use super::{PURPOSE_CHAOS, PURPOSE_OPTIMISE, PURPOSE_REJUVENATE, PoseRefiner};
 use crate::moves::{
-    LocalTarget, MoveConfig, MoveCorrection, MoveStats, MoveTarget, Mover, WeightBasis,
+    Laplace, LocalTarget, MoveConfig, MoveCorrection, MoveStats, MoveTarget, Mover, WeightBasis,
 };
 use crate::optimise::OptimiserConfig;
 use crate::parallel;
@@ -257,7 +262,7 @@ impl PoseRefiner for OptimiserRefiner {
         &mut self,
         scan: &Scan<'_>,
         particles: &mut [Particle],
-        duplicates: &[bool],
+        ancestors: &[usize],
         moved: &mut [bool],
     ) -> Result<()> {
         if self.correction() != MoveCorrection::ResampleMove || scan.observations().is_empty() {
@@ -265,32 +270,56 @@ impl PoseRefiner for OptimiserRefiner {
         }
         let streams = Streams::new(self.seed, &[scan.step()]);
         let (mover, steps) = (&self.mover, self.mover.config().mh_steps);
-        let results = per_particle_where(particles, scan, duplicates, |k, p, target| {
-            let mut rng = streams.stream(&[k as u64, PURPOSE_REJUVENATE]);
-            let current = p.prior().deviation(p.pose());
-            let laplace = mover.laplace(
-                target,
-                &p.prior().covariance,
-                std::slice::from_ref(&current),
-                &mut rng,
-            )?;
-            let (offset, accepted) = laplace.rejuvenate(target, current, steps, &mut rng);
-            let pose = (offset != current).then(|| target.pose(&offset));
-            Ok((pose, accepted, laplace.evaluations + steps as u64 + 1))
+        // Copies of one ancestor share its map and prior, so one search serves them all:
+        // it runs for the first copy of each ancestor.
+        let mut first = vec![usize::MAX; particles.len()];
+        let leads: Vec<bool> = ancestors
+            .iter()
+            .enumerate()
+            .map(|(k, &a)| {
+                let lead = first[a] == usize::MAX;
+                if lead {
+                    first[a] = k;
+                }
+                lead
+            })
+            .collect();
+        // The search must not start from the copies' current pose: the independence
+        // proposal may not depend on the state of the chain it moves.
+        let searches = per_particle_where(particles, scan, &leads, |k, p, target| {
+            let mut rng = streams.stream(&[k as u64, PURPOSE_OPTIMISE]);
+            mover.laplace(target, &p.prior().covariance, &[], &mut rng)
         })?;
+        let shared: Vec<&Option<Laplace<3>>> =
+            ancestors.iter().map(|&a| &searches[first[a]]).collect();
+        let chains = parallel::pays(particles.len(), parallel::MIN_PARALLEL_WORK);
+        let mut results = Vec::with_capacity(particles.len());
+        parallel::map_into(chains, particles, &mut results, |k, p| {
+            let laplace = shared[k].as_ref()?;
+            let mut rng = streams.stream(&[k as u64, PURPOSE_REJUVENATE]);
+            let target = ParticleTarget {
+                scan,
+                map: p.map(),
+                prediction: p.prior().mean,
+            };
+            let current = p.prior().deviation(p.pose());
+            let (offset, accepted) = laplace.rejuvenate(&target, current, steps, &mut rng);
+            Some(((offset != current).then(|| target.pose(&offset)), accepted))
+        });
         let mut stats = MoveStats {
             steps: 1,
+            evaluations: searches.iter().flatten().map(|l| l.evaluations).sum(),
             ..MoveStats::default()
         };
         for ((p, m), r) in particles.iter_mut().zip(moved.iter_mut()).zip(results) {
-            let Some((pose, accepted, evaluations)) = r else {
+            let Some((pose, accepted)) = r else {
                 continue;
             };
             stats += MoveStats {
                 steps: 0,
                 proposed: steps as u64,
                 accepted,
-                evaluations,
+                evaluations: steps as u64 + 1,
             };
             if let Some(pose) = pose {
                 p.set_pose(pose)?;
@@ -301,8 +330,8 @@ impl PoseRefiner for OptimiserRefiner {
         Ok(())
     }
 
-    fn draws_poses(&self) -> bool {
-        self.correction() == MoveCorrection::Proposal
+    fn needs_gaussian_prior(&self) -> bool {
+        self.correction().is_valid()
     }
 }
 

@@ -107,7 +107,8 @@ impl<const D: usize> Laplace<D> {
     /// `π(o) ∝ p(z | o) N(o; 0, P)`, each proposing `o′ ~ q` independently of the current
     /// state and accepting with probability
     /// `min(1, π(o′) q(o) / (π(o) q(o′)))`. Returns the final offset and the number of
-    /// accepted proposals.
+    /// accepted proposals. `q` must not depend on `from` (do not search from it): an
+    /// independence sampler is only invariant when its proposal is.
     ///
     /// # Performance
     /// `steps + 1` likelihood evaluations.
