@@ -15,6 +15,7 @@ use anyhow::Context;
 use fastslam_client::plot::{self, CostPlot, CostSeries};
 use fastslam_client::stats::{mean, std_dev};
 use fastslam_estimation::fastslam::Proposal;
+use fastslam_estimation::moves::MoveCorrection;
 use fastslam_sensors_sim::scenario::DEFAULT_SCENARIO;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde_json::Value;
@@ -39,6 +40,11 @@ pub struct CompareArgs {
     /// `--proposal`).
     #[arg(long, value_delimiter = ',')]
     pub proposals: Vec<Proposal>,
+    /// What each optimiser's answer does, comma-separated: none (the papers), proposal,
+    /// resample-move; every optimiser but none runs with each (default: the service
+    /// config's, as `run` without `--move-correction`).
+    #[arg(long, value_delimiter = ',')]
+    pub move_corrections: Vec<MoveCorrection>,
     /// Particle counts, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "25,50,100")]
     pub particles: Vec<usize>,
@@ -75,44 +81,71 @@ impl Config {
     }
 }
 
-/// An optimiser (its name as given) with a proposal (`None`: the config's): one line of
-/// the tables.
+/// An optimiser (its name as given) with a proposal and a move correction (`None`: the
+/// config's): one line of the tables.
 #[derive(Debug, Clone, PartialEq, Eq)]
 struct Method {
     optimizer: String,
     proposal: Option<Proposal>,
+    correction: Option<MoveCorrection>,
+}
+
+/// `given` as options, or one `None` (the config's) when empty.
+fn or_config<T: Copy>(given: &[T]) -> Vec<Option<T>> {
+    if given.is_empty() {
+        vec![None]
+    } else {
+        given.iter().copied().map(Some).collect()
+    }
 }
 
 impl Method {
-    /// Every optimiser with every proposal, in the order of the flags.
+    /// Every optimiser with every proposal and correction, in the order of the flags; the
+    /// optimiser `none` has nothing to correct and comes once per proposal.
     fn all(args: &CompareArgs) -> Vec<Method> {
-        let proposals: Vec<Option<Proposal>> = if args.proposals.is_empty() {
-            vec![None]
-        } else {
-            args.proposals.iter().copied().map(Some).collect()
-        };
-        let pairs = args.optimizers.iter().flat_map(|o| {
-            proposals.iter().map(|&proposal| Method {
-                optimizer: o.clone(),
-                proposal,
-            })
-        });
-        pairs.collect()
+        let proposals = or_config(&args.proposals);
+        let corrections = or_config(&args.move_corrections);
+        let mut out = Vec::new();
+        for o in &args.optimizers {
+            for &proposal in &proposals {
+                let corrections = if o == "none" {
+                    &corrections[..1]
+                } else {
+                    &corrections[..]
+                };
+                for &correction in corrections {
+                    out.push(Method {
+                        optimizer: o.clone(),
+                        proposal,
+                        correction: correction.filter(|_| o != "none"),
+                    });
+                }
+            }
+        }
+        out
     }
 
     /// The proposal column of the CSV files: empty for the config's.
     fn proposal_cell(&self) -> String {
         self.proposal.map(|p| p.to_string()).unwrap_or_default()
     }
+
+    /// The correction column of the CSV files: empty for the config's.
+    fn correction_cell(&self) -> String {
+        self.correction.map(|c| c.to_string()).unwrap_or_default()
+    }
 }
 
 /// The method's name as `run` writes it: the optimiser, with `+fastslam2` for FastSLAM
-/// 2.0's proposal.
+/// 2.0's proposal and `+proposal` or `+resample-move` for a corrected mode.
 impl std::fmt::Display for Method {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(&self.optimizer)?;
         if self.proposal == Some(Proposal::FastSlam2) {
             f.write_str("+fastslam2")?;
+        }
+        if let Some(c) = self.correction.filter(|c| c.is_valid()) {
+            write!(f, "+{c}")?;
         }
         Ok(())
     }
@@ -275,6 +308,9 @@ fn run_one(
     if let Some(proposal) = config.method.proposal {
         cmd.args(["--proposal", &proposal.to_string()]);
     }
+    if let Some(correction) = config.method.correction {
+        cmd.args(["--move-correction", &correction.to_string()]);
+    }
     if let Some(t) = args.timeout_s {
         cmd.args(["--timeout-s", &t.to_string()]);
     }
@@ -349,7 +385,7 @@ fn write_tables(
     results: &[RunResult],
 ) -> std::io::Result<String> {
     // One row per run.
-    let mut csv = String::from("optimizer,proposal,particles,seed,status,wall_s");
+    let mut csv = String::from("optimizer,proposal,correction,particles,seed,status,wall_s");
     for (name, _) in RUN_COLUMNS {
         write!(csv, ",{name}").ok();
     }
@@ -362,9 +398,10 @@ fn write_tables(
             .map_or("ok".into(), |e| e.replace(',', ";"));
         write!(
             csv,
-            "{},{},{},{},{status},{:.3}",
+            "{},{},{},{},{},{status},{:.3}",
             r.config.method.optimizer,
             r.config.method.proposal_cell(),
+            r.config.method.correction_cell(),
             r.config.particles,
             r.config.seed,
             r.wall_s
@@ -379,7 +416,7 @@ fn write_tables(
 
     // One row per method × particle count, over the seeds that finished.
     let mut summary = String::from(
-        "optimizer,proposal,particles,runs,failed,service_cpu_s_mean,service_cpu_s_std,wall_s_mean,\
+        "optimizer,proposal,correction,particles,runs,failed,service_cpu_s_mean,service_cpu_s_std,wall_s_mean,\
          ate_rmse_m_mean,ate_rmse_m_std,landmark_rmse_m_mean,landmark_rmse_m_std,\
          nees_mean_mean,nees_within_95_mean\n",
     );
@@ -414,9 +451,10 @@ fn write_tables(
             );
             writeln!(
                 summary,
-                "{},{},{n},{},{},{},{},{},{},{},{},{},{},{}",
+                "{},{},{},{n},{},{},{},{},{},{},{},{},{},{},{}",
                 o.optimizer,
                 o.proposal_cell(),
+                o.correction_cell(),
                 ok.len(),
                 group.len() - ok.len(),
                 cell(mean(&cpu)),

@@ -237,3 +237,64 @@ fn compare_runs_each_optimiser_with_each_proposal() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `--move-corrections` runs every optimiser but `none` in each mode: a table line per
+/// method, and the corrected run equals an individual `run --move-correction proposal`.
+#[test]
+fn compare_runs_each_optimiser_in_each_correction_mode() {
+    let prefix = prefix("compare_corrections");
+    let dir = folder(&prefix);
+    let out = dir.join("cmp");
+    let result = Command::new(LAUNCHER)
+        .args(["compare", "--scenario", "bailey-short"])
+        .args([
+            "--optimizers",
+            "none,coa",
+            "--move-corrections",
+            "none,proposal",
+        ])
+        .args([
+            "--particles",
+            "10",
+            "--seeds",
+            "1",
+            "--timeout-s",
+            "300",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&result.stdout);
+    assert!(
+        result.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    let summary = csv(&out.join("summary.csv"));
+    let keys: Vec<(&str, &str)> = summary
+        .iter()
+        .map(|r| (&*r["optimizer"], &*r["correction"]))
+        .collect();
+    assert_eq!(keys, [("none", ""), ("coa", "none"), ("coa", "proposal")]);
+    assert!(stdout.contains("| coa+proposal | 10 | 1 |"), "{stdout}");
+    let single = single_run(
+        &prefix,
+        &dir,
+        &[
+            "--optimizer",
+            "coa",
+            "--move-correction",
+            "proposal",
+            "--particles",
+            "10",
+            "--seed",
+            "1",
+        ],
+    );
+    let in_compare = out.join("runs").join("coa+proposal_n10_seed1");
+    assert_eq!(reproducible(&single), reproducible(&in_compare));
+    let papers = out.join("runs").join("coa_n10_seed1");
+    assert_ne!(reproducible(&papers), reproducible(&in_compare));
+    std::fs::remove_dir_all(&dir).ok();
+}
