@@ -18,7 +18,7 @@ use fastslam_protocol::validate::{self, StampOrder};
 use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::offline::{Message, OfflineRun};
 use fastslam_service::config::{Overrides, ServiceConfig};
-use fastslam_service::sequencer::{Scan, Sequencer};
+use fastslam_service::sequencer::{RawScan, Scan, Sequencer};
 use fastslam_service::slam::Slam;
 use std::str::FromStr;
 use std::time::{Duration, Instant};
@@ -109,6 +109,17 @@ pub fn run_in_process(
                     });
                 }
             }
+            Message::RawScan(header, mut data) => {
+                let admitted = validate::laser_scan(&header, &data)
+                    .and_then(|()| scan_order.accept(header.header.stamp_ns));
+                if admitted.is_ok() {
+                    data.truncate(header.ranges as usize);
+                    sequencer.push_raw_scan(RawScan {
+                        header,
+                        ranges: data,
+                    });
+                }
+            }
         }
         apply(&mut sequencer, &mut recording);
     }
@@ -165,7 +176,7 @@ pub struct Row {
 /// The settings of one comparison: which estimators, particle counts and seeds.
 #[derive(Debug, Clone, clap::Args)]
 pub struct Comparison {
-    /// Optimisers, corrections and particle counts (default N: 100).
+    /// Optimisers, corrections and particle counts (default N: the configuration's).
     #[command(flatten)]
     pub grid: Grid,
     /// Proposals, comma-separated: motion (FastSLAM 1.0) and/or fastslam2.
@@ -176,9 +187,6 @@ pub struct Comparison {
     #[arg(long, default_value = "1..10")]
     pub seeds: Seeds,
 }
-
-/// Particle count of a comparison that names none.
-pub const DEFAULT_PARTICLES: usize = 100;
 
 /// A list of seeds, written `a..b` (inclusive) or `a,b,c`.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -212,9 +220,11 @@ pub fn compare(
     mut row_done: impl FnMut(&Row),
 ) -> anyhow::Result<Vec<Row>> {
     let mut rows = Vec::new();
+    let configured = settings::service_config(scenario, base, &Overrides::default())?;
+    let particles = comparison.grid.particles_or(&[configured.filter.particles]);
     for &proposal in &comparison.proposals {
         for (kind, correction) in comparison.grid.methods() {
-            for particles in comparison.grid.particles_or(&[DEFAULT_PARTICLES]) {
+            for &particles in &particles {
                 let mut runs = Vec::with_capacity(comparison.seeds.0.len());
                 let mut method = String::new();
                 for &seed in &comparison.seeds.0 {

@@ -1,19 +1,26 @@
 //! The three simulator processes in one loop, without IPC: for a `(scenario, seed)` it
 //! yields exactly the messages `truth-sim`, `odometry-sim` and `lidar-sim` publish — the
 //! same types, stamps, sequence numbers and seeded noise streams, built by the same code
-//! ([`GroundTruthSource`], [`OdometrySensor::for_scenario`],
-//! [`LandmarkSensor::for_scenario`]) — so an in-process run of the estimator sees what a
-//! run through the processes sees.
+//! ([`GroundTruthSource`], [`OdometrySensor::for_scenario`], the [`Lidar`] for scenarios
+//! with a `[lidar]`, else [`LandmarkSensor::for_scenario`]) — so an in-process run of the
+//! estimator sees what a run through the processes sees.
 //!
 //! Order: the true map first (the truth simulator repeats it; every copy is the same), then
 //! per ground-truth sample the sample itself, its odometry, and the scan when one is taken.
 //! Across streams the order is irrelevant: consumers sort by stamp per stream.
 
 use crate::Scenario;
+use crate::args::streams;
+use crate::ground_truth::observation_due;
 use crate::ground_truth::{GroundTruthSource, true_map};
 use crate::landmark_sensor::LandmarkSensor;
+use crate::lidar_sensor::Lidar;
 use crate::odometry_sensor::OdometrySensor;
-use fastslam_protocol::{GroundTruth, MapLandmark, Observation, ObservationsHeader, Odometry};
+use crate::vehicle::State;
+use fastslam_estimation::rng::stream;
+use fastslam_protocol::{
+    GroundTruth, LaserScanHeader, MapLandmark, Observation, ObservationsHeader, Odometry,
+};
 use std::collections::VecDeque;
 
 /// One message a simulator process would publish.
@@ -25,8 +32,22 @@ pub enum Message {
     GroundTruth(GroundTruth),
     /// An odometry message (`odometry-sim`).
     Odometry(Odometry),
-    /// A scan's observations (`lidar-sim`).
+    /// A scan's observations (`lidar-sim` without a `[lidar]`).
     Observations(ObservationsHeader, Vec<Observation>),
+    /// A raw scan: the header and the message's slice, ranges then any intensities
+    /// (`lidar-sim` with a `[lidar]`).
+    RawScan(LaserScanHeader, Vec<f32>),
+}
+
+/// The scenario's lidar: raw scans, or landmark observations.
+#[derive(Debug, Clone)]
+enum Sensor {
+    Scans {
+        lidar: Box<Lidar>,
+        every: u64,
+        period_s: f64,
+    },
+    Landmarks(LandmarkSensor),
 }
 
 /// The simulators' messages for one `(scenario, seed)`, as an iterator.
@@ -34,7 +55,7 @@ pub enum Message {
 pub struct OfflineRun {
     truth: GroundTruthSource,
     odometry: OdometrySensor,
-    lidar: LandmarkSensor,
+    lidar: Sensor,
     scans: u64,
     pending: VecDeque<Message>,
 }
@@ -45,7 +66,18 @@ impl OfflineRun {
         Self {
             truth: GroundTruthSource::new(scenario),
             odometry: OdometrySensor::for_scenario(scenario, seed),
-            lidar: LandmarkSensor::for_scenario(scenario, seed),
+            lidar: match &scenario.lidar {
+                Some(spec) => Sensor::Scans {
+                    lidar: Box::new(Lidar::new(
+                        spec.clone(),
+                        &scenario.world,
+                        stream(seed, &[streams::LIDAR]),
+                    )),
+                    every: scenario.timing.observe_every,
+                    period_s: scenario.observe_period_s(),
+                },
+                None => Sensor::Landmarks(LandmarkSensor::for_scenario(scenario, seed)),
+            },
             scans: 0,
             pending: VecDeque::from([Message::TrueMap(true_map(scenario))]),
         }
@@ -62,10 +94,22 @@ impl Iterator for OfflineRun {
         let truth = self.truth.next()?;
         self.pending
             .push_back(Message::Odometry(self.odometry.measure(&truth)));
-        if let Some((header, observations)) = self.lidar.scan(&truth, self.scans) {
+        let scan = match &mut self.lidar {
+            Sensor::Landmarks(sensor) => sensor
+                .scan(&truth, self.scans)
+                .map(|(header, observations)| Message::Observations(header, observations)),
+            Sensor::Scans {
+                lidar,
+                every,
+                period_s,
+            } => observation_due(&truth, *every, self.scans).map(|header| {
+                let scan = lidar.scan(State::from(&truth));
+                Message::RawScan(lidar.header(header, *period_s), scan.data)
+            }),
+        };
+        if let Some(scan) = scan {
             self.scans += 1;
-            self.pending
-                .push_back(Message::Observations(header, observations));
+            self.pending.push_back(scan);
         }
         Some(Message::GroundTruth(truth))
     }
@@ -91,6 +135,7 @@ mod tests {
                     assert_eq!(h.count as usize, obs.len());
                     scans.push(h.header);
                 }
+                Message::RawScan(..) => panic!("bailey-short has no [lidar]"),
             }
         }
         assert_eq!(
