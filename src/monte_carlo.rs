@@ -1,22 +1,40 @@
 //! `fastslam-stack monte-carlo`: the offline comparison — every estimator × particle count
-//! × seed in process (no IPC), scored by the client's metrics, summarised per row. The
-//! pipeline is `fastslam_stack::offline`; this parses flags and prints.
+//! × seed in process (no IPC), on a simulated scenario or a recorded data set, scored by
+//! the client's metrics, summarised per row. The pipeline is `fastslam_stack::offline`;
+//! this parses flags and prints.
 
 use anyhow::Context;
 use fastslam_estimation::optimise::OptimiserKind;
 use fastslam_estimation::stats::Summary;
+use fastslam_replay::dataset::Association;
 use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::scenario::DEFAULT_SCENARIO;
-use fastslam_stack::offline::{self, Comparison, Row};
+use fastslam_stack::offline::{self, Comparison, DataSetName, Row, Source};
 use std::path::PathBuf;
 
 /// Flags of `monte-carlo`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct MonteCarloArgs {
     /// Scenario: a built-in name (see `scenarios`) or a scenario TOML file.
-    #[arg(long, default_value = DEFAULT_SCENARIO)]
+    #[arg(long, default_value = DEFAULT_SCENARIO, conflicts_with = "replay")]
     pub scenario: String,
-    /// Service config file (default: the scenario's [service] table).
+    /// Replay a recorded data set instead of simulating a scenario; the seeds then only
+    /// seed the filter.
+    #[arg(long, value_enum)]
+    pub replay: Option<DataSetName>,
+    /// Data set folder of `--replay` (default: data/mrclam7 or data/victoria_park).
+    #[arg(long, requires = "replay")]
+    pub data: Option<PathBuf>,
+    /// MRCLAM robot number.
+    #[arg(long, default_value_t = 1)]
+    pub robot: u32,
+    /// MRCLAM association: known (barcodes as ids) or unknown.
+    #[arg(long, value_enum, default_value_t = Association::Known)]
+    pub association: Association,
+    /// Replay profile: a built-in name or a TOML file (default: the data set's own).
+    #[arg(long, requires = "replay")]
+    pub profile: Option<String>,
+    /// Service config file (default: the scenario's or the profile's [service] table).
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Estimators, particle counts and seeds.
@@ -60,11 +78,11 @@ fn csv_row(scenario: &str, row: &Row) -> String {
 /// # Errors
 /// A bad setting, or a filter that cannot be built.
 pub fn run(args: &MonteCarloArgs) -> anyhow::Result<()> {
-    let scenario = Scenario::load(&args.scenario)?;
+    let source = source(args)?;
     let seeds = &args.comparison.seeds.0;
     println!(
         "Monte Carlo on {} ({} seeds, {}..{}), in process; per run: mean ± std [95 % CI of the mean]",
-        scenario.name,
+        source.name(),
         seeds.len(),
         seeds[0],
         seeds[seeds.len() - 1]
@@ -82,9 +100,9 @@ pub fn run(args: &MonteCarloArgs) -> anyhow::Result<()> {
         "CPU s/run",
     );
     let mut csv = vec![CSV_HEADER.to_owned()];
-    offline::compare(&scenario, args.config.as_deref(), &args.comparison, |row| {
+    offline::compare(&source, args.config.as_deref(), &args.comparison, |row| {
         print_row(row);
-        csv.push(csv_row(&scenario.name, row));
+        csv.push(csv_row(source.name(), row));
     })
     .context("monte carlo")?;
     if let Some(path) = &args.csv {
@@ -94,6 +112,20 @@ pub fn run(args: &MonteCarloArgs) -> anyhow::Result<()> {
         println!("rows written to {}", path.display());
     }
     Ok(())
+}
+
+/// The scenario, or the data set `--replay` names, loaded.
+fn source(args: &MonteCarloArgs) -> anyhow::Result<Source> {
+    match args.replay {
+        None => Ok(Source::Simulation(Scenario::load(&args.scenario)?)),
+        Some(set) => Source::replay(
+            set,
+            args.data.as_deref(),
+            args.robot,
+            args.association,
+            args.profile.as_deref(),
+        ),
+    }
 }
 
 /// `mean ± std [lo, hi]`, switching to scientific notation for huge values (NEES).

@@ -1,13 +1,15 @@
-//! The stack in one process, without IPC: the simulators' messages
-//! ([`OfflineRun`]), the service's own glue ([`Sequencer`] and [`Slam`]) and the client's
-//! scoring ([`Metrics::compute`]) — the same code the processes run, message for message,
-//! so an in-process run and a run through the processes with the same seed give identical
-//! metrics (an integration test holds this). On top of it, the Monte Carlo comparison of
-//! `fastslam-stack monte-carlo`.
+//! The stack in one process, without IPC: the simulators' messages ([`OfflineRun`]) or
+//! a recorded data set's (in the replay player's order), the service's own glue
+//! ([`Sequencer`] and [`Slam`]) and the client's scoring ([`Metrics::compute`], with the
+//! alignment a replay profile asks for) — the same code the processes run, message for
+//! message, so an in-process run and a run through the processes with the same seed give
+//! identical metrics (integration tests hold this). On top of it, the Monte Carlo
+//! comparison of `fastslam-stack monte-carlo`.
 
 use crate::grid::Grid;
 use crate::settings;
-use fastslam_client::metrics::{Alignment, ScoreAt};
+use anyhow::Context;
+use fastslam_client::metrics::{AlignMode, ScoreAt, fit_alignment, scored_at};
 use fastslam_client::{Metrics, Recording};
 use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::moves::{MoveCorrection, MoveStats};
@@ -15,6 +17,10 @@ use fastslam_estimation::optimise::OptimiserKind;
 use fastslam_estimation::stats::Summary;
 use fastslam_protocol::Header;
 use fastslam_protocol::validate::{self, StampOrder};
+use fastslam_replay::dataset::{Association, DataSet};
+use fastslam_replay::player::{Next, schedule};
+use fastslam_replay::profile::Profile;
+use fastslam_replay::{mrclam, victoria_park};
 use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::offline::{Message, OfflineRun};
 use fastslam_service::config::{Overrides, ServiceConfig};
@@ -50,7 +56,169 @@ fn process_cpu() -> Duration {
     })
 }
 
-/// Runs `scenario` with simulation seed `seed` through the service configured by `config`
+/// A recorded data set an in-process run can replay.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum DataSetName {
+    /// UTIAS MRCLAM (see `replay mrclam`).
+    Mrclam,
+    /// ACFR Victoria Park (see `replay victoria-park`).
+    VictoriaPark,
+}
+
+/// What an in-process run plays.
+#[derive(Debug, Clone)]
+pub enum Source {
+    /// A simulated scenario: the simulators' messages for the run's seed.
+    Simulation(Scenario),
+    /// A recorded data set, the same for every seed.
+    Replay(Replay),
+}
+
+/// A recorded data set as an in-process run plays and scores it.
+#[derive(Debug, Clone)]
+pub struct Replay {
+    /// Name for tables (the data set, robot and association).
+    pub name: String,
+    /// The messages.
+    pub data: DataSet,
+    /// The service's settings (the profile's `[service]` table with the association).
+    pub service: toml::Table,
+    /// How the client aligns the estimate before scoring (the profile's client flags).
+    pub align: AlignMode,
+    /// Where the client scores (the profile's client flags).
+    pub score_at: ScoreAt,
+}
+
+impl Source {
+    /// Data set `set` from `dir` (default: the repository's copy), with `profile` (default:
+    /// the data set's own); `robot` and `association` apply to MRCLAM.
+    ///
+    /// # Errors
+    /// A missing or malformed data folder or profile.
+    pub fn replay(
+        set: DataSetName,
+        dir: Option<&std::path::Path>,
+        robot: u32,
+        association: Association,
+        profile: Option<&str>,
+    ) -> anyhow::Result<Self> {
+        let (default_profile, default_data) = match set {
+            DataSetName::Mrclam => ("mrclam", "data/mrclam7"),
+            DataSetName::VictoriaPark => ("victoria-park", "data/victoria_park"),
+        };
+        let profile = Profile::load(profile.unwrap_or(default_profile))?;
+        let dir = dir.unwrap_or(std::path::Path::new(default_data));
+        let folder = std::fs::canonicalize(dir)
+            .with_context(|| format!("data set folder {}", dir.display()))?
+            .file_name()
+            .map_or_else(|| "data".into(), |n| n.to_string_lossy().into_owned());
+        let (name, association, data) = match set {
+            DataSetName::Mrclam => {
+                let options = mrclam::Options {
+                    robot,
+                    association,
+                    sensor: profile.sensor.clone(),
+                };
+                let name = format!("{folder}-robot{robot}-{}", association.service_mode());
+                (name, association, mrclam::load(dir, &options)?)
+            }
+            DataSetName::VictoriaPark => (
+                folder,
+                Association::Unknown,
+                victoria_park::load(dir, &profile.sensor)?,
+            ),
+        };
+        let service = settings::replay_service_table(None, &profile, association)?;
+        let scoring = Scoring::from_flags(&profile.client.flags)?;
+        Ok(Self::Replay(Replay {
+            name,
+            data,
+            service,
+            align: scoring.align,
+            score_at: scoring.score_at,
+        }))
+    }
+
+    /// The name of the scenario or data set.
+    pub fn name(&self) -> &str {
+        match self {
+            Self::Simulation(s) => &s.name,
+            Self::Replay(r) => &r.name,
+        }
+    }
+
+    /// The service settings: `file` if given, else the scenario's or replay's own, with
+    /// `overrides` applied.
+    ///
+    /// # Errors
+    /// As [`settings::service_config`].
+    pub fn service_config(
+        &self,
+        file: Option<&std::path::Path>,
+        overrides: &Overrides,
+    ) -> anyhow::Result<ServiceConfig> {
+        match (self, file) {
+            (Self::Simulation(scenario), _) => settings::service_config(scenario, file, overrides),
+            (Self::Replay(_), Some(path)) => Ok(ServiceConfig::load(Some(path))?
+                .with_overrides(overrides)
+                .context("service settings")?),
+            (Self::Replay(r), None) => Ok(ServiceConfig::parse(
+                &format!("{} [service]", r.name),
+                &toml::to_string(&r.service)?,
+            )?
+            .with_overrides(overrides)
+            .context("service settings")?),
+        }
+    }
+
+    /// Every message of the run with simulation seed `seed`, in publication order.
+    fn messages(&self, seed: u64) -> Box<dyn Iterator<Item = Message> + '_> {
+        match self {
+            Self::Simulation(scenario) => Box::new(OfflineRun::new(scenario, seed)),
+            Self::Replay(r) => {
+                let data = &r.data;
+                let map = std::iter::once(Message::TrueMap(data.landmarks.clone()));
+                Box::new(
+                    map.chain(schedule(data).into_iter().map(|(_, next)| match next {
+                        Next::Truth(i) => Message::GroundTruth(data.truth[i]),
+                        Next::Odometry(i) => Message::Odometry(data.odometry[i]),
+                        Next::Scan(i) => {
+                            let scan = &data.scans[i];
+                            Message::Observations(scan.header, scan.observations.clone())
+                        }
+                    })),
+                )
+            }
+        }
+    }
+
+    /// How the client scores the run: alignment and where.
+    fn scoring(&self) -> (AlignMode, ScoreAt) {
+        match self {
+            Self::Simulation(_) => (AlignMode::None, ScoreAt::Estimates),
+            Self::Replay(r) => (r.align, r.score_at),
+        }
+    }
+}
+
+/// The client's scoring flags a replay profile passes.
+#[derive(Debug, clap::Parser)]
+struct Scoring {
+    #[arg(long, value_enum, default_value_t = AlignMode::None)]
+    align: AlignMode,
+    #[arg(long, value_enum, default_value_t = ScoreAt::Estimates)]
+    score_at: ScoreAt,
+}
+
+impl Scoring {
+    fn from_flags(flags: &[String]) -> anyhow::Result<Self> {
+        use clap::Parser;
+        let argv = std::iter::once("client".to_string()).chain(flags.iter().cloned());
+        Self::try_parse_from(argv).context("the profile's client flags")
+    }
+}
+
+/// Runs `source` with simulation seed `seed` through the service configured by `config`
 /// and scores it as the client does.
 ///
 /// Inputs are admitted as the processes admit them (the service's and the client's
@@ -60,7 +228,7 @@ fn process_cpu() -> Duration {
 /// # Errors
 /// When the filter cannot be built from `config`.
 pub fn run_in_process(
-    scenario: &Scenario,
+    source: &Source,
     seed: u64,
     config: &ServiceConfig,
 ) -> anyhow::Result<RunOutcome> {
@@ -83,7 +251,7 @@ pub fn run_in_process(
             }
         }
     };
-    for message in OfflineRun::new(scenario, seed) {
+    for message in source.messages(seed) {
         match message {
             Message::TrueMap(map) => recording.true_map = map,
             Message::GroundTruth(truth) => {
@@ -128,7 +296,10 @@ pub fn run_in_process(
     apply(&mut sequencer, &mut recording);
     let stamp_ns = last_pose.map_or(0, |h| h.stamp_ns);
     recording.map = slam.map(Header { stamp_ns, seq: 0 }).1;
-    let metrics = Metrics::compute(&recording, true, Alignment::default(), ScoreAt::Estimates);
+    let (align, score_at) = source.scoring();
+    let alignment = fit_alignment(&scored_at(&recording, score_at), align);
+    let recording = alignment.apply(&recording);
+    let metrics = Metrics::compute(&recording, true, alignment, score_at);
     Ok(RunOutcome {
         metrics,
         filter_time,
@@ -208,19 +379,19 @@ impl FromStr for Seeds {
     }
 }
 
-/// Runs the comparison on `scenario` with the service settings of `base` (a config file,
-/// else the scenario's `[service]` table), calling `row_done` after each row.
+/// Runs the comparison on `source` with the service settings of `base` (a config file,
+/// else the scenario's or replay's `[service]` table), calling `row_done` after each row.
 ///
 /// # Errors
 /// A bad setting, or a filter that cannot be built.
 pub fn compare(
-    scenario: &Scenario,
+    source: &Source,
     base: Option<&std::path::Path>,
     comparison: &Comparison,
     mut row_done: impl FnMut(&Row),
 ) -> anyhow::Result<Vec<Row>> {
     let mut rows = Vec::new();
-    let configured = settings::service_config(scenario, base, &Overrides::default())?;
+    let configured = source.service_config(base, &Overrides::default())?;
     let particles = comparison.grid.particles_or(&[configured.filter.particles]);
     for &proposal in &comparison.proposals {
         for (kind, correction) in comparison.grid.methods() {
@@ -233,12 +404,12 @@ pub fn compare(
                         seed: Some(seed),
                         ..Overrides::default()
                     };
-                    let mut config = settings::service_config(scenario, base, &overrides)?;
+                    let mut config = source.service_config(base, &overrides)?;
                     config.filter.proposal = proposal;
                     config.optimizer.kind = kind;
                     config.moves.correction = correction;
                     method = config.method();
-                    runs.push(run_in_process(scenario, seed, &config)?);
+                    runs.push(run_in_process(source, seed, &config)?);
                 }
                 let row = Row {
                     optimizer: kind,

@@ -4,11 +4,12 @@
 
 use crate::run::conclude;
 use crate::supervisor::{Supervisor, stop_flag};
-use anyhow::{Context, bail};
+use anyhow::Context;
 use fastslam_protocol::ipc;
 use fastslam_replay::dataset::Association;
 use fastslam_replay::profile::Profile;
 use fastslam_service::config::{EstimatorChoice, Overrides, ServiceConfig};
+use fastslam_stack::settings;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -167,7 +168,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<i32> {
         .unwrap_or_else(fastslam_stack::fresh_prefix);
     let root = fastslam_stack::stack_root(&prefix);
     // The service's settings, checked here so a bad value fails before anything starts.
-    let table = service_table(args, &profile, plan.association)?;
+    let table = settings::replay_service_table(args.config.as_deref(), &profile, plan.association)?;
     let overrides = Overrides {
         particles: args.particles,
         seed: Some(args.seed),
@@ -251,34 +252,4 @@ fn profile_arg_for_child(profile: &str) -> String {
         return profile.to_string();
     }
     std::fs::canonicalize(profile).map_or_else(|_| profile.to_string(), |p| p.display().to_string())
-}
-
-/// The service's config: `--config` or the profile's `[service]` table, with
-/// `filter.association.mode` set to what the replay publishes.
-fn service_table(
-    args: &ReplayRunArgs,
-    profile: &Profile,
-    association: Association,
-) -> anyhow::Result<toml::Table> {
-    let mut table = match &args.config {
-        Some(c) => {
-            let text = std::fs::read_to_string(c)
-                .with_context(|| format!("service config {}", c.display()))?;
-            toml::from_str::<toml::Table>(&text)
-                .with_context(|| format!("service config {}", c.display()))?
-        }
-        None => profile.service.clone().unwrap_or_default(),
-    };
-    let mut section = &mut table;
-    for key in ["filter", "association"] {
-        let entry = section
-            .entry(key)
-            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
-        let Some(inner) = entry.as_table_mut() else {
-            bail!("service config: `{key}` must be a table");
-        };
-        section = inner;
-    }
-    section.insert("mode".into(), association.service_mode().into());
-    Ok(table)
 }

@@ -1,8 +1,10 @@
 //! The service settings of a run, resolved the same way for a run through the processes
-//! (`run`) and in process (`monte-carlo`): a config file, else the scenario's `[service]`
-//! table, else the defaults; then the flags on top.
+//! (`run`, `replay`) and in process (`monte-carlo`): a config file, else the scenario's or
+//! the replay profile's `[service]` table, else the defaults; then the flags on top.
 
-use anyhow::Context;
+use anyhow::{Context, bail};
+use fastslam_replay::dataset::Association;
+use fastslam_replay::profile::Profile;
 use fastslam_sensors_sim::Scenario;
 use fastslam_service::config::{Overrides, ServiceConfig};
 use std::path::Path;
@@ -27,4 +29,37 @@ pub fn service_config(
         (None, None) => ServiceConfig::default(),
     };
     base.with_overrides(overrides).context("service settings")
+}
+
+/// The service's config: `config` (a file) or the profile's `[service]` table, with
+/// `filter.association.mode` set to what the replay publishes.
+///
+/// # Errors
+/// A file that cannot be read or parsed, or a `filter` or `association` that is no table.
+pub fn replay_service_table(
+    config: Option<&Path>,
+    profile: &Profile,
+    association: Association,
+) -> anyhow::Result<toml::Table> {
+    let mut table = match config {
+        Some(c) => {
+            let text = std::fs::read_to_string(c)
+                .with_context(|| format!("service config {}", c.display()))?;
+            toml::from_str::<toml::Table>(&text)
+                .with_context(|| format!("service config {}", c.display()))?
+        }
+        None => profile.service.clone().unwrap_or_default(),
+    };
+    let mut section = &mut table;
+    for key in ["filter", "association"] {
+        let entry = section
+            .entry(key)
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        let Some(inner) = entry.as_table_mut() else {
+            bail!("service config: `{key}` must be a table");
+        };
+        section = inner;
+    }
+    section.insert("mode".into(), association.service_mode().into());
+    Ok(table)
 }

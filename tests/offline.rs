@@ -10,6 +10,18 @@ use fastslam_sensors_sim::Scenario;
 use fastslam_service::config::{EstimatorChoice, Overrides};
 use fastslam_stack::{offline, settings};
 
+/// The metrics the estimate determines. Sections that are not the estimate's are left out:
+/// `/filter` summarises the service's status topic, which an in-process run does not
+/// publish, `/cost` is wall-clock time and /proc readings, and `/grid` scores the
+/// occupancy grid the service publishes.
+fn estimate_only(json: &str) -> serde_json::Value {
+    let mut v: serde_json::Value = serde_json::from_str(json).unwrap();
+    let m = v.as_object_mut().unwrap();
+    assert!(m.remove("filter").is_some() && m.remove("cost").is_some());
+    m.remove("grid");
+    v
+}
+
 /// Runs `scenario` with `flags` (and their `overrides`) through the processes and in
 /// process, and asserts the metrics the estimate determines are equal.
 fn assert_in_process_equals_processes(
@@ -28,19 +40,9 @@ fn assert_in_process_equals_processes(
 
     let loaded = Scenario::load(scenario).unwrap();
     let config = settings::service_config(&loaded, None, overrides).unwrap();
-    let outcome = offline::run_in_process(&loaded, overrides.seed.unwrap(), &config).unwrap();
+    let source = offline::Source::Simulation(loaded);
+    let outcome = offline::run_in_process(&source, overrides.seed.unwrap(), &config).unwrap();
     let in_process = serde_json::to_string_pretty(&outcome.metrics).unwrap();
-    // Everything the estimate determines must be equal. Sections that are not the
-    // estimate's are left out: `/filter` summarises the service's status topic, which an
-    // in-process run does not publish, `/cost` is wall-clock time and /proc readings, and
-    // `/grid` scores the occupancy grid the service publishes.
-    let estimate_only = |json: &str| {
-        let mut v: serde_json::Value = serde_json::from_str(json).unwrap();
-        let m = v.as_object_mut().unwrap();
-        assert!(m.remove("filter").is_some() && m.remove("cost").is_some());
-        m.remove("grid");
-        v
-    };
     assert_eq!(
         estimate_only(&in_process),
         estimate_only(&through_processes)
@@ -91,4 +93,45 @@ fn in_process_raw_scans_give_the_metrics_of_the_run_through_the_processes() {
     let outcome =
         assert_in_process_equals_processes("offline_raw", "indoor-loop", &flags, &overrides);
     assert!(outcome.metrics.estimate.poses > 100);
+}
+
+#[test]
+fn in_process_replay_gives_the_metrics_of_the_replay_through_the_processes() {
+    // Victoria Park: unknown association, aligned and scored at the GPS fixes.
+    let prefix = prefix("offline_replay");
+    let dir = folder(&prefix);
+    let out = dir.join("run");
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/victoria_park");
+    let result = std::process::Command::new(LAUNCHER)
+        .args(["replay", "victoria-park", "--data"])
+        .arg(&data)
+        .args(["--particles", "20", "--seed", "2", "--prefix", &prefix])
+        .args(["--timeout-s", "600", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_success(&result);
+    let through_processes = std::fs::read_to_string(out.join("metrics.json")).unwrap();
+    let source = offline::Source::replay(
+        offline::DataSetName::VictoriaPark,
+        Some(&data),
+        1,
+        fastslam_replay::dataset::Association::Unknown,
+        None,
+    )
+    .unwrap();
+    let overrides = Overrides {
+        particles: Some(20),
+        seed: Some(2),
+        ..Overrides::default()
+    };
+    let config = source.service_config(None, &overrides).unwrap();
+    let outcome = offline::run_in_process(&source, 2, &config).unwrap();
+    let in_process = serde_json::to_string_pretty(&outcome.metrics).unwrap();
+    assert_eq!(
+        estimate_only(&in_process),
+        estimate_only(&through_processes)
+    );
+    assert!(outcome.metrics.estimate.poses > 1000);
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -37,15 +37,19 @@ struct Outputs {
 
 /// One message to publish: which stream, and its index in that stream.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
-enum Next {
+pub enum Next {
+    /// `data.truth[i]`.
     Truth(usize),
+    /// `data.odometry[i]`.
     Odometry(usize),
+    /// `data.scans[i]`.
     Scan(usize),
 }
 
 /// Every message of `data` in stamp order; on equal stamps truth, then odometry (so the
-/// filter predicts up to a scan before it updates), then the scan.
-fn schedule(data: &DataSet) -> Vec<(u64, Next)> {
+/// filter predicts up to a scan before it updates), then the scan. The order the player
+/// publishes in, and an in-process run replays in.
+pub fn schedule(data: &DataSet) -> Vec<(u64, Next)> {
     let mut order: Vec<(u64, Next)> = (data.truth.iter().enumerate())
         .map(|(i, m)| (m.header.stamp_ns, Next::Truth(i)))
         .chain(
