@@ -501,7 +501,7 @@ fn throughput_round(
 ) -> anyhow::Result<Round> {
     let cpu_before = own_cpu_s();
     let started = Instant::now();
-    let source = offline::Source::Simulation(scenario.clone());
+    let source = offline::Source::Simulation(Box::new(scenario.clone()));
     let offline = offline::run_in_process(&source, scenario.seed, config)?;
     let in_wall = started.elapsed().as_secs_f64();
     let in_cpu = own_cpu_s() - cpu_before;

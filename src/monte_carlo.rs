@@ -117,7 +117,9 @@ pub fn run(args: &MonteCarloArgs) -> anyhow::Result<()> {
 /// The scenario, or the data set `--replay` names, loaded.
 fn source(args: &MonteCarloArgs) -> anyhow::Result<Source> {
     match args.replay {
-        None => Ok(Source::Simulation(Scenario::load(&args.scenario)?)),
+        None => Ok(Source::Simulation(Box::new(Scenario::load(
+            &args.scenario,
+        )?))),
         Some(set) => Source::replay(
             set,
             args.data.as_deref(),

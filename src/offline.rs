@@ -69,7 +69,7 @@ pub enum DataSetName {
 #[derive(Debug, Clone)]
 pub enum Source {
     /// A simulated scenario: the simulators' messages for the run's seed.
-    Simulation(Scenario),
+    Simulation(Box<Scenario>),
     /// A recorded data set, the same for every seed.
     Replay(Replay),
 }
@@ -117,7 +117,7 @@ impl Source {
                 let options = mrclam::Options {
                     robot,
                     association,
-                    sensor: profile.sensor.clone(),
+                    sensor: profile.sensor,
                 };
                 let name = format!("{folder}-robot{robot}-{}", association.service_mode());
                 (name, association, mrclam::load(dir, &options)?)

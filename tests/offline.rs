@@ -40,7 +40,7 @@ fn assert_in_process_equals_processes(
 
     let loaded = Scenario::load(scenario).unwrap();
     let config = settings::service_config(&loaded, None, overrides).unwrap();
-    let source = offline::Source::Simulation(loaded);
+    let source = offline::Source::Simulation(Box::new(loaded));
     let outcome = offline::run_in_process(&source, overrides.seed.unwrap(), &config).unwrap();
     let in_process = serde_json::to_string_pretty(&outcome.metrics).unwrap();
     assert_eq!(
