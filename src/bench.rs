@@ -13,6 +13,7 @@
 use crate::run::{self, RunArgs};
 use anyhow::{Context, bail};
 use fastslam_estimation::fastslam::Proposal;
+use fastslam_estimation::moves::MoveCorrection;
 use fastslam_estimation::optimise::OptimiserKind;
 use fastslam_estimation::workload::{Workload, machine};
 use fastslam_sensors_sim::Scenario;
@@ -35,7 +36,8 @@ pub struct BenchArgs {
     #[arg(long, value_delimiter = ',')]
     pub landmarks: Vec<usize>,
     /// Optimisers of the step-time grid, comma-separated: none, fastslam2 (FastSLAM 2.0's
-    /// proposal), coa, icoa, ba, iba, gwo, qpso, pso.
+    /// proposal), coa, icoa, ba, iba, gwo, qpso, pso — each in the papers' mode, or with
+    /// `+proposal` or `+resample-move` in a corrected one (`coa+proposal`).
     #[arg(long, value_delimiter = ',', default_value = "none")]
     pub optimizers: Vec<String>,
     /// Measured steps per grid cell (median reported; default 31, quick 11).
@@ -105,15 +107,37 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The proposal and optimiser of a `--optimizers` name.
-fn method(name: &str) -> anyhow::Result<(Proposal, OptimiserKind)> {
+/// The proposal, optimiser and correction of a `--optimizers` name.
+fn method(name: &str) -> anyhow::Result<(Proposal, OptimiserKind, MoveCorrection)> {
     if name == "fastslam2" {
-        return Ok((Proposal::FastSlam2, OptimiserKind::None));
+        return Ok((
+            Proposal::FastSlam2,
+            OptimiserKind::None,
+            MoveCorrection::None,
+        ));
     }
-    let kind = name
+    let (kind, correction) = name.split_once('+').unwrap_or((name, "none"));
+    let kind = kind
         .parse::<OptimiserKind>()
         .map_err(|e| anyhow::anyhow!("optimizer `{name}`: {e}"))?;
-    Ok((Proposal::Motion, kind))
+    let correction = correction
+        .parse::<MoveCorrection>()
+        .map_err(|e| anyhow::anyhow!("optimizer `{name}`: {e}"))?;
+    Ok((Proposal::Motion, kind, correction))
+}
+
+/// The workload of one grid cell.
+fn workload(
+    n: usize,
+    m: usize,
+    (proposal, kind, correction): (Proposal, OptimiserKind, MoveCorrection),
+) -> anyhow::Result<Workload> {
+    let w = Workload::new(n, m, proposal, kind)?;
+    Ok(if correction.is_valid() {
+        w.with_correction(correction)?
+    } else {
+        w
+    })
 }
 
 /// Median wall times (s) of `steps` steps of `w`, each from a clone of its filter (clone
@@ -168,7 +192,7 @@ fn step_times(args: &BenchArgs) -> anyhow::Result<()> {
         .max(1);
     let threads = std::env::var("RAYON_NUM_THREADS").unwrap_or_else(|_| "all".into());
     for name in &args.optimizers {
-        let (proposal, kind) = method(name)?;
+        let method = method(name)?;
         println!(
             "\n[step] filter step (predict + update) of `{name}`, median of {steps} (ms), \
              {threads} rayon threads; rows N, columns M"
@@ -178,7 +202,7 @@ fn step_times(args: &BenchArgs) -> anyhow::Result<()> {
         let mut seen = vec![0; ms.len()];
         for (i, &n) in ns.iter().enumerate() {
             for (j, &m) in ms.iter().enumerate() {
-                let mut w = Workload::new(n, m, proposal, kind)?;
+                let mut w = workload(n, m, method)?;
                 seen[j] = w.scan.len();
                 let (whole, pose) = median_step(&mut w, steps)?;
                 (table[i][j], pose_table[i][j]) = (whole * 1e3, pose * 1e3);

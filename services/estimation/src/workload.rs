@@ -11,7 +11,7 @@
 use crate::fastslam::{FastSlam, FastSlamConfig, MapLandmark, OptimiserRefiner, PoseRefiner};
 use crate::fastslam::{PoseEstimate, Proposal, StepReport};
 use crate::motion::{Control, MotionModel};
-use crate::moves::MoveConfig;
+use crate::moves::{MoveConfig, MoveCorrection};
 use crate::observation::{Observation, Sensor, measure};
 use crate::optimise::{OptimiserConfig, OptimiserKind};
 use crate::pose::Pose2;
@@ -99,6 +99,31 @@ impl Workload {
             scan,
             refiner,
         })
+    }
+
+    /// The same workload with the optimiser in `correction` mode (the filter defers
+    /// sampling when the mode needs it, as the service does).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] on a workload built without an optimiser.
+    pub fn with_correction(mut self, correction: MoveCorrection) -> Result<Self> {
+        let Some(old) = &self.refiner else {
+            return Err(Error::InvalidParameter {
+                name: "moves.correction",
+                reason: "the workload has no optimiser to correct".into(),
+            });
+        };
+        let optimiser = old.optimiser_config().clone();
+        let moves = MoveConfig {
+            correction,
+            ..MoveConfig::default()
+        };
+        let refiner = OptimiserRefiner::new(&optimiser, moves, 1)?;
+        if refiner.as_ref().is_some_and(|r| r.needs_gaussian_prior()) {
+            self.filter = self.filter.defer_sampling()?;
+        }
+        self.refiner = refiner;
+        Ok(self)
     }
 
     /// One filter step on `filter` (a clone of [`Workload::filter`]): predict with

@@ -80,6 +80,11 @@ impl OptimiserRefiner {
         self.mover.stats()
     }
 
+    /// The optimiser's configuration.
+    pub fn optimiser_config(&self) -> &OptimiserConfig {
+        self.mover.optimiser()
+    }
+
     fn correction(&self) -> MoveCorrection {
         self.mover.config().correction
     }

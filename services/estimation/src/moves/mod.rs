@@ -277,6 +277,11 @@ impl Mover {
         &self.config
     }
 
+    /// The optimiser's configuration.
+    pub fn optimiser(&self) -> &OptimiserConfig {
+        &self.optimiser
+    }
+
     /// What the moves did so far.
     pub fn stats(&self) -> MoveStats {
         self.stats
