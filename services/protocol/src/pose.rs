@@ -30,7 +30,11 @@ pub struct GroundTruth {
 /// The estimated vehicle pose with its covariance (frame `map`), like
 /// `geometry_msgs/PoseWithCovarianceStamped` restricted to the plane.
 ///
-/// `header.stamp_ns` is the stamp of the observation that produced the estimate.
+/// `header.stamp_ns` is the stamp of the observation that produced the estimate. The
+/// FastSLAM service publishes its weighted particle cloud as the step weighed it, before
+/// resampling: each particle contributes its component — the Gaussian FastSLAM 2.0 drew
+/// its pose from, its motion prior while its pose is not yet drawn, or its pose — and the
+/// estimate is the mixture's mean and covariance, `Σ wᵢ (Σᵢ + dᵢ dᵢᵀ)` with `dᵢ = μᵢ − μ`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
 #[type_name("fastslam::PoseEstimate")]
 #[repr(C)]
