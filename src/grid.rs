@@ -1,19 +1,28 @@
 //! Which estimators a comparison runs: the flags `ungm` and `monte-carlo` share.
 
+use clap::builder::TypedValueParser;
 use fastslam_estimation::moves::MoveCorrection;
 use fastslam_estimation::optimise::OptimiserKind;
+use fastslam_service::config::{correction_names, optimiser_names};
 
 /// Optimisers × move corrections × particle counts, from comma-separated flags; an empty
 /// list means the default.
 #[derive(Debug, Clone, Default, PartialEq, clap::Args)]
 pub struct Grid {
-    /// Optimisers, comma-separated: none, coa, icoa, ba, iba, gwo, qpso, pso (default: all).
-    #[arg(long, value_delimiter = ',')]
+    /// Optimisers, comma-separated (default: all).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = optimiser_names().map(|s| s.parse::<OptimiserKind>().expect("a listed name"))
+    )]
     pub optimizers: Vec<OptimiserKind>,
     /// Move corrections, comma-separated: none (the papers), proposal, resample-move
-    /// (default: all three). Rows without an optimiser have nothing to correct and appear
-    /// once.
-    #[arg(long, value_delimiter = ',')]
+    /// (default: all). Rows without an optimiser have nothing to correct and appear once.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_parser = correction_names().map(|s| s.parse::<MoveCorrection>().expect("a listed name"))
+    )]
     pub move_corrections: Vec<MoveCorrection>,
     /// Particle counts, comma-separated (default: the command's).
     #[arg(long, value_delimiter = ',')]

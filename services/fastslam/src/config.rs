@@ -14,7 +14,7 @@
 //! [input]
 //! lidar = "auto"
 //! [optimizer]         # fastslam_estimation::optimise::OptimiserConfig
-//! kind = "icoa"       # none | coa | icoa | ba | iba | gwo | qpso | pso
+//! kind = "icoa"       # one of OptimiserKind::ALL (`--help` lists them)
 //! iterations = 10
 //! [optimizer.icoa]
 //! omega_max = 0.9
@@ -32,6 +32,7 @@
 //! partial EWA scheme whatever `[filter.resampling] scheme` says
 //! ([`ServiceConfig::filter_config`]).
 
+use clap::builder::PossibleValuesParser;
 use fastslam_estimation::fastslam::{FastSlamConfig, Proposal, ResamplingScheme};
 use fastslam_estimation::features::ExtractorConfig;
 use fastslam_estimation::grid::GridConfig;
@@ -210,23 +211,39 @@ impl Default for OutputConfig {
     }
 }
 
+/// The names of [`OptimiserKind::ALL`] as a command-line value parser, so `--help` lists
+/// them and an unknown name is refused with the list.
+pub fn optimiser_names() -> PossibleValuesParser {
+    PossibleValuesParser::new(OptimiserKind::ALL.map(OptimiserKind::name))
+}
+
+/// The names of [`Proposal::ALL`] as a command-line value parser.
+pub fn proposal_names() -> PossibleValuesParser {
+    PossibleValuesParser::new(Proposal::ALL.map(Proposal::name))
+}
+
+/// The names of [`MoveCorrection::ALL`] as a command-line value parser.
+pub fn correction_names() -> PossibleValuesParser {
+    PossibleValuesParser::new(MoveCorrection::ALL.map(MoveCorrection::name))
+}
+
 /// The estimator's choices by name: flags of the service process and of the launcher's
 /// `run`, each replacing the config file's value when given.
 #[derive(Debug, Clone, Default, PartialEq, Eq, clap::Args)]
 pub struct EstimatorChoice {
-    /// Particle optimiser of step 2: none, coa, icoa, ba, iba, gwo, qpso, pso (iba also
-    /// switches to partial resampling; default: the config's, else none).
-    #[arg(long)]
+    /// Particle optimiser of step 2 (iba also switches to partial resampling; default:
+    /// the config's, else none).
+    #[arg(long, value_parser = optimiser_names())]
     pub optimizer: Option<String>,
     /// Proposal of the new poses: motion (FastSLAM 1.0) or fastslam2 (default: the
     /// config's, else motion).
-    #[arg(long)]
+    #[arg(long, value_parser = proposal_names())]
     pub proposal: Option<String>,
     /// What the optimiser's answer does: none (the papers: move the cloud, weigh at the
     /// moved poses; biased), proposal (per particle: draw from the Laplace Gaussian at
     /// the optimum, weigh by target / proposal) or resample-move (Metropolis–Hastings
-    /// moves of the resampled duplicates); default: the config's, else none.
-    #[arg(long)]
+    /// moves of every resampled copy); default: the config's, else none.
+    #[arg(long, value_parser = correction_names())]
     pub move_correction: Option<String>,
 }
 
