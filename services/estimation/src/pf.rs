@@ -15,7 +15,7 @@
 //! 3. weigh: `log wᵢ += log p(yₜ | xᵢ)` at the final position, or what the
 //!    [`WeightBasis`] says;
 //! 4. summarise the weighted cloud ([`Posterior`]);
-//! 5. resample when due; in the `resample-move` mode each duplicated particle then takes
+//! 5. resample when due; in the `resample-move` mode every copy then takes
 //!    Metropolis–Hastings steps toward `p(yₜ | x) N(x; f(t, x_prev), σ²)` (§3.1).
 //!
 //! The corrected modes handle scalar states (`D = 1`), as the UNGM is.

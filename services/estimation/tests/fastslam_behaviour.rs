@@ -627,6 +627,15 @@ fn the_estimate_is_published_before_the_maps_are_written() {
         Some(always.estimate()),
         "resampling changed the cloud"
     );
+    // The published map is that of the particle that weighed most, resampled or not
+    // (after resampling every copy weighs the same, so the weights cannot tell).
+    assert_eq!(always.best().pose(), never.best().pose());
+    assert_eq!(always.best_map(), never.best_map());
+    assert_ne!(
+        always.particles()[0].pose(),
+        never.best().pose(),
+        "the test needs a best particle other than the first copy"
+    );
     // A failing step publishes nothing.
     let bad = Sensor {
         max_range: -1.0,

@@ -85,7 +85,7 @@ const PURPOSE_PROPOSAL: u64 = 2;
 pub(crate) const PURPOSE_OPTIMISE: u64 = 3;
 /// Stream label for seeding ICOA's persistent chaotic sequence, once per filter.
 pub(crate) const PURPOSE_CHAOS: u64 = 4;
-/// Stream label for the Metropolis–Hastings moves of one duplicated particle ([`refine`]).
+/// Stream label for the Metropolis–Hastings moves of one resampled copy ([`refine`]).
 pub(crate) const PURPOSE_REJUVENATE: u64 = 5;
 /// Stream label for a deferred particle's draw from its motion prior.
 const PURPOSE_PRIOR_DRAW: u64 = 6;
@@ -191,6 +191,10 @@ pub struct FastSlam {
     deferred: bool,
     /// Localisation only: the maps are read, never written ([`FastSlam::fix_map`]).
     map_fixed: bool,
+    /// Index of the particle that had the largest weight when the last step weighed the
+    /// cloud (after resampling: the first copy of that particle, since every copy then
+    /// weighs the same).
+    best: usize,
     /// Buffers a step fills, kept for the next step.
     scratch: Scratch,
 }
@@ -320,6 +324,7 @@ impl FastSlam {
             step: 0,
             motion_prior: true,
             map_fixed: false,
+            best: 0,
             scratch: Scratch::default(),
         })
     }
@@ -553,6 +558,7 @@ impl FastSlam {
         // 5. Weigh and normalise (log-sum-exp); N_eff.
         let mut weights = self.weigh()?;
         let neff = weights.ess();
+        let best = weights.argmax();
         // 7. The estimate: the weighted cloud before resampling, handed out now.
         publish(&self.mixture(&weights));
         // 6a. Draw the resampling ancestors when N_eff < neff_ratio · N.
@@ -575,6 +581,14 @@ impl FastSlam {
                 }
             }
         }
+        // Every copy of a resampled cloud weighs the same: the best is the first copy of
+        // the particle that weighed most.
+        self.best = resampled.as_ref().map_or(best, |r| {
+            r.ancestors
+                .iter()
+                .position(|&a| a == best)
+                .unwrap_or_else(|| weights.argmax())
+        });
         std::mem::swap(&mut self.weights, &mut weights);
         self.scratch.spare_weights = Some(weights);
         self.step = scan.step();
@@ -882,9 +896,10 @@ impl FastSlam {
         }
     }
 
-    /// The highest-weight particle.
+    /// The particle that weighed most at the last step (before resampling, which leaves
+    /// every copy the same weight): the one whose map and trajectory are published.
     pub fn best(&self) -> &Particle {
-        &self.particles[self.weights.argmax()]
+        &self.particles[self.best]
     }
 
     /// The particles as they are now, weighted: each particle's pose, or its motion prior
@@ -906,12 +921,13 @@ impl FastSlam {
         PoseEstimate::from_mixture(components, self.weights.as_slice())
     }
 
-    /// Step 7: the highest-weight particle's map, ordered by id.
+    /// Step 7: the map of the particle that weighed most at the last step
+    /// ([`best`](Self::best)), ordered by id.
     ///
     /// # Performance
     /// O(M log M) (collect and sort).
     pub fn best_map(&self) -> Vec<MapLandmark> {
-        let best = &self.particles[self.weights.argmax()];
+        let best = self.best();
         let mut landmarks: Vec<MapLandmark> = best.map.iter().map(MapLandmark::from).collect();
         landmarks.sort_unstable_by_key(|l| l.id);
         landmarks

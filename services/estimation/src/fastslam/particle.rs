@@ -32,7 +32,7 @@ pub struct Particle {
 /// propagates the mean without noise and adds the control noise,
 /// `P ← F_x P F_xᵀ + F_u Q F_uᵀ` with the Jacobians at the mean (Bailey's FastSLAM 2.0
 /// `predict`). The particle's own pose is a sample of the same motion model, drawn control
-/// by control.
+/// by control — or, with deferred sampling, the prior's mean until an observation draws it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MotionPrior {
     /// `x̂`: the noise-free prediction from the pose the last update left (m, m, rad).

@@ -27,8 +27,10 @@
 //! (as FastSLAM 1.0), not the combined one; the map update then re-associates at the drawn
 //! pose, which in rare borderline cases of unknown association may decide differently
 //! from step 2 (the proposal only moves the pose toward agreement with the matched
-//! landmarks, so a match rarely gets lost). A scan without matched landmarks keeps the
-//! motion sample and its usual weight.
+//! landmarks, so a match rarely gets lost). A particle without a matched landmark is not
+//! drawn here: the filter defers sampling with this proposal, so the particle stays its
+//! motion prior, or is drawn from it when the scan starts landmarks
+//! ([`super::FastSlam`]'s deferred sampling).
 
 use super::association::{Decision, Scan};
 use super::ekf::innovate_with;
@@ -110,9 +112,9 @@ fn gaussian(scan: &Scan<'_>, particle: &Particle) -> Option<(Pose2, Matrix3<f64>
 }
 
 /// Draws `particle`'s pose from FastSLAM 2.0's proposal for `scan` (see the module
-/// documentation), three standard normal draws from `rng`. `None` — keep the motion
-/// sample and weigh it at its pose — when no observation of the scan matches a landmark
-/// of the particle's map, or the proposal's covariance has lost definiteness.
+/// documentation), three standard normal draws from `rng`. `None` — the filter's
+/// deferred-sampling rule then applies — when no observation of the scan matches a
+/// landmark of the particle's map, or the proposal's covariance has lost definiteness.
 ///
 /// # Performance
 /// One association plus O(matched) 3×3 products.

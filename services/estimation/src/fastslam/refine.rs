@@ -224,8 +224,8 @@ fn per_particle_where<R: Send>(
     selected: &[bool],
     f: impl Fn(usize, &Particle, &ParticleTarget<'_>) -> Result<R> + Sync + Send,
 ) -> Result<Vec<Option<R>>> {
-    // A search costs hundreds of likelihood evaluations: parallel as soon as there are
-    // two particles to search.
+    // A search costs hundreds of likelihood evaluations: parallel whenever rayon has more
+    // than one thread.
     let parallel = parallel::pays(particles.len(), parallel::MIN_PARALLEL_WORK);
     let mut out = Vec::with_capacity(particles.len());
     parallel::map_into(parallel, particles, &mut out, |i, p| {

@@ -22,6 +22,8 @@ use serde::{Deserialize, Serialize};
 pub struct FilterState {
     /// Steps taken (predictions and updates): labels the random streams of the next one.
     pub step: u64,
+    /// The particle that weighed most at the last step ([`FastSlam::best`]).
+    pub best: u32,
     /// The distinct landmark maps.
     pub maps: Vec<MapState>,
     /// The particles, in filter order.
@@ -133,6 +135,7 @@ impl FastSlam {
             .collect();
         FilterState {
             step: self.step,
+            best: self.best as u32,
             maps: stored,
             particles,
         }
@@ -146,6 +149,13 @@ impl FastSlam {
     /// non-finite pose or landmark); [`Error::DegenerateWeights`] for unusable weights.
     pub fn from_state(config: FastSlamConfig, state: &FilterState) -> Result<Self> {
         config.validate()?;
+        if state.best as usize >= state.particles.len() {
+            return Err(invalid(format!(
+                "best particle {} of {}",
+                state.best,
+                state.particles.len()
+            )));
+        }
         if state.particles.len() != config.particles {
             return Err(invalid(format!(
                 "{} particles, the config asks for {}",
@@ -202,6 +212,7 @@ impl FastSlam {
             // `FastSlam::without_motion_prior`); restored, it is the saved one.
             motion_prior: true,
             map_fixed: false,
+            best: state.best as usize,
             scratch: super::Scratch::default(),
         })
     }

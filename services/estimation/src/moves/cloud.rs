@@ -3,7 +3,8 @@
 //!
 //! - **Search space.** Member `i` is particle `i`; its decision vector is its offset from
 //!   the centre of the predicted cloud, inside `± bound_sigmas · σ` of the cloud per
-//!   dimension, never narrower than one step's motion noise ([`MoveConfig::bounds`]).
+//!   dimension, never narrower than the particles' motion prior (the weighted mean of
+//!   their `P`, accumulated since the last update; [`super::MoveConfig::bounds`]).
 //! - **Fitness** (minimised): `F(x) = −log p(z | x) − λ · log prior(x)` where
 //!   `log prior(x) = −(x − x̂)ᵀ P⁻¹ (x − x̂) / 2` is the Gaussian motion prior's exponent
 //!   around the particle's own noise-free prediction `x̂` ([`MoveTarget`]).

@@ -5,7 +5,7 @@
 //! motion prior is `N(0, P)`):
 //! 1. **Search.** The population is [`MoveConfig::candidates`](super::MoveConfig::candidates)
 //!    candidate states for this particle alone: `x̂` itself, any extra starts the caller
-//!    has (FastSLAM 2.0's mean), and the optimiser's own initial draws in the box
+//!    has (the pose FastSLAM 2.0 drew), and the optimiser's own initial draws in the box
 //!    `± bound_sigmas · √P_dd`. The optimiser minimises
 //!    `F(o) = −log p(z | o) + λ oᵀ P⁻¹ o / 2` for `K` generations; `o*` is the best
 //!    candidate seen.

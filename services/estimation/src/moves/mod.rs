@@ -12,7 +12,7 @@
 //!   `x*` and the Laplace covariance there define a proposal density
 //!   ([`gaussian::Defensive`]); the particle is drawn from it and weighed by
 //!   `p(z | x) N(x; x̂, P) / q(x)`. Correct for any `x*`.
-//! - **`resample-move`** ([`local`]): after resampling, each duplicated particle takes
+//! - **`resample-move`** ([`local`]): after resampling, every copy takes
 //!   Metropolis–Hastings steps toward `π(x) ∝ p(z | x) N(x; x̂, P)` with the same density
 //!   as an independence proposal; the weights stay as they are.
 //!
@@ -46,8 +46,8 @@ pub enum MoveCorrection {
     /// Gaussian there (mixed with the motion prior) and weighed by target / proposal.
     #[serde(rename = "proposal")]
     Proposal,
-    /// After resampling, duplicated particles take Metropolis–Hastings steps toward the
-    /// step's posterior, proposing from the same density; weights unchanged.
+    /// After resampling, every copy takes Metropolis–Hastings steps toward the step's
+    /// posterior, proposing from the same density; weights unchanged.
     #[serde(rename = "resample-move")]
     ResampleMove,
 }
@@ -103,7 +103,7 @@ pub struct MoveConfig {
     /// of the bootstrap filter's rate and the weights stay bounded by `1 / (1 − α)` times
     /// the bootstrap weights.
     pub defensive_weight: f64,
-    /// `resample-move`: Metropolis–Hastings steps per duplicated particle (count, ≥ 1).
+    /// `resample-move`: Metropolis–Hastings steps per resampled copy (count, ≥ 1).
     /// Default 2.
     pub mh_steps: usize,
 }

@@ -4,9 +4,8 @@
 //! ICOA draws from it instead of U(0,1) when it initialises a population from a box and as
 //! the phase-1 coefficient. The sequence is not uniform: its invariant density peaks near
 //! 0.3 (measured over 2·10⁶ steps: 40.9 % of the mass in [0.1, 0.4], mean 0.449, the same
-//! from every start tried). ALGORITHMS.md quotes "≈ 45 % in [0.1, 0.4], mean ≈ 0.40" — the
-//! two numbers look swapped; the tests pin the measured values. The non-uniformity is the
-//! paper's choice and is kept.
+//! from every start tried; the tests pin these values). The non-uniformity is the paper's
+//! choice and is kept.
 
 use crate::rng::SimRng;
 use crate::{Error, Result};

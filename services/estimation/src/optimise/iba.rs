@@ -16,8 +16,9 @@
 //!   per dimension. Greedy acceptance.
 //!
 //! Eq. 12 is IBA's one position update: it replaces both of BA's searches, so there is no
-//! switch probability. Since `F_i ≤ c` and `c` stays below ≈ 0.22 (BA's sensory modality
-//! schedule), the radius is at most ≈ 0.2 η half-widths: in a spread-out population almost
+//! switch probability. Since `F_i ≤ c` and `c` stays small (BA's sensory modality
+//! schedule: below ≈ 0.22 over K = 200 generations, ≈ 0.34 at K = 10), the radius is at
+//! most a third of η half-widths: in a spread-out population almost
 //! no pair is that close and IBA moves few butterflies — the "reduced computation" the paper
 //! claims for the radius. The reference tests document what this gives on test functions.
 

@@ -19,8 +19,9 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PsoConfig {
-    /// Inertia weight `w` at the first generation (Shi & Eberhart 1998; dimensionless).
-    /// Default 0.9.
+    /// Inertia weight `w` where the schedule starts (Shi & Eberhart 1998;
+    /// dimensionless): generation `k = 1..K` uses `start + (end − start) k / K`, so the
+    /// first one is already a step along. Default 0.9.
     pub inertia_start: f64,
     /// Inertia weight at generation `K` (linear in between). Default 0.4.
     pub inertia_end: f64,

@@ -19,8 +19,9 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct QpsoConfig {
-    /// `β` at the first generation: contraction–expansion coefficient (Sun et al. 2012,
-    /// eq. 12; dimensionless). Default 1.0.
+    /// `β` where the schedule starts: contraction–expansion coefficient (Sun et al. 2012,
+    /// eq. 12; dimensionless); generation `k = 1..K` uses `start + (end − start) k / K`.
+    /// Default 1.0.
     pub contraction_start: f64,
     /// `β` at generation `K` (linear in between). Default 0.5.
     pub contraction_end: f64,
