@@ -5,20 +5,17 @@
 //! The same binary also *is* each process (hidden subcommands), so a single
 //! `cargo run --release -- run` builds and starts everything.
 
-mod bench;
-mod compare;
-mod extraction_report;
-mod map_get;
-mod monte_carlo;
+mod commands;
 mod progress;
-mod replay;
-mod run;
 mod supervisor;
-mod ungm;
 
 use clap::{Parser, Subcommand};
+use commands::{
+    bench, compare, extraction_report, map_get, monte_carlo, replay, run, scenarios, ungm,
+};
 use fastslam_protocol::cli::run_process;
 use fastslam_sensors_sim::processes::{lidar, odometry, truth};
+use std::process::ExitCode;
 
 /// Runs the zero-copy FastSLAM stack.
 #[derive(Debug, Parser)]
@@ -88,54 +85,60 @@ enum Command {
     Client(fastslam_client::process::Args),
 }
 
-fn main() -> anyhow::Result<()> {
-    match Cli::parse().command {
+/// Runs the command; a failure prints its reason chain on one line (never a backtrace,
+/// whatever `RUST_BACKTRACE` says) and exits 1.
+fn main() -> ExitCode {
+    match dispatch(Cli::parse().command) {
+        Ok(code) => ExitCode::from(code),
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Runs one command; returns its exit code.
+fn dispatch(command: Command) -> anyhow::Result<u8> {
+    let done = |result: anyhow::Result<()>| result.map(|()| 0);
+    match command {
         Command::Run(args) => {
             fastslam_protocol::cli::init_logging("launcher");
-            let code = run::run(args)?;
-            std::process::exit(code)
+            run::run(args)
         }
         Command::Compare(args) => {
             fastslam_protocol::cli::init_logging("compare");
-            let code = compare::compare(args)?;
-            std::process::exit(code)
+            compare::compare(args)
         }
         Command::Replay { data_set } => {
             fastslam_protocol::cli::init_logging("launcher");
-            let code = replay::replay(data_set)?;
-            std::process::exit(code)
+            replay::replay(data_set)
         }
         Command::Scenarios => {
-            for (name, text) in fastslam_sensors_sim::scenario::BUILT_IN {
-                let first = text
-                    .lines()
-                    .next()
-                    .unwrap_or_default()
-                    .trim_start_matches("# ");
-                println!("{name:16} {first}");
-            }
-            Ok(())
+            scenarios::run();
+            Ok(0)
         }
-        Command::MapGet(args) => map_get::run(&args),
-        Command::ExtractionReport(args) => extraction_report::run(&args),
-        Command::Ungm(a) => ungm::run(&a),
-        Command::MonteCarlo(a) => monte_carlo::run(&a),
+        Command::MapGet(args) => done(map_get::run(&args)),
+        Command::ExtractionReport(args) => done(extraction_report::run(&args)),
+        Command::Ungm(a) => done(ungm::run(&a)),
+        Command::MonteCarlo(a) => done(monte_carlo::run(&a)),
         Command::Bench(a) => {
             fastslam_protocol::cli::init_logging("bench");
-            bench::run(&a)
+            done(bench::run(&a))
         }
-        Command::TruthSim(a) => run_process("truth-sim", a, truth::run),
-        Command::OdometrySim(a) => run_process("odometry-sim", a, odometry::run),
-        Command::LidarSim(a) => run_process("lidar-sim", a, lidar::run),
-        Command::ReplayMrclam(a) => {
-            run_process("replay-mrclam", a, fastslam_replay::processes::mrclam::run)
-        }
-        Command::ReplayVictoriaPark(a) => run_process(
+        Command::TruthSim(a) => done(run_process("truth-sim", a, truth::run)),
+        Command::OdometrySim(a) => done(run_process("odometry-sim", a, odometry::run)),
+        Command::LidarSim(a) => done(run_process("lidar-sim", a, lidar::run)),
+        Command::ReplayMrclam(a) => done(run_process(
+            "replay-mrclam",
+            a,
+            fastslam_replay::processes::mrclam::run,
+        )),
+        Command::ReplayVictoriaPark(a) => done(run_process(
             "replay-victoria-park",
             a,
             fastslam_replay::processes::victoria_park::run,
-        ),
-        Command::Service(a) => run_process("service", a, fastslam_service::process::run),
-        Command::Client(a) => run_process("client", a, fastslam_client::process::run),
+        )),
+        Command::Service(a) => done(run_process("service", a, fastslam_service::process::run)),
+        Command::Client(a) => done(run_process("client", a, fastslam_client::process::run)),
     }
 }

@@ -6,7 +6,7 @@
 //! identical metrics (integration tests hold this). On top of it, the Monte Carlo
 //! comparison of `fastslam-stack monte-carlo`.
 
-use crate::grid::Grid;
+use crate::methods::Methods;
 use crate::settings;
 use anyhow::Context;
 use fastslam_client::metrics::{AlignMode, ScoreAt, fit_alignment, scored_at};
@@ -349,7 +349,7 @@ pub struct Row {
 pub struct Comparison {
     /// Optimisers, corrections and particle counts (default N: the configuration's).
     #[command(flatten)]
-    pub grid: Grid,
+    pub methods: Methods,
     /// Proposals, comma-separated: motion (FastSLAM 1.0) and/or fastslam2.
     #[arg(long, value_delimiter = ',', default_value = "motion")]
     pub proposals: Vec<Proposal>,
@@ -392,9 +392,11 @@ pub fn compare(
 ) -> anyhow::Result<Vec<Row>> {
     let mut rows = Vec::new();
     let configured = source.service_config(base, &Overrides::default())?;
-    let particles = comparison.grid.particles_or(&[configured.filter.particles]);
+    let particles = comparison
+        .methods
+        .particles_or(&[configured.filter.particles]);
     for &proposal in &comparison.proposals {
-        for (kind, correction) in comparison.grid.methods() {
+        for (kind, correction) in comparison.methods.methods() {
             for &particles in &particles {
                 let mut runs = Vec::with_capacity(comparison.seeds.0.len());
                 let mut method = String::new();

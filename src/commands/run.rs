@@ -68,7 +68,7 @@ pub struct RunArgs {
 ///
 /// # Errors
 /// When the scenario is invalid or the processes cannot be started.
-pub fn run(args: RunArgs) -> anyhow::Result<i32> {
+pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     let scenario = Scenario::load(&args.scenario)?;
     let seed = args.seed.unwrap_or(scenario.seed);
     let prefix = args
@@ -184,7 +184,7 @@ pub(crate) fn conclude(
     out: &Path,
     logs: &Path,
     wall: Duration,
-) -> anyhow::Result<i32> {
+) -> anyhow::Result<u8> {
     match outcome {
         Outcome::Finished => {
             print_summary(out, wall)?;

@@ -1,4 +1,5 @@
-//! Which estimators a comparison runs: the flags `ungm` and `monte-carlo` share.
+//! Which estimators a comparison runs — optimisers × move corrections × particle counts:
+//! the flags `ungm` and `monte-carlo` share.
 
 use clap::builder::TypedValueParser;
 use fastslam_estimation::moves::MoveCorrection;
@@ -8,7 +9,7 @@ use fastslam_service::config::{correction_names, optimiser_names};
 /// Optimisers × move corrections × particle counts, from comma-separated flags; an empty
 /// list means the default.
 #[derive(Debug, Clone, Default, PartialEq, clap::Args)]
-pub struct Grid {
+pub struct Methods {
     /// Optimisers, comma-separated (default: all).
     #[arg(
         long,
@@ -29,7 +30,7 @@ pub struct Grid {
     pub particles: Vec<usize>,
 }
 
-impl Grid {
+impl Methods {
     /// The (optimiser, correction) pairs in the order given, `none` once.
     pub fn methods(&self) -> Vec<(OptimiserKind, MoveCorrection)> {
         let optimizers = or_all(&self.optimizers, &OptimiserKind::ALL);
@@ -75,13 +76,13 @@ mod tests {
     #[derive(Parser)]
     struct Cli {
         #[command(flatten)]
-        grid: Grid,
+        methods: Methods,
     }
 
     #[test]
     fn lists_parse_default_to_everything_and_list_none_once() {
         let cli = Cli::parse_from(["x", "--optimizers", "none,coa", "--particles", "30,100"]);
-        let methods = cli.grid.methods();
+        let methods = cli.methods.methods();
         assert_eq!(
             methods,
             [
@@ -91,8 +92,8 @@ mod tests {
                 (OptimiserKind::Coa, MoveCorrection::ResampleMove),
             ]
         );
-        assert_eq!(cli.grid.particles_or(&[5]), [30, 100]);
-        let all = Cli::parse_from(["x"]).grid;
+        assert_eq!(cli.methods.particles_or(&[5]), [30, 100]);
+        let all = Cli::parse_from(["x"]).methods;
         assert_eq!(all.methods().len(), 1 + 7 * 3);
         assert_eq!(all.particles_or(&[5]), [5]);
         let err = Cli::try_parse_from(["x", "--optimizers", "magic"])

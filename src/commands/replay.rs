@@ -2,7 +2,7 @@
 //! data set's replay process, the FastSLAM service and the metrics client, each its own
 //! process — under a fresh stack prefix, with a run folder at the end.
 
-use crate::run::conclude;
+use crate::commands::run::conclude;
 use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::Context;
 use fastslam_protocol::ipc;
@@ -154,7 +154,7 @@ impl DataSet {
 ///
 /// # Errors
 /// When the data set folder, profile or settings are invalid, or a process cannot start.
-pub fn replay(data_set: DataSet) -> anyhow::Result<i32> {
+pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
     let plan = data_set.plan()?;
     let args = plan.run;
     let profile_arg = args

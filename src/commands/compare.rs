@@ -9,7 +9,7 @@
 //! are passed through to the service untouched: a name the service rejects fails that
 //! configuration with the service's reason and the others still run.
 
-use crate::run::short;
+use crate::commands::run::short;
 use crate::supervisor::stop_flag;
 use anyhow::Context;
 use fastslam_client::plot::{self, CostPlot, CostSeries};
@@ -195,7 +195,7 @@ const RUN_COLUMNS: [(&str, &str); 13] = [
 ///
 /// # Errors
 /// When the output folder cannot be written or the launcher cannot find itself.
-pub fn compare(args: CompareArgs) -> anyhow::Result<i32> {
+pub fn compare(args: CompareArgs) -> anyhow::Result<u8> {
     let scenario = fastslam_sensors_sim::Scenario::load(&args.scenario)?;
     let out = args
         .out
@@ -341,15 +341,15 @@ fn read_metrics(folder: &Path) -> Result<Value, String> {
     serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// Why a run failed, in one line: the last line of its error output before any
-/// backtrace (where the launcher puts the cause, e.g. the service's rejection of an
-/// optimiser name).
+/// Why a run failed, in one line: the last line of its error output (where the launcher
+/// prints its error with the cause chain, e.g. the service's rejection of an optimiser
+/// name).
 fn reason(stderr: &str, status: &str) -> String {
-    let message = stderr.split("Stack backtrace:").next().unwrap_or_default();
-    message
+    stderr
         .lines()
         .map(str::trim)
         .rfind(|l| !l.is_empty())
+        .map(|l| l.strip_prefix("error: ").unwrap_or(l))
         .map_or_else(
             || format!("failed ({status})"),
             |l| format!("failed ({status}): {l}"),
@@ -579,14 +579,13 @@ mod tests {
 
     #[test]
     fn the_reason_is_the_last_line_of_the_error_output() {
-        let stderr = "stack x: magic on s (seed 1)\nError: service settings\n\nCaused by:\n    unknown optimizer `magic`\n\n";
+        let stderr =
+            "stack x: magic on s (seed 1)\nerror: service settings: unknown optimizer `magic`\n\n";
         assert_eq!(
             reason(stderr, "exit status: 1"),
-            "failed (exit status: 1): unknown optimizer `magic`"
+            "failed (exit status: 1): service settings: unknown optimizer `magic`"
         );
         assert_eq!(reason("", "signal: 9"), "failed (signal: 9)");
-        let with_backtrace = format!("{stderr}Stack backtrace:\n   0: main\n  10: _start\n");
-        assert!(reason(&with_backtrace, "1").ends_with("unknown optimizer `magic`"));
     }
 
     #[test]

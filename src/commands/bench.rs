@@ -10,7 +10,7 @@
 //!    time and peak memory per process.
 //! 4. Optionally, peak memory of the service over runs of growing length.
 
-use crate::run::{self, RunArgs};
+use crate::commands::run::{self, RunArgs};
 use anyhow::{Context, bail};
 use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::moves::MoveCorrection;

@@ -10,7 +10,7 @@ use fastslam_estimation::stats::Summary;
 use fastslam_estimation::ungm::{
     self, BenchmarkConfig, HIGH_NOISE, LOW_NOISE, Method, MethodResult, Ungm,
 };
-use fastslam_stack::grid::{Grid, label};
+use fastslam_stack::methods::{Methods, label};
 
 /// Particle counts of the ICOA paper's Table 1.
 const PAPER_PARTICLES: [usize; 4] = [50, 100, 150, 200];
@@ -21,7 +21,7 @@ pub struct UngmArgs {
     /// Optimisers (none = the bootstrap particle filter), corrections and particle counts
     /// (default N: the paper's 50, 100, 150, 200).
     #[command(flatten)]
-    pub grid: Grid,
+    pub methods: Methods,
     /// Noise settings, comma-separated: low (Q = 1, R = 0.1) and/or high (Q = 10, R = 1).
     #[arg(long, value_delimiter = ',', default_value = "low,high")]
     pub noise: Vec<String>,
@@ -129,7 +129,7 @@ pub fn run(args: &UngmArgs) -> anyhow::Result<()> {
             ));
             println!();
         }
-        for n in args.grid.particles_or(&PAPER_PARTICLES) {
+        for n in args.methods.particles_or(&PAPER_PARTICLES) {
             for (label, method) in &methods {
                 let result = ungm::evaluate(&model, method, n, &config)
                     .with_context(|| format!("{label} with N = {n}"))?;
@@ -151,7 +151,7 @@ pub fn run(args: &UngmArgs) -> anyhow::Result<()> {
 
 /// The methods of the table with their labels (`coa`, `coa+proposal`), in the order given.
 fn methods(args: &UngmArgs) -> anyhow::Result<Vec<(String, Method)>> {
-    args.grid
+    args.methods
         .methods()
         .into_iter()
         .map(|(kind, correction)| {

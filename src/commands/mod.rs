@@ -1,0 +1,15 @@
+//! The launcher's subcommands, one module each: `run` (the whole stack on a scenario),
+//! `replay` (a recorded data set through the stack), `compare` (many runs through the
+//! processes, tabled), `monte-carlo` (many runs in process), `ungm` (the UNGM benchmark),
+//! `bench` (performance figures), `map-get` (a running stack's map), `scenarios` and
+//! `extraction-report`.
+
+pub mod bench;
+pub mod compare;
+pub mod extraction_report;
+pub mod map_get;
+pub mod monte_carlo;
+pub mod replay;
+pub mod run;
+pub mod scenarios;
+pub mod ungm;
