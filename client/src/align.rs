@@ -4,20 +4,23 @@
 
 use crate::recording::StampedPose;
 use fastslam_estimation::wrap_angle;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// A rigid motion of the plane: rotate by `theta`, then translate by `(x, y)`. Also a
 /// pose: the transform from the pose's body frame to the world frame.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Se2 {
     /// Translation x (m).
     #[serde(rename = "x_m")]
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub x: f64,
     /// Translation y (m).
     #[serde(rename = "y_m")]
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub y: f64,
     /// Rotation (rad, in (−π, π]).
     #[serde(rename = "theta_rad")]
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub theta: f64,
 }
 

@@ -11,18 +11,27 @@ use crate::stats::{Spread, mean};
 use fastslam_estimation::wrap_angle;
 use fastslam_protocol::MapLandmark;
 use nalgebra::{Matrix3, Vector3};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Estimated landmarks farther than this from every true one count as spurious (m).
 pub const LANDMARK_CUTOFF_M: f64 = 5.0;
 /// Upper 95 % point of χ² with 3 degrees of freedom: a consistent filter's pose NEES
 /// stays below it at 95 % of the steps.
 pub const CHI2_3_95: f64 = 7.814_727_903_251_178;
+/// Reads a number of `metrics.json`, where a value that is not a number (NaN: nothing to
+/// measure) is written as `null`, back into an `f64`.
+///
+/// # Errors
+/// The deserializer's error for anything but a number or `null`.
+pub fn number<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
 /// The service's iceoryx2 node name, whose CPU time is the filter's cost.
 pub const SERVICE_NODE: &str = "fastslam-service";
 
 /// How the estimate is brought into the truth's frame before it is scored.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum AlignMode {
     /// No alignment: in simulation the map frame is the true frame.
@@ -34,7 +43,7 @@ pub enum AlignMode {
 }
 
 /// The alignment that was applied before scoring.
-#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 pub struct Alignment {
     /// `none` or `se2`.
     pub method: AlignMode,
@@ -55,7 +64,7 @@ impl Default for Alignment {
 }
 
 /// Everything the client measured, as written to `metrics.json`.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Metrics {
     /// False when the run was interrupted before every stream ended.
     pub complete: bool,
@@ -78,18 +87,22 @@ pub struct Metrics {
 }
 
 /// Errors of one trajectory against ground truth at the estimate stamps.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct TrajectoryMetrics {
     /// Poses compared with ground truth.
     pub poses: usize,
     /// Absolute trajectory error, RMSE of the position error (m), after the alignment
     /// in [`Metrics::alignment`] (none in simulation).
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub ate_rmse_m: f64,
     /// Largest position error (m).
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub max_error_m: f64,
     /// Position error of the last pose (m).
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub final_error_m: f64,
     /// RMSE of the heading error (rad).
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub heading_rmse_rad: f64,
     /// Relative pose error over each distance of [`RPE_DELTAS_M`].
     pub rpe: Vec<Rpe>,
@@ -101,21 +114,23 @@ pub struct TrajectoryMetrics {
 /// pose, leaving a covariance of rounding noise) has no finite NEES — the filter claims no
 /// uncertainty in some direction. It is counted in `singular`, left out of the mean, and
 /// counted as outside the 95 % bound.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Consistency {
     /// Poses with a positive definite covariance (those the mean is taken over).
     pub poses: usize,
     /// Poses whose covariance is not positive definite.
     pub singular: usize,
     /// Mean NEES over `poses` (≈ 3 for a consistent filter; larger means over-confident).
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub nees_mean: f64,
     /// Fraction of all compared poses (`poses + singular`) with NEES below the χ²₃ 95 %
     /// point (≈ 0.95 when consistent).
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub nees_within_95: f64,
 }
 
 /// The estimated map against the true landmarks.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct MapMetrics {
     /// Landmarks in the estimated map.
     pub estimated: usize,
@@ -128,13 +143,15 @@ pub struct MapMetrics {
     /// Estimated landmarks without a true one.
     pub spurious: usize,
     /// RMSE of the matched landmarks' position error (m).
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub rmse_m: f64,
     /// The assignment cut-off (m).
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub cutoff_m: f64,
 }
 
 /// How the particle set fared, from the service's status messages.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct FilterHealth {
     /// Observation steps with a status message.
     pub steps: usize,
@@ -143,21 +160,27 @@ pub struct FilterHealth {
     /// Number of particles (of the last step).
     pub particles: u32,
     /// Mean effective sample size before resampling.
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub n_eff_mean: f64,
     /// Smallest effective sample size.
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub n_eff_min: f64,
     /// Mean of `N_eff / particles` (1 = all weights equal).
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub n_eff_ratio_mean: f64,
     /// Mean number of distinct particles after a step (all steps).
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub distinct_mean: f64,
     /// Mean number of distinct particles right after resampling (diversity).
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub distinct_after_resampling_mean: f64,
     /// Fewest distinct particles after a step.
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub distinct_min: f64,
 }
 
 /// Time and memory the run took.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Cost {
     /// The service's filter update time per observation step, as it reported it (ms).
     pub step_time_ms: Spread,
@@ -167,16 +190,29 @@ pub struct Cost {
     /// CPU time and peak memory of each process of the stack.
     pub processes: Vec<ProcessUsage>,
     /// CPU time of the FastSLAM service (s); NaN when it was not found.
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub service_cpu_s: f64,
     /// CPU time of all processes of the stack together (s).
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub stack_cpu_s: f64,
     /// Wall time from the first observation to the last pose the client received (s):
     /// the run streamed through the processes, start-up and scoring left out; NaN when
     /// no pose arrived.
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub stream_wall_s: f64,
 }
 
 impl Metrics {
+    /// Reads a run folder's `metrics.json` back.
+    ///
+    /// # Errors
+    /// When the file cannot be read or is not metrics this client writes.
+    pub fn read(path: &std::path::Path) -> anyhow::Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))
+    }
+
     /// Scores `rec` (already aligned as `alignment` says, see [`fit_alignment`]) at the
     /// stamps `at` says (see [`scored_at`]); `complete` says whether every stream ended
     /// normally.
@@ -202,7 +238,7 @@ impl Metrics {
 }
 
 /// Where the trajectory is compared with the truth.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum ScoreAt {
     /// At every pose estimate, the truth interpolated (dense truth: simulation, Vicon).
@@ -479,6 +515,18 @@ mod tests {
             y,
             ..Default::default()
         }
+    }
+
+    #[test]
+    fn metrics_json_reads_back_with_nan_as_null() {
+        let rec = Recording::default();
+        let m = Metrics::compute(&rec, false, Alignment::default(), ScoreAt::Estimates);
+        assert!(m.estimate.ate_rmse_m.is_nan(), "nothing to score: NaN");
+        let json = serde_json::to_string_pretty(&m).unwrap();
+        assert!(json.contains("\"ate_rmse_m\": null"), "{json}");
+        let back: Metrics = serde_json::from_str(&json).unwrap();
+        assert!(back.estimate.ate_rmse_m.is_nan());
+        assert_eq!(serde_json::to_string_pretty(&back).unwrap(), json);
     }
 
     #[test]

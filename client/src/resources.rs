@@ -13,26 +13,30 @@
 use fastslam_protocol::ipc::{Ipc, Service};
 use iceoryx2::node::{NodeState, NodeView};
 use iceoryx2::prelude::{CallbackProgression, Node};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// CPU time and peak memory of one process.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ProcessUsage {
     /// The iceoryx2 node name (the process's role: `fastslam-service`, `truth-sim`, …).
     pub name: String,
     /// Process id.
     pub pid: i32,
     /// CPU time in user mode (s).
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub cpu_user_s: f64,
     /// CPU time in the kernel on the process's behalf (s).
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub cpu_system_s: f64,
     /// Total CPU time (s): the scheduler's run time summed over the process's threads
     /// (`schedstat`, ns resolution), or user plus system time (clock ticks, exited threads
     /// included) when that is larger or `schedstat` is not available.
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub cpu_s: f64,
     /// Peak resident set size, `VmHWM` (MiB). Shared-memory pages the process touched
     /// count too, so the sum over processes counts shared pages more than once.
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub peak_rss_mib: f64,
 }
 

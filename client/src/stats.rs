@@ -1,7 +1,7 @@
 //! Small summaries of samples: mean, standard deviation and nearest-rank percentiles, used
 //! for latencies, step times, filter health and the comparison table.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Arithmetic mean; NaN for no samples.
 pub fn mean(xs: &[f64]) -> f64 {
@@ -43,17 +43,21 @@ pub fn percentile(sorted: &[f64], p: f64) -> f64 {
 
 /// Median, 99th and 99.9th percentiles and maximum of a set of durations or sizes, in the unit the
 /// field names say (see `METRICS.md`).
-#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 pub struct Spread {
     /// Number of samples.
     pub samples: usize,
     /// Median (nearest rank).
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub median: f64,
     /// 99th percentile (nearest rank).
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub p99: f64,
     /// 99.9th percentile (nearest rank): the tail a real-time budget must cover.
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub p999: f64,
     /// Largest sample.
+    #[serde(deserialize_with = "crate::metrics::number")]
     pub max: f64,
 }
 

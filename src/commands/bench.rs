@@ -12,6 +12,9 @@
 
 use crate::commands::run::{self, RunArgs};
 use anyhow::{Context, bail};
+use fastslam_client::Metrics;
+use fastslam_client::metrics::SERVICE_NODE;
+use fastslam_client::stats::Spread;
 use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::moves::MoveCorrection;
 use fastslam_estimation::optimise::OptimiserKind;
@@ -20,7 +23,7 @@ use fastslam_sensors_sim::Scenario;
 use fastslam_service::config::{Overrides, ServiceConfig};
 use fastslam_stack::{offline, settings};
 use std::hint::black_box;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 /// Flags of `bench`.
@@ -275,7 +278,7 @@ fn stack_run(
         busy_poll,
         spin_us,
     }: Pacing,
-) -> anyhow::Result<(serde_json::Value, Duration)> {
+) -> anyhow::Result<(Metrics, Duration)> {
     let out = args.out.join(label);
     let run_args = RunArgs {
         scenario: scenario.to_string(),
@@ -298,58 +301,30 @@ fn stack_run(
     if code != 0 {
         bail!("the {label} run exited with code {code}");
     }
-    Ok((read_metrics(&out)?, wall))
-}
-
-fn read_metrics(folder: &Path) -> anyhow::Result<serde_json::Value> {
-    let path = folder.join("metrics.json");
-    let text =
-        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
-    Ok(serde_json::from_str(&text)?)
-}
-
-/// A number of `metrics.json` at `pointer` (NaN when missing).
-fn num(m: &serde_json::Value, pointer: &str) -> f64 {
-    m.pointer(pointer)
-        .and_then(serde_json::Value::as_f64)
-        .unwrap_or(f64::NAN)
+    Ok((Metrics::read(&out.join("metrics.json"))?, wall))
 }
 
 /// Prints a spread of `metrics.json` (median, p99, p99.9, max in ms).
-fn print_spread(m: &serde_json::Value, what: &str, key: &str) {
-    let v = |k: &str| num(m, &format!("/cost/{key}/{k}"));
+fn print_spread(what: &str, v: &Spread) {
     println!(
         "  {what:<22} median {:.3} ms   p99 {:.3} ms   p99.9 {:.3} ms   max {:.3} ms   ({} samples)",
-        v("median"),
-        v("p99"),
-        v("p999"),
-        v("max"),
-        v("samples")
+        v.median, v.p99, v.p999, v.max, v.samples
     );
 }
 
 /// Prints the cost section: CPU time and peak memory per process.
-fn print_processes(m: &serde_json::Value) {
+fn print_processes(m: &Metrics) {
     println!(
         "  {:<18} {:>10} {:>10} {:>10} {:>14}",
         "process", "CPU s", "user s", "sys s", "peak RSS MiB"
     );
-    for p in m
-        .pointer("/cost/processes")
-        .and_then(|p| p.as_array())
-        .into_iter()
-        .flatten()
-    {
+    for p in &m.cost.processes {
         println!(
             "  {:<18} {:>10.3} {:>10.2} {:>10.2} {:>14.1}",
-            p["name"].as_str().unwrap_or("?"),
-            num(p, "/cpu_s"),
-            num(p, "/cpu_user_s"),
-            num(p, "/cpu_system_s"),
-            num(p, "/peak_rss_mib")
+            p.name, p.cpu_s, p.cpu_user_s, p.cpu_system_s, p.peak_rss_mib
         );
     }
-    println!("  {:<18} {:>10.3}", "all", num(m, "/cost/stack_cpu_s"));
+    println!("  {:<18} {:>10.3}", "all", m.cost.stack_cpu_s);
 }
 
 /// The variants of the latency run.
@@ -409,8 +384,8 @@ fn latency(args: &BenchArgs, run: LatencyRun) -> anyhow::Result<()> {
     };
     let (m, wall) = stack_run(args, scenario, (label, particles), pacing)?;
     println!("  wall time {:.1} s", wall.as_secs_f64());
-    print_spread(&m, "observation -> pose", "latency_ms");
-    print_spread(&m, "filter step", "step_time_ms");
+    print_spread("observation -> pose", &m.cost.latency_ms);
+    print_spread("filter step", &m.cost.step_time_ms);
     print_processes(&m);
     Ok(())
 }
@@ -494,8 +469,7 @@ fn throughput(args: &BenchArgs) -> anyhow::Result<()> {
     );
     println!(
         "  same metrics as in process: ATE {:.3} m (in process {:.3} m)",
-        num(&last.metrics, "/estimate/ate_rmse_m"),
-        last.in_process_ate
+        last.metrics.estimate.ate_rmse_m, last.in_process_ate
     );
     println!("  last round's processes:");
     print_processes(&last.metrics);
@@ -513,7 +487,7 @@ struct Round {
     multi_wall: f64,
     streamed: f64,
     service_cpu: f64,
-    metrics: serde_json::Value,
+    metrics: Metrics,
 }
 
 /// Runs `scenario` in process, then through the processes, as fast as possible.
@@ -542,8 +516,8 @@ fn throughput_round(
         filter: offline.filter_time.as_secs_f64(),
         in_process_ate: offline.metrics.estimate.ate_rmse_m,
         multi_wall: wall.as_secs_f64(),
-        streamed: num(&metrics, "/cost/stream_wall_s"),
-        service_cpu: num(&metrics, "/cost/service_cpu_s"),
+        streamed: metrics.cost.stream_wall_s,
+        service_cpu: metrics.cost.service_cpu_s,
         metrics,
     })
 }
@@ -595,19 +569,18 @@ fn memory(args: &BenchArgs) -> anyhow::Result<()> {
             Pacing::default(),
         )?;
         let service = m
-            .pointer("/cost/processes")
-            .and_then(|p| p.as_array())
-            .into_iter()
-            .flatten()
-            .find(|p| p["name"] == "fastslam-service")
-            .map_or(f64::NAN, |p| num(p, "/peak_rss_mib"));
+            .cost
+            .processes
+            .iter()
+            .find(|p| p.name == SERVICE_NODE)
+            .map_or(f64::NAN, |p| p.peak_rss_mib);
         println!(
             "  {loops:>3} loops: {:>7} filter steps, {:>6.1} s wall, service peak RSS {service:.1} MiB, \
              service CPU {:.2} s, {} landmarks in the map",
-            num(&m, "/filter/steps"),
+            m.filter.steps,
             wall.as_secs_f64(),
-            num(&m, "/cost/service_cpu_s"),
-            num(&m, "/map/estimated")
+            m.cost.service_cpu_s,
+            m.map.estimated
         );
     }
     Ok(())

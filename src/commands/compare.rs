@@ -12,13 +12,13 @@
 use crate::commands::run::short;
 use crate::supervisor::stop_flag;
 use anyhow::Context;
+use fastslam_client::Metrics;
 use fastslam_client::plot::{self, CostPlot, CostSeries};
 use fastslam_client::stats::{mean, std_dev};
 use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::moves::MoveCorrection;
 use fastslam_sensors_sim::scenario::DEFAULT_SCENARIO;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use serde_json::Value;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -158,36 +158,39 @@ struct RunResult {
     folder: PathBuf,
     wall_s: f64,
     /// The run's `metrics.json`, or why there is none.
-    metrics: Result<Value, String>,
+    metrics: Result<Metrics, String>,
 }
 
 impl RunResult {
-    /// A number of the metrics by JSON pointer (NaN when missing or the run failed).
-    fn num(&self, pointer: &str) -> f64 {
-        self.metrics
-            .as_ref()
-            .ok()
-            .and_then(|m| m.pointer(pointer))
-            .and_then(Value::as_f64)
-            .unwrap_or(f64::NAN)
+    /// A number of the metrics (NaN when the run failed).
+    fn num(&self, field: fn(&Metrics) -> f64) -> f64 {
+        self.metrics.as_ref().map_or(f64::NAN, field)
     }
 }
 
-/// The per-run columns of `runs.csv`: (header, JSON pointer into `metrics.json`).
-const RUN_COLUMNS: [(&str, &str); 13] = [
-    ("service_cpu_s", "/cost/service_cpu_s"),
-    ("stack_cpu_s", "/cost/stack_cpu_s"),
-    ("ate_rmse_m", "/estimate/ate_rmse_m"),
-    ("heading_rmse_rad", "/estimate/heading_rmse_rad"),
-    ("final_error_m", "/estimate/final_error_m"),
-    ("dead_reckoning_ate_rmse_m", "/dead_reckoning/ate_rmse_m"),
-    ("landmark_rmse_m", "/map/rmse_m"),
-    ("landmarks_matched", "/map/matched"),
-    ("landmarks_spurious", "/map/spurious"),
-    ("nees_mean", "/consistency/nees_mean"),
-    ("nees_within_95", "/consistency/nees_within_95"),
-    ("latency_median_ms", "/cost/latency_ms/median"),
-    ("latency_p99_ms", "/cost/latency_ms/p99"),
+/// A number of a run's metrics.
+type Field = fn(&Metrics) -> f64;
+
+/// The service's CPU time (s).
+const SERVICE_CPU: Field = |m| m.cost.service_cpu_s;
+/// The estimate's ATE RMSE (m).
+const ATE: Field = |m| m.estimate.ate_rmse_m;
+
+/// The per-run columns of `runs.csv`: (header, field of `metrics.json`).
+const RUN_COLUMNS: [(&str, Field); 13] = [
+    ("service_cpu_s", SERVICE_CPU),
+    ("stack_cpu_s", |m| m.cost.stack_cpu_s),
+    ("ate_rmse_m", ATE),
+    ("heading_rmse_rad", |m| m.estimate.heading_rmse_rad),
+    ("final_error_m", |m| m.estimate.final_error_m),
+    ("dead_reckoning_ate_rmse_m", |m| m.dead_reckoning.ate_rmse_m),
+    ("landmark_rmse_m", |m| m.map.rmse_m),
+    ("landmarks_matched", |m| m.map.matched as f64),
+    ("landmarks_spurious", |m| m.map.spurious as f64),
+    ("nees_mean", |m| m.consistency.nees_mean),
+    ("nees_within_95", |m| m.consistency.nees_within_95),
+    ("latency_median_ms", |m| m.cost.latency_ms.median),
+    ("latency_p99_ms", |m| m.cost.latency_ms.p99),
 ];
 
 /// Runs the comparison; returns the exit code (0 all runs finished, 1 some failed, 130
@@ -335,10 +338,8 @@ fn run_one(
 }
 
 /// The run folder's `metrics.json`.
-fn read_metrics(folder: &Path) -> Result<Value, String> {
-    let path = folder.join(fastslam_client::report::files::METRICS);
-    let text = std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
+fn read_metrics(folder: &Path) -> Result<Metrics, String> {
+    Metrics::read(&folder.join("metrics.json")).map_err(|e| format!("{e:#}"))
 }
 
 /// Why a run failed, in one line: the last line of its error output (where the launcher
@@ -359,11 +360,7 @@ fn reason(stderr: &str, status: &str) -> String {
 /// One line about a finished run, for the progress bar.
 fn summary_line(r: &RunResult) -> String {
     match &r.metrics {
-        Ok(_) => format!(
-            "{}: ATE {:.3} m",
-            r.config.folder(),
-            r.num("/estimate/ate_rmse_m")
-        ),
+        Ok(_) => format!("{}: ATE {:.3} m", r.config.folder(), r.num(ATE)),
         Err(e) => format!("{}: {e}", r.config.folder()),
     }
 }
@@ -407,8 +404,8 @@ fn write_tables(
             r.wall_s
         )
         .ok();
-        for (_, pointer) in RUN_COLUMNS {
-            write!(csv, ",{}", cell(r.num(pointer))).ok();
+        for (_, field) in RUN_COLUMNS {
+            write!(csv, ",{}", cell(r.num(field))).ok();
         }
         writeln!(csv, ",{}", r.folder.display()).ok();
     }
@@ -439,15 +436,15 @@ fn write_tables(
             if group.is_empty() {
                 continue;
             }
-            let col = |p: &str| ok.iter().map(|r| r.num(p)).collect::<Vec<f64>>();
+            let col = |f: Field| ok.iter().map(|r| r.num(f)).collect::<Vec<f64>>();
             let (cpu, wall) = (
-                col("/cost/service_cpu_s"),
+                col(SERVICE_CPU),
                 ok.iter().map(|r| r.wall_s).collect::<Vec<_>>(),
             );
-            let (ate, lm) = (col("/estimate/ate_rmse_m"), col("/map/rmse_m"));
+            let (ate, lm) = (col(ATE), col(|m| m.map.rmse_m));
             let (nees, within) = (
-                col("/consistency/nees_mean"),
-                col("/consistency/nees_within_95"),
+                col(|m| m.consistency.nees_mean),
+                col(|m| m.consistency.nees_within_95),
             );
             writeln!(
                 summary,
@@ -539,7 +536,7 @@ fn cell(v: f64) -> String {
 
 /// RMSE against service CPU time: every run, and the per-particle-count means joined.
 fn cost_plot(args: &CompareArgs, methods: &[Method], results: &[RunResult]) -> CostPlot {
-    let point = |r: &RunResult| (r.num("/cost/service_cpu_s"), r.num("/estimate/ate_rmse_m"));
+    let point = |r: &RunResult| (r.num(SERVICE_CPU), r.num(ATE));
     let series = methods
         .iter()
         .map(|o| {
