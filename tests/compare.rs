@@ -105,7 +105,7 @@ fn compare_tables_every_configuration_with_the_numbers_of_individual_runs() {
     let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
     assert!(md.contains("| none | 10 | 2 |"), "{md}");
     assert!(
-        md.contains("magic") && md.contains("expected one of"),
+        md.contains("magic") && md.contains("possible values: none, coa"),
         "{md}"
     );
     assert!(stdout.contains("| method | particles |"), "{stdout}");

@@ -342,19 +342,29 @@ fn read_metrics(folder: &Path) -> Result<Metrics, String> {
     Metrics::read(&folder.join("metrics.json")).map_err(|e| format!("{e:#}"))
 }
 
-/// Why a run failed, in one line: the last line of its error output (where the launcher
-/// prints its error with the cause chain, e.g. the service's rejection of an optimiser
-/// name).
+/// Why a run failed, in one line: the last `error:` line of its error output (where the
+/// launcher prints its error with the cause chain, or the flag parser its refusal, e.g.
+/// of an optimiser name, with the list of choices on the next line), else its last line.
 fn reason(stderr: &str, status: &str) -> String {
-    stderr
-        .lines()
-        .map(str::trim)
-        .rfind(|l| !l.is_empty())
-        .map(|l| l.strip_prefix("error: ").unwrap_or(l))
-        .map_or_else(
-            || format!("failed ({status})"),
-            |l| format!("failed ({status}): {l}"),
-        )
+    let lines: Vec<&str> = stderr.lines().map(str::trim).collect();
+    let message = match lines.iter().rposition(|l| l.starts_with("error: ")) {
+        Some(i) => {
+            let error = &lines[i]["error: ".len()..];
+            match lines.get(i + 1).filter(|l| l.starts_with('[')) {
+                Some(choices) => format!("{error} {choices}"),
+                None => error.to_string(),
+            }
+        }
+        None => lines
+            .iter()
+            .rfind(|l| !l.is_empty())
+            .map_or_else(String::new, |l| l.to_string()),
+    };
+    if message.is_empty() {
+        format!("failed ({status})")
+    } else {
+        format!("failed ({status}): {message}")
+    }
 }
 
 /// One line about a finished run, for the progress bar.
@@ -583,6 +593,11 @@ mod tests {
             "failed (exit status: 1): service settings: unknown optimizer `magic`"
         );
         assert_eq!(reason("", "signal: 9"), "failed (signal: 9)");
+        let refused = "error: invalid value 'magic' for '--optimizer <OPTIMIZER>'\n  [possible values: none, coa]\n\nFor more information, try '--help'.\n";
+        assert_eq!(
+            reason(refused, "exit status: 2"),
+            "failed (exit status: 2): invalid value 'magic' for '--optimizer <OPTIMIZER>' [possible values: none, coa]"
+        );
     }
 
     #[test]
