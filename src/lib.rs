@@ -1,11 +1,13 @@
 //! The launcher's library: what its commands share with each other and with the
-//! integration tests — the service settings of a run ([`settings`]), the estimators a
-//! comparison runs ([`methods`]) and the in-process pipeline of the Monte Carlo comparison
-//! ([`offline`]).
+//! integration tests — the service settings of a run ([`settings`]), the processes of a
+//! stack and who waits for whom ([`topology`]), the estimators a comparison runs
+//! ([`methods`]) and the in-process pipeline of the Monte Carlo comparison ([`offline`]).
 
+pub mod lists;
 pub mod methods;
 pub mod offline;
 pub mod settings;
+pub mod topology;
 
 /// A stack prefix of this launcher's own (`run` and `replay` without `--prefix`), so
 /// parallel runs never see each other.

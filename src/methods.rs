@@ -1,6 +1,7 @@
 //! Which estimators a comparison runs — optimisers × move corrections × particle counts:
 //! the flags `ungm` and `monte-carlo` share.
 
+use crate::lists::List;
 use clap::builder::TypedValueParser;
 use fastslam_estimation::moves::MoveCorrection;
 use fastslam_estimation::optimise::OptimiserKind;
@@ -25,9 +26,9 @@ pub struct Methods {
         value_parser = correction_names().map(|s| s.parse::<MoveCorrection>().expect("a listed name"))
     )]
     pub move_corrections: Vec<MoveCorrection>,
-    /// Particle counts, comma-separated (default: the command's).
-    #[arg(long, value_delimiter = ',')]
-    pub particles: Vec<usize>,
+    /// Particle counts: `a,b,c` or `a..b` (default: the command's).
+    #[arg(long)]
+    pub particles: Option<List<usize>>,
 }
 
 impl Methods {
@@ -49,7 +50,9 @@ impl Methods {
 
     /// The particle counts, or `default` when none were given.
     pub fn particles_or(&self, default: &[usize]) -> Vec<usize> {
-        or_all(&self.particles, default)
+        self.particles
+            .as_ref()
+            .map_or_else(|| default.to_vec(), |l| l.values().to_vec())
     }
 }
 

@@ -6,6 +6,7 @@
 //! identical metrics (integration tests hold this). On top of it, the Monte Carlo
 //! comparison of `fastslam-stack monte-carlo`.
 
+use crate::lists::List;
 use crate::methods::Methods;
 use crate::settings;
 use anyhow::Context;
@@ -26,7 +27,6 @@ use fastslam_sensors_sim::offline::{Message, OfflineRun};
 use fastslam_service::config::{Overrides, ServiceConfig};
 use fastslam_service::sequencer::{RawScan, Scan, Sequencer};
 use fastslam_service::slam::Slam;
-use std::str::FromStr;
 use std::time::{Duration, Instant};
 
 /// What one in-process run produced.
@@ -356,27 +356,7 @@ pub struct Comparison {
     /// Seeds of simulation and filter (as `run --seed`): an inclusive range `a..b` or a
     /// comma-separated list.
     #[arg(long, default_value = "1..10")]
-    pub seeds: Seeds,
-}
-
-/// A list of seeds, written `a..b` (inclusive) or `a,b,c`.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Seeds(pub Vec<u64>);
-
-impl FromStr for Seeds {
-    type Err = String;
-
-    fn from_str(text: &str) -> Result<Self, String> {
-        let number = |s: &str| s.trim().parse::<u64>().map_err(|e| format!("`{s}`: {e}"));
-        let seeds: Vec<u64> = match text.split_once("..") {
-            Some((a, b)) => (number(a)?..=number(b)?).collect(),
-            None => text.split(',').map(number).collect::<Result<_, _>>()?,
-        };
-        if seeds.is_empty() {
-            return Err(format!("`{text}` holds no seed"));
-        }
-        Ok(Self(seeds))
-    }
+    pub seeds: List<u64>,
 }
 
 /// Runs the comparison on `source` with the service settings of `base` (a config file,
@@ -450,18 +430,5 @@ fn summarise(method: String, particles: usize, runs: &[RunOutcome]) -> Row {
         seconds: column(&|r| r.filter_time.as_secs_f64()),
         cpu: column(&|r| r.cpu.as_secs_f64()),
         moves,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn seeds_are_an_inclusive_range_or_a_list() {
-        assert_eq!("1..3".parse::<Seeds>().unwrap().0, [1, 2, 3]);
-        assert_eq!("4, 7".parse::<Seeds>().unwrap().0, [4, 7]);
-        assert!("3..1".parse::<Seeds>().is_err());
-        assert!("x".parse::<Seeds>().is_err());
     }
 }

@@ -21,6 +21,7 @@ use fastslam_estimation::optimise::OptimiserKind;
 use fastslam_estimation::workload::{Workload, machine};
 use fastslam_sensors_sim::Scenario;
 use fastslam_service::config::{Overrides, ServiceConfig};
+use fastslam_stack::lists::List;
 use fastslam_stack::{offline, settings};
 use std::hint::black_box;
 use std::path::PathBuf;
@@ -32,12 +33,14 @@ pub struct BenchArgs {
     /// A short run: N ∈ {10, 100}, M ∈ {10, 1000}, fewer repetitions, short scenarios.
     #[arg(long)]
     pub quick: bool,
-    /// Particle counts of the step-time grid (default 10,30,100,300,1000).
-    #[arg(long, value_delimiter = ',')]
-    pub particles: Vec<usize>,
-    /// Map sizes (landmarks) of the step-time grid (default 10,100,1000,10000).
-    #[arg(long, value_delimiter = ',')]
-    pub landmarks: Vec<usize>,
+    /// Particle counts of the step-time grid: `a,b,c` or `a..b` (default
+    /// 10,30,100,300,1000).
+    #[arg(long)]
+    pub particles: Option<List<usize>>,
+    /// Map sizes (landmarks) of the step-time grid: `a,b,c` or `a..b` (default
+    /// 10,100,1000,10000).
+    #[arg(long)]
+    pub landmarks: Option<List<usize>>,
     /// Optimisers of the step-time grid, comma-separated: none, fastslam2 (FastSLAM 2.0's
     /// proposal), coa, icoa, ba, iba, gwo, qpso, pso — each in the papers' mode, or with
     /// `+proposal` or `+resample-move` in a corrected one (`coa+proposal`).
@@ -182,10 +185,10 @@ fn sorted(mut samples: Vec<f64>) -> Sorted {
 
 /// Part 1: the step-time grid and its growth ratios.
 fn step_times(args: &BenchArgs) -> anyhow::Result<()> {
-    let or = |given: &[usize], full: &[usize], quick: &[usize]| match given {
-        [] if args.quick => quick.to_vec(),
-        [] => full.to_vec(),
-        g => g.to_vec(),
+    let or = |given: &Option<List<usize>>, full: &[usize], quick: &[usize]| match given {
+        None if args.quick => quick.to_vec(),
+        None => full.to_vec(),
+        Some(g) => g.to_vec(),
     };
     let ns = or(&args.particles, &[10, 30, 100, 300, 1000], &[10, 100]);
     let ms = or(&args.landmarks, &[10, 100, 1000, 10_000], &[10, 1000]);

@@ -18,6 +18,7 @@ use fastslam_client::stats::{mean, std_dev};
 use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::moves::MoveCorrection;
 use fastslam_sensors_sim::scenario::DEFAULT_SCENARIO;
+use fastslam_stack::lists::List;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -45,12 +46,12 @@ pub struct CompareArgs {
     /// config's, as `run` without `--move-correction`).
     #[arg(long, value_delimiter = ',')]
     pub move_corrections: Vec<MoveCorrection>,
-    /// Particle counts, comma-separated.
-    #[arg(long, value_delimiter = ',', default_value = "25,50,100")]
-    pub particles: Vec<usize>,
-    /// Seeds, comma-separated: each configuration runs once per seed.
-    #[arg(long, value_delimiter = ',', default_value = "1,2,3")]
-    pub seeds: Vec<u64>,
+    /// Particle counts: `a,b,c` or `a..b`.
+    #[arg(long, default_value = "25,50,100")]
+    pub particles: List<usize>,
+    /// Seeds: `a,b,c` or `a..b`; each configuration runs once per seed.
+    #[arg(long, default_value = "1,2,3")]
+    pub seeds: List<u64>,
     /// Stacks to run at the same time (each under its own prefix). More than the cores
     /// the machine has slows every run; CPU times stay comparable, wall times do not.
     #[arg(long, default_value_t = 1)]

@@ -2,7 +2,7 @@
 //! data set's replay process, the FastSLAM service and the metrics client, each its own
 //! process — under a fresh stack prefix, with a run folder at the end.
 
-use crate::commands::run::conclude;
+use crate::commands::run::{conclude, with_wait};
 use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::Context;
 use fastslam_protocol::ipc;
@@ -10,6 +10,7 @@ use fastslam_replay::dataset::Association;
 use fastslam_replay::profile::Profile;
 use fastslam_service::config::{EstimatorChoice, Overrides, ServiceConfig};
 use fastslam_stack::settings;
+use fastslam_stack::topology;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -196,12 +197,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
     ];
     let mut service_flags = stack_flags.clone();
     service_flags.extend(overrides.flags());
-    service_flags.extend([
-        "--config".into(),
-        config.display().to_string(),
-        "--wait-subscribers".into(),
-        "1".into(),
-    ]);
+    service_flags.extend(["--config".into(), config.display().to_string()]);
     let mut client = stack_flags.clone();
     client.extend(["--out".into(), out.display().to_string()]);
     client.extend(profile.client.flags.iter().cloned());
@@ -211,8 +207,6 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         std::fs::canonicalize(plan.data)?.display().to_string(),
         "--profile".into(),
         profile_arg_for_child(&profile_arg),
-        "--wait-subscribers".into(),
-        "2".into(), // service, client
         "--rate".into(),
         args.rate.to_string(),
     ]);
@@ -228,13 +222,14 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         "stack {prefix}: {method} on {} ({})",
         plan.label, profile.name
     );
-    for (name, flags) in [
-        ("client", client),
-        ("service", service_flags),
-        (plan.process, replay),
-    ] {
+    for role in &topology::REPLAY {
+        let (name, flags) = match role.name {
+            "client" => ("client", client.clone()),
+            "service" => ("service", service_flags.clone()),
+            _ => (plan.process, replay.clone()),
+        };
         let mut argv = vec![name.to_string()];
-        argv.extend(flags);
+        argv.extend(with_wait(flags, role));
         stack.spawn(name, &exe, &argv, &logs.join(format!("{name}.log")))?;
     }
     let outcome = stack.wait(&stop, args.timeout_s.map(Duration::from_secs_f64));

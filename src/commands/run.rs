@@ -9,6 +9,7 @@ use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::scenario::{BUILT_IN, DEFAULT_SCENARIO};
 use fastslam_service::config::{EstimatorChoice, Overrides};
 use fastslam_stack::settings;
+use fastslam_stack::topology;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -101,7 +102,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         "--iox-root".into(),
         root.display().to_string(),
     ];
-    let sim_flags = |subscribers: usize| {
+    let sim_flags = || {
         let mut f = stack_flags.clone();
         f.extend([
             "--scenario".into(),
@@ -109,12 +110,10 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
             "--seed".into(),
             seed.to_string(),
         ]);
-        f.extend(["--wait-subscribers".into(), subscribers.to_string()]);
         f
     };
     let mut service = stack_flags.clone();
     service.extend(overrides.flags());
-    service.extend(["--wait-subscribers".into(), "1".into()]);
     if let Some(c) = &service_config {
         service.extend(["--config".into(), c.display().to_string()]);
     }
@@ -129,17 +128,20 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
             flags.push(format!("--spin-us={}", args.spin_us));
         }
     }
-    let mut truth = sim_flags(3); // odometry-sim, lidar-sim, client
+    let mut truth = sim_flags();
     if args.realtime {
         truth.push("--realtime".into());
     }
-    let processes: [(&'static str, Vec<String>); 5] = [
-        ("client", client),
-        ("service", service),
-        ("odometry-sim", sim_flags(2)), // service, client
-        ("lidar-sim", sim_flags(2)),    // service, client (latency)
-        ("truth-sim", truth),
-    ];
+    let own_flags = |name: &str| match name {
+        "client" => client.clone(),
+        "service" => service.clone(),
+        "truth-sim" => truth.clone(),
+        _ => sim_flags(),
+    };
+    let processes: Vec<(&'static str, Vec<String>)> = topology::SIMULATION
+        .iter()
+        .map(|role| (role.name, with_wait(own_flags(role.name), role)))
+        .collect();
     eprintln!(
         "stack {prefix}: {method} on {} (seed {seed})",
         scenario.name
@@ -291,4 +293,15 @@ fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
     );
     println!("  wall time      {:8.2} s", wall.as_secs_f64());
     Ok(())
+}
+
+/// `flags` with the role's `--wait-subscribers` count, when it waits for anyone.
+pub fn with_wait(mut flags: Vec<String>, role: &topology::Role) -> Vec<String> {
+    if role.wait_subscribers() > 0 {
+        flags.extend([
+            "--wait-subscribers".into(),
+            role.wait_subscribers().to_string(),
+        ]);
+    }
+    flags
 }
