@@ -116,6 +116,28 @@ where
     X::CoordDescType: ValueFormatter<X::Value>,
     Y::CoordDescType: ValueFormatter<Y::Value>,
 {
+    new_chart_with(area, caption, (x, y), (x_desc, y_desc), None)
+}
+
+/// [`new_chart`] with the y axis' labels written by `y_labels` (the axis' own formatter
+/// when `None`).
+///
+/// # Errors
+/// The backend's drawing error, as text.
+fn new_chart_with<'a, DB, X, Y>(
+    area: &'a DrawingArea<DB, Shift>,
+    caption: Option<&str>,
+    (x, y): (X, Y),
+    (x_desc, y_desc): (&str, &str),
+    y_labels: Option<&dyn Fn(&Y::Value) -> String>,
+) -> PlotResult<Chart<'a, DB, X, Y>>
+where
+    DB: DrawingBackend,
+    X: AsRangedCoord,
+    Y: AsRangedCoord,
+    X::CoordDescType: ValueFormatter<X::Value>,
+    Y::CoordDescType: ValueFormatter<Y::Value>,
+{
     let mut builder = ChartBuilder::on(area);
     if let Some(c) = caption {
         builder.caption(c, (FAMILY, 22));
@@ -126,15 +148,49 @@ where
         .y_label_area_size(LABEL_AREA.0)
         .build_cartesian_2d(x, y)
         .map_err(text)?;
-    chart
-        .configure_mesh()
-        .x_desc(x_desc)
+    let mut mesh = chart.configure_mesh();
+    mesh.x_desc(x_desc)
         .y_desc(y_desc)
         .label_style((FAMILY, 14))
-        .light_line_style(WHITE)
-        .draw()
-        .map_err(text)?;
+        .light_line_style(WHITE);
+    if let Some(f) = y_labels {
+        mesh.y_label_formatter(f);
+    }
+    mesh.draw().map_err(text)?;
     Ok(chart)
+}
+
+/// A number as a short axis label: `1e40`, `1e5`, `100`, `1`, `0.1`, `1e-3` — a log
+/// axis spans many decades, and a fixed number of decimals cuts the long ones off.
+pub fn short_number(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let magnitude = v.abs();
+    if (1e-2..1e4).contains(&magnitude) {
+        let text = format!("{v:.2}");
+        let text = text.trim_end_matches('0').trim_end_matches('.');
+        text.to_string()
+    } else {
+        let text = format!("{v:.1e}");
+        text.replace(".0e", "e")
+    }
+}
+
+/// `track`'s points at least `spacing` apart (the first and last always kept): a dense
+/// track (Vicon at 100 Hz) drawn point by point leaves gaps between its sub-pixel
+/// segments, so the line looks dotted.
+fn thinned(track: &[StampedPose], spacing: f64) -> Vec<(f64, f64)> {
+    let mut out: Vec<(f64, f64)> = Vec::with_capacity(track.len());
+    for (i, p) in track.iter().enumerate() {
+        let far = out
+            .last()
+            .is_none_or(|q| (p.x - q.0).hypot(p.y - q.1) >= spacing);
+        if far || i + 1 == track.len() {
+            out.push((p.x, p.y));
+        }
+    }
+    out
 }
 
 /// Draws the legend of the series drawn so far at `position`.
@@ -214,12 +270,16 @@ impl TrajectoryPlot<'_> {
     ) -> PlotResult<Cartesian2d<RangedCoordf64, RangedCoordf64>> {
         area.fill(&WHITE).map_err(text)?;
         // The title first, so the chart's own area is known to the pixel.
+        // A few pixels above the title, so its glyphs are not cut at the edge.
         let area = area
+            .margin(8, 0, 0, 0)
             .titled("Trajectory and map", (FAMILY, 24))
             .map_err(text)?;
         let ((x0, x1), (y0, y1)) = self.ranges(area.dim_in_pixel());
         let mut chart = new_chart(&area, None, (x0..x1, y0..y1), ("x (m)", "y (m)"))?;
-        let path = |track: &[StampedPose]| track.iter().map(|p| (p.x, p.y)).collect::<Vec<_>>();
+        // Points closer than about a pixel add nothing but gaps in the drawn line.
+        let pixel = (x1 - x0) / f64::from(chart.plotting_area().dim_in_pixel().0.max(1));
+        let path = |track: &[StampedPose]| thinned(track, pixel);
         for (track, colour, label) in [
             (self.dead_reckoning, DEAD_RECKONING, "dead reckoning"),
             (self.truth, TRUTH, "truth"),
@@ -351,11 +411,12 @@ impl Picture for ErrorPlot<'_> {
         let nees = series(&|r| r.nees.max(1e-6));
         let n_max = nees.iter().map(|p| p.1).fold(CHI2_3_95 * 2.0, f64::max);
         let n_min = nees.iter().map(|p| p.1).fold(0.1, f64::min);
-        let mut chart = new_chart(
+        let mut chart = new_chart_with(
             &bottom,
             Some("Pose NEES (χ²₃ 95 % band shaded; 3 when consistent)"),
             (0.0..t_end, (n_min..n_max).log_scale()),
             ("time (s)", "NEES"),
+            Some(&|v: &f64| short_number(*v)),
         )?;
         let band = RGBColor(44, 160, 44);
         chart
@@ -520,6 +581,32 @@ mod tests {
         for inside in [(3.7, 6.1), (-13.3, -8.9), (21.1, -23.7)] {
             assert_eq!(pixel(mapping.translate(&inside)), WHITE, "{inside:?}");
         }
+    }
+
+    #[test]
+    fn log_axis_labels_are_short() {
+        let cases = [
+            (2e40, "2e40"),
+            (1e5, "1e5"),
+            (100.0, "100"),
+            (1.0, "1"),
+            (0.1, "0.1"),
+            (2.5, "2.5"),
+            (1e-3, "1e-3"),
+        ];
+        for (v, text) in cases {
+            assert_eq!(short_number(v), text, "{v}");
+        }
+    }
+
+    #[test]
+    fn dense_tracks_are_thinned_to_the_pixel_keeping_both_ends() {
+        let track: Vec<StampedPose> = (0..=100).map(|k| pose(k, k as f64 * 0.01, 0.0)).collect();
+        let points = thinned(&track, 0.095);
+        assert_eq!(points.len(), 11, "{points:?}");
+        assert_eq!(points[0], (0.0, 0.0));
+        assert_eq!(*points.last().unwrap(), (1.0, 0.0));
+        assert!(points.windows(2).all(|w| w[1].0 - w[0].0 >= 0.095));
     }
 
     #[test]
