@@ -119,6 +119,9 @@ where
     new_chart_with(area, caption, (x, y), (x_desc, y_desc), None)
 }
 
+/// How an axis writes its labels.
+type Labels<V> = dyn Fn(&V) -> String;
+
 /// [`new_chart`] with the y axis' labels written by `y_labels` (the axis' own formatter
 /// when `None`).
 ///
@@ -129,7 +132,7 @@ fn new_chart_with<'a, DB, X, Y>(
     caption: Option<&str>,
     (x, y): (X, Y),
     (x_desc, y_desc): (&str, &str),
-    y_labels: Option<&dyn Fn(&Y::Value) -> String>,
+    y_labels: Option<&Labels<Y::Value>>,
 ) -> PlotResult<Chart<'a, DB, X, Y>>
 where
     DB: DrawingBackend,
