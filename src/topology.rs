@@ -17,6 +17,14 @@ impl Role {
     pub fn wait_subscribers(&self) -> usize {
         self.consumers.len()
     }
+
+    /// `--wait-subscribers N` when it waits for anyone, else nothing.
+    pub fn wait_flags(&self) -> Vec<String> {
+        match self.wait_subscribers() {
+            0 => Vec::new(),
+            n => vec!["--wait-subscribers".into(), n.to_string()],
+        }
+    }
 }
 
 /// A simulated stack (`run`): the truth feeds both sensors and the client; the

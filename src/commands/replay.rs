@@ -2,7 +2,7 @@
 //! data set's replay process, the FastSLAM service and the metrics client, each its own
 //! process — under a fresh stack prefix, with a run folder at the end.
 
-use crate::commands::run::{conclude, with_wait};
+use crate::commands::run::conclude;
 use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::Context;
 use fastslam_protocol::ipc;
@@ -229,7 +229,8 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
             _ => (plan.process, replay.clone()),
         };
         let mut argv = vec![name.to_string()];
-        argv.extend(with_wait(flags, role));
+        argv.extend(flags);
+        argv.extend(role.wait_flags());
         stack.spawn(name, &exe, &argv, &logs.join(format!("{name}.log")))?;
     }
     let outcome = stack.wait(&stop, args.timeout_s.map(Duration::from_secs_f64));

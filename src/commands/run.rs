@@ -140,7 +140,11 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     };
     let processes: Vec<(&'static str, Vec<String>)> = topology::SIMULATION
         .iter()
-        .map(|role| (role.name, with_wait(own_flags(role.name), role)))
+        .map(|role| {
+            let mut flags = own_flags(role.name);
+            flags.extend(role.wait_flags());
+            (role.name, flags)
+        })
         .collect();
     eprintln!(
         "stack {prefix}: {method} on {} (seed {seed})",
@@ -293,15 +297,4 @@ fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
     );
     println!("  wall time      {:8.2} s", wall.as_secs_f64());
     Ok(())
-}
-
-/// `flags` with the role's `--wait-subscribers` count, when it waits for anyone.
-pub fn with_wait(mut flags: Vec<String>, role: &topology::Role) -> Vec<String> {
-    if role.wait_subscribers() > 0 {
-        flags.extend([
-            "--wait-subscribers".into(),
-            role.wait_subscribers().to_string(),
-        ]);
-    }
-    flags
 }

@@ -16,9 +16,9 @@
 //!   [`refine::OptimiserRefiner`] the optimisers of §4 behind it in the mode §3 and §3.1
 //!   describe.
 //!
-//! **Deferred sampling.** With FastSLAM 2.0's proposal, or an optimiser in the
-//! `proposal` mode, a particle's pose is not sampled control by control: between
-//! observations it *is* its motion prior `N(x̂, P)` (the noise-free prediction from its
+//! **Deferred sampling.** With FastSLAM 2.0's proposal, or an optimiser in a corrected
+//! mode (`proposal`, `resample-move`), a particle's pose is not sampled control by
+//! control: between observations it *is* its motion prior `N(x̂, P)` (the noise-free prediction from its
 //! last sampled pose, with the control noise accumulated), and it is drawn once, when an
 //! observation uses it — from the proposal when a landmark is matched, from the prior
 //! when the scan only starts landmarks — as Bailey & Nieto's FastSLAM 2.0 does. A scan
