@@ -9,6 +9,7 @@ mod check;
 pub mod error;
 pub mod fastslam;
 pub mod features;
+pub mod graph;
 pub mod grid;
 
 pub mod motion;
