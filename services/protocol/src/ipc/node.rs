@@ -47,7 +47,7 @@ impl Ipc {
     }
 
     /// The same connection, whose [`Ipc::wake_loop`] busy-polls when `on` (see
-    /// [`WaitArgs`](crate::cli::WaitArgs)).
+    /// `cli::WaitArgs`).
     pub fn busy_polling(mut self, on: bool) -> Self {
         self.busy_poll = on;
         self
@@ -55,7 +55,7 @@ impl Ipc {
 
     /// The same connection, whose [`Ipc::wake_loop`] goes on polling after each wake-up
     /// until no sample has arrived for `spin`, and only then sleeps again (see
-    /// [`WaitArgs`](crate::cli::WaitArgs)).
+    /// `cli::WaitArgs`).
     pub fn spinning(mut self, spin: Duration) -> Self {
         self.spin = spin;
         self
