@@ -1,4 +1,7 @@
 //! Flags and start-up every process of the stack shares: which stack to join, and logs.
+//!
+//! Only with the `cli` feature (the stack's processes enable it): a user's publisher
+//! needs none of this, nor clap and tracing-subscriber.
 
 use crate::ipc::StackConfig;
 

@@ -1,16 +1,26 @@
 //! The wire contract of the FastSLAM stack: zero-copy message types, service names and
-//! the IPC helpers every process shares.
+//! input checks, plus the IPC helpers every process shares.
 //!
-//! A publisher written by a user needs only this crate (or, from another language, the
-//! type names, sizes, alignments and field offsets documented in this crate's README and
-//! checked by its layout test). Every message is `#[repr(C)]`, carries a [`Header`]
-//! with the simulated/sensor clock `stamp_ns` and a per-stream `seq`, and uses SI units
-//! and REP-103 frames.
+//! A publisher written by a user needs only this crate with its default features (or,
+//! from another language, the type names, sizes, alignments and field offsets documented
+//! in this crate's README and checked by its layout test). Every message is `#[repr(C)]`,
+//! carries a [`Header`] with the simulated/sensor clock `stamp_ns` and a per-stream
+//! `seq`, and uses SI units and REP-103 frames.
+//!
+//! Cargo features (see "From Rust" below):
+//! - `ipc`, on by default: the `ipc` module, the stack's publishers, subscribers, wake
+//!   loop and signal handling over iceoryx2. Without it (`default-features = false`) the
+//!   message types, `topics` and `validate` remain.
+//! - `cli`, off by default, implies `ipc`: the `cli` module, the flags, logging and
+//!   `main` of the stack's own processes (clap, tracing-subscriber).
 #![doc = include_str!("../README.md")]
+#![warn(missing_docs)]
 
+#[cfg(feature = "cli")]
 pub mod cli;
 pub mod grid;
 pub mod header;
+#[cfg(feature = "ipc")]
 pub mod ipc;
 pub mod landmarks;
 pub mod odometry;
