@@ -5,10 +5,10 @@
 //! The pieces read top to bottom: [`config`] (what to run), [`sequencer`] (inputs of
 //! two streams in stamp order, deterministic whatever the scheduling), [`slam`] (inputs
 //! to filter calls, filter results to messages), [`process`] (the IPC wiring).
-//! Around them: [`admit`] (input checks with their per-stream state), [`health`]
-//! (rejection counters, their rate-limited log, the status) and [`deadline`] (sensors
-//! that went quiet); [`persist`] with [`checkpoint`] and [`map_file`] keep the state
-//! across runs.
+//! Around them: [`per_input`] (a value per input stream), [`admit`] (input checks with
+//! their per-stream state), [`health`] (rejection counters, their rate-limited log, the
+//! status) and [`deadline`] (sensors that went quiet); [`persist`] with [`checkpoint`]
+//! and [`map_file`] keep the state across runs.
 
 pub mod admit;
 pub mod checkpoint;
@@ -16,6 +16,7 @@ pub mod config;
 pub mod deadline;
 pub mod health;
 pub mod map_file;
+pub mod per_input;
 pub mod persist;
 pub mod process;
 pub mod sequencer;

@@ -5,7 +5,8 @@ use crate::admit::Admission;
 use crate::checkpoint::{Checkpoint, ResumeFloor};
 use crate::config::{EstimatorChoice, LidarInput, Overrides, ServiceConfig};
 use crate::deadline::{Change, Watchdog};
-use crate::health::{Health, Stream};
+use crate::health::Health;
+use crate::per_input::Stream;
 use crate::persist::PersistArgs;
 use crate::sequencer::{Input, Pushed, RawScan, Scan, ScanPlace, Sequencer};
 use crate::slam::{PoseSink, Slam, Step};
@@ -342,8 +343,7 @@ impl Core {
         config: &ServiceConfig,
         persist: &PersistArgs,
     ) -> anyhow::Result<()> {
-        while let Some(m) = self.sequencer.odometry_through(stamp) {
-            let odometry = Input::Odometry(m);
+        while let Some(odometry) = self.sequencer.odometry_through(stamp) {
             self.step(
                 |slam, publish| slam.apply(&odometry, publish),
                 config,
@@ -499,7 +499,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         odometry.drain(|s| {
             let m = *s.payload();
             odo_end.saw(m.header.seq);
-            if !floor.admits(0, m.header.stamp_ns) {
+            if !floor.admits(Stream::Odometry, m.header.stamp_ns) {
                 return;
             }
             match admission.odometry(&m) {
@@ -540,7 +540,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
              queue: &mut dyn FnMut(&mut Sequencer) -> Pushed| {
                 if held_since.is_none() {
                     scan_end.saw(h.seq);
-                    if !floor.admits(1, h.stamp_ns) {
+                    if !floor.admits(Stream::Lidar, h.stamp_ns) {
                         return Taken::Done;
                     }
                     if let Err(r) = admission.lidar(check(), h) {
@@ -622,20 +622,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             } else {
                 tracing::info!(?stream, "input back: recovered");
             }
-            match stream {
-                Stream::Odometry => {
-                    if quiet {
-                        admission.resync_odometry();
-                    }
-                    core.sequencer.set_odometry_quiet(quiet);
-                    core.slam.set_coasting(quiet);
-                }
-                Stream::Lidar => {
-                    if quiet {
-                        admission.resync_lidar();
-                    }
-                    core.sequencer.set_scans_quiet(quiet);
-                }
+            if quiet {
+                admission.resync(stream);
+            }
+            core.sequencer.set_quiet(stream, quiet);
+            if stream == Stream::Odometry {
+                core.slam.set_coasting(quiet);
             }
             core.out.status(core.health.now(&core.sequencer))?;
         }
