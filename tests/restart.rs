@@ -59,7 +59,7 @@ fn sigterm_stops_the_service_cleanly_with_its_checkpoint_and_map() {
         "stopped mid-run: {} steps of {scans} scans",
         checkpoint.steps
     );
-    assert!(checkpoint.processed_ns[1] > 0);
+    assert!(checkpoint.processed_ns.lidar > 0);
     let saved = map_file::load(&map).expect("the map loads");
     let best = &checkpoint.filter.maps[checkpoint.filter.particles[0].map as usize];
     assert!(!saved.is_empty() && saved.len() <= best.landmarks.len() + 30);

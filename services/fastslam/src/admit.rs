@@ -2,45 +2,25 @@
 //! per-stream state they need (stamp order, sequence numbers, publisher restarts, the
 //! last odometry for the teleport check).
 
+use crate::per_input::{PerInput, Stream};
 use fastslam_protocol::validate::{self, Continuity, MotionLimits, Rejection, StreamCheck};
 use fastslam_protocol::{Header, Odometry};
 
 /// The state of both input streams' checks.
 #[derive(Debug, Clone)]
 pub struct Admission {
-    odometry: StreamCheck,
-    lidar: StreamCheck,
+    /// Each stream's header checks: stamp order, sequence numbers, publisher restarts.
+    order: PerInput<StreamCheck>,
     last_odometry: Option<Odometry>,
     limits: MotionLimits,
     max_jump_ns: u64,
-}
-
-/// A stream's first message has no history to be checked against: it may not lie
-/// further than the stamp-jump limit ahead of the other stream's newest stamp.
-fn first_near(
-    own: &StreamCheck,
-    other: &StreamCheck,
-    h: Header,
-    max_jump_ns: u64,
-) -> Result<(), Rejection> {
-    match (own.last(), other.last()) {
-        (None, Some(previous_ns)) if h.stamp_ns.saturating_sub(previous_ns) > max_jump_ns => {
-            Err(Rejection::StampJump {
-                stamp_ns: h.stamp_ns,
-                previous_ns,
-                max_ns: max_jump_ns,
-            })
-        }
-        _ => Ok(()),
-    }
 }
 
 impl Admission {
     /// Checks allowing stamp steps up to `max_jump_ns` and odometry within `limits`.
     pub fn new(max_jump_ns: u64, limits: MotionLimits) -> Self {
         Self {
-            odometry: StreamCheck::new(max_jump_ns),
-            lidar: StreamCheck::new(max_jump_ns),
+            order: PerInput::from_fn(|_| StreamCheck::new(max_jump_ns)),
             last_odometry: None,
             limits,
             max_jump_ns,
@@ -54,8 +34,8 @@ impl Admission {
     /// The first [`Rejection`]; the streams' state is then unchanged.
     pub fn odometry(&mut self, m: &Odometry) -> Result<(), Rejection> {
         validate::odometry(m)?;
-        first_near(&self.odometry, &self.lidar, m.header, self.max_jump_ns)?;
-        let mut order = self.odometry.clone();
+        self.first_near(Stream::Odometry, m.header)?;
+        let mut order = self.order.odometry.clone();
         let previous = match order.accept(m.header)? {
             Continuity::Continues => self.last_odometry.as_ref(),
             Continuity::Restarted => {
@@ -64,7 +44,7 @@ impl Admission {
             }
         };
         validate::odometry_motion(m, previous, &self.limits)?;
-        self.odometry = order;
+        self.order.odometry = order;
         self.last_odometry = Some(*m);
         Ok(())
     }
@@ -75,21 +55,33 @@ impl Admission {
     /// `check`'s rejection, or the stream-order one.
     pub fn lidar(&mut self, check: Result<(), Rejection>, h: Header) -> Result<(), Rejection> {
         check?;
-        first_near(&self.lidar, &self.odometry, h, self.max_jump_ns)?;
-        if self.lidar.accept(h)? == Continuity::Restarted {
+        self.first_near(Stream::Lidar, h)?;
+        if self.order.lidar.accept(h)? == Continuity::Restarted {
             tracing::info!(seq = h.seq, "lidar publisher restarted");
         }
         Ok(())
     }
 
-    /// The odometry stream went quiet: let its next message jump ahead.
-    pub fn resync_odometry(&mut self) {
-        self.odometry.resync();
+    /// A stream's first message has no history to be checked against: it may not lie
+    /// further than the stamp-jump limit ahead of the other stream's newest stamp.
+    fn first_near(&self, stream: Stream, h: Header) -> Result<(), Rejection> {
+        let (own, other) = (&self.order[stream], &self.order[stream.other()]);
+        let max_ns = self.max_jump_ns;
+        match (own.last(), other.last()) {
+            (None, Some(previous_ns)) if h.stamp_ns.saturating_sub(previous_ns) > max_ns => {
+                Err(Rejection::StampJump {
+                    stamp_ns: h.stamp_ns,
+                    previous_ns,
+                    max_ns,
+                })
+            }
+            _ => Ok(()),
+        }
     }
 
-    /// The lidar stream went quiet: let its next message jump ahead.
-    pub fn resync_lidar(&mut self) {
-        self.lidar.resync();
+    /// `stream` went quiet: let its next message jump ahead.
+    pub fn resync(&mut self, stream: Stream) {
+        self.order[stream].resync();
     }
 }
 

@@ -15,6 +15,7 @@
 //! checkpoint intact. A file that is not a checkpoint, of another version, truncated or
 //! corrupt is refused with a [`CheckpointError`] that says which.
 
+use crate::per_input::{PerInput, Stream};
 use fastslam_estimation::fastslam::FilterState;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
@@ -85,9 +86,9 @@ pub struct Checkpoint {
     pub filter: FilterState,
     /// Stamp of the last odometry the filter predicted to (ns), if any.
     pub last_odometry_ns: Option<u64>,
-    /// Stamps of the last inputs processed (ns): odometry, lidar. Older inputs after a
-    /// resume are skipped.
-    pub processed_ns: [u64; 2],
+    /// Stamps of the last inputs processed per stream (ns). Older inputs after a resume
+    /// are skipped.
+    pub processed_ns: PerInput<u64>,
     /// Observation steps taken.
     pub steps: u64,
     /// Resamplings done.
@@ -235,7 +236,7 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 /// treated as errors.
 #[derive(Debug, Clone, Default)]
 pub struct ResumeFloor {
-    floor: Option<[u64; 2]>,
+    floor: Option<PerInput<u64>>,
     skipped: u64,
 }
 
@@ -248,10 +249,10 @@ impl ResumeFloor {
         }
     }
 
-    /// True when the input stamped `stamp_ns` on `lane` (0 odometry, 1 lidar) is new;
-    /// counts it as skipped otherwise.
-    pub fn admits(&mut self, lane: usize, stamp_ns: u64) -> bool {
-        let stale = self.floor.is_some_and(|f| stamp_ns <= f[lane]);
+    /// True when the input stamped `stamp_ns` on `stream` is new; counts it as skipped
+    /// otherwise.
+    pub fn admits(&mut self, stream: Stream, stamp_ns: u64) -> bool {
+        let stale = self.floor.is_some_and(|f| stamp_ns <= f[stream]);
         self.skipped += u64::from(stale);
         !stale
     }
@@ -284,7 +285,10 @@ mod tests {
             seed: 7,
             filter: slam.state(),
             last_odometry_ns: Some(900),
-            processed_ns: [900, 1000],
+            processed_ns: PerInput {
+                odometry: 900,
+                lidar: 1000,
+            },
             steps: 1,
             resamplings: 0,
             last_seq: [Some(0), Some(0), None, Some(0)],
@@ -358,13 +362,13 @@ mod tests {
     fn the_resume_floor_skips_and_counts_processed_inputs() {
         let c = checkpoint();
         let mut floor = ResumeFloor::of(Some(&c));
-        assert!(!floor.admits(0, 900));
-        assert!(floor.admits(0, 901));
-        assert!(!floor.admits(1, 1000));
-        assert!(floor.admits(1, 1100));
+        assert!(!floor.admits(Stream::Odometry, 900));
+        assert!(floor.admits(Stream::Odometry, 901));
+        assert!(!floor.admits(Stream::Lidar, 1000));
+        assert!(floor.admits(Stream::Lidar, 1100));
         assert_eq!(floor.skipped(), 2);
         let mut fresh = ResumeFloor::of(None);
-        assert!(fresh.admits(0, 0));
+        assert!(fresh.admits(Stream::Odometry, 0));
         assert_eq!(fresh.skipped(), 0);
     }
 }

@@ -7,15 +7,6 @@ use crate::slam::{Slam, Step};
 use fastslam_protocol::status::{REJECTION_KINDS, RejectionKind, ServiceStatus, flags};
 use std::time::{Duration, Instant};
 
-/// Which input stream.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Stream {
-    /// Odometry.
-    Odometry,
-    /// The lidar (landmark observations or raw scans).
-    Lidar,
-}
-
 /// Everything behind the status message: step counters, rejections, and
 /// the last step's filter figures (repeated when a status is sent between steps).
 #[derive(Debug)]
@@ -98,17 +89,18 @@ impl Health {
     /// The status now: the last step's figures with the current queues, watermarks,
     /// rejections and quiet streams (the sequencer's: it is what stops waiting for them).
     pub fn now(&self, seq: &Sequencer) -> ServiceStatus {
-        let [odometry, lidar] = seq.quiet();
-        let quiet = (if odometry { flags::ODOMETRY_QUIET } else { 0 })
-            | (if lidar { flags::LIDAR_QUIET } else { 0 });
+        let quiet = seq.quiet();
+        let flag = |on: bool, flag: u32| if on { flag } else { 0 };
+        let quiet =
+            flag(quiet.odometry, flags::ODOMETRY_QUIET) | flag(quiet.lidar, flags::LIDAR_QUIET);
         let degraded = if quiet != 0 {
             flags::DEGRADED | quiet
         } else {
             0
         };
         ServiceStatus {
-            queued: seq.queued(),
-            last_input_ns: seq.watermarks(),
+            queued: seq.queued().into(),
+            last_input_ns: seq.watermarks().into(),
             flags: (self.last.flags & flags::RESAMPLED) | degraded,
             rejections: self.log.counts(),
             ..self.last

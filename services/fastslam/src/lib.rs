@@ -4,19 +4,24 @@
 //!
 //! The pieces read top to bottom: [`config`] (what to run), [`sequencer`] (inputs of
 //! two streams in stamp order, deterministic whatever the scheduling), [`slam`] (inputs
-//! to filter calls, filter results to messages), [`process`] (the IPC wiring).
-//! Around them: [`admit`] (input checks with their per-stream state), [`health`]
-//! (rejection counters, their rate-limited log, the status) and [`deadline`] (sensors
-//! that went quiet); [`persist`] with [`checkpoint`] and [`map_file`] keep the state
-//! across runs.
+//! to filter calls, filter results to messages), [`process`] (flags and set-up) with
+//! `service` (the wake loop, stage by stage), `inputs` (the subscribers) and `outputs`
+//! (the publishers). Around them: [`per_input`] (a value per input stream), [`admit`]
+//! (input checks with their per-stream state), [`health`] (rejection counters, their
+//! rate-limited log, the status) and [`deadline`] (sensors that went quiet); [`persist`]
+//! with [`checkpoint`] and [`map_file`] keep the state across runs.
 
 pub mod admit;
 pub mod checkpoint;
 pub mod config;
 pub mod deadline;
 pub mod health;
+mod inputs;
 pub mod map_file;
+mod outputs;
+pub mod per_input;
 pub mod persist;
 pub mod process;
 pub mod sequencer;
+mod service;
 pub mod slam;

@@ -12,6 +12,7 @@
 //! bounded: beyond the limit the oldest input is dropped. With healthy sensors neither
 //! happens, and the order is the deterministic one above.
 
+use crate::per_input::{PerInput, Stream};
 use fastslam_protocol::{LaserScanHeader, Observation, ObservationsHeader, Odometry};
 use std::collections::VecDeque;
 
@@ -140,9 +141,9 @@ impl<T> Lane<T> {
 /// filter for it, and a scan can wait here behind others or for a quiet stream.)
 #[derive(Debug, Clone)]
 pub struct Sequencer {
-    odometry: Lane<Odometry>,
-    /// The lidar lane: [`Input::Scan`] or [`Input::RawScan`].
-    scans: Lane<Input>,
+    /// The odometry lane holds [`Input::Odometry`]; the lidar lane [`Input::Scan`] or
+    /// [`Input::RawScan`].
+    lanes: PerInput<Lane<Input>>,
     /// Emptied observation buffers, ready for the next scan.
     spare_observations: Vec<Vec<Observation>>,
     /// Emptied range buffers, ready for the next raw scan.
@@ -160,8 +161,7 @@ impl Sequencer {
     /// A sequencer holding at most `max_queue` inputs per stream.
     pub fn new(max_queue: usize) -> Self {
         Self {
-            odometry: Lane::default(),
-            scans: Lane::default(),
+            lanes: PerInput::default(),
             spare_observations: Vec::new(),
             spare_ranges: Vec::new(),
             max_queue: max_queue.max(1),
@@ -171,39 +171,33 @@ impl Sequencer {
     /// Queues an odometry message (stamps of one stream must not decrease; the caller
     /// validates that).
     pub fn push_odometry(&mut self, m: Odometry) -> Pushed {
-        self.odometry
-            .push(m.header.stamp_ns, m, self.newest_released(), self.max_queue)
+        self.push(Stream::Odometry, m.header.stamp_ns, Input::Odometry(m))
     }
 
     /// Queues a scan's observations.
     pub fn push_scan(&mut self, s: Scan) -> Pushed {
-        self.push_lidar(s.header.header.stamp_ns, Input::Scan(s))
+        self.push(Stream::Lidar, s.header.header.stamp_ns, Input::Scan(s))
     }
 
     /// Queues a raw scan (on the same lane as observations: one lidar stream).
     pub fn push_raw_scan(&mut self, s: RawScan) -> Pushed {
-        self.push_lidar(s.header.header.stamp_ns, Input::RawScan(s))
+        self.push(Stream::Lidar, s.header.header.stamp_ns, Input::RawScan(s))
     }
 
-    fn push_lidar(&mut self, stamp: u64, input: Input) -> Pushed {
+    fn push(&mut self, stream: Stream, stamp: u64, input: Input) -> Pushed {
         let released = self.newest_released();
-        self.scans.push(stamp, input, released, self.max_queue)
+        self.lanes[stream].push(stamp, input, released, self.max_queue)
     }
 
-    /// Marks the odometry stream quiet (missed its deadline: scans stop waiting for it)
-    /// or back.
-    pub fn set_odometry_quiet(&mut self, quiet: bool) {
-        self.odometry.quiet = quiet;
+    /// Marks `stream` quiet (its sensor missed its deadline: the other stream stops
+    /// waiting for it) or back.
+    pub fn set_quiet(&mut self, stream: Stream, quiet: bool) {
+        self.lanes[stream].quiet = quiet;
     }
 
-    /// Marks the lidar stream quiet (odometry stops waiting for it) or back.
-    pub fn set_scans_quiet(&mut self, quiet: bool) {
-        self.scans.quiet = quiet;
-    }
-
-    /// Whether each stream (odometry, lidar) is quiet.
-    pub fn quiet(&self) -> [bool; 2] {
-        [self.odometry.quiet, self.scans.quiet]
+    /// Whether each stream is quiet.
+    pub fn quiet(&self) -> PerInput<bool> {
+        self.lanes.as_ref().map(|lane| lane.quiet)
     }
 
     /// A copy of `observations` in a recycled buffer (allocates only when none is spare).
@@ -237,12 +231,12 @@ impl Sequencer {
 
     /// The odometry stream has ended: nothing more will come.
     pub fn end_odometry(&mut self) {
-        self.odometry.ended = true;
+        self.lanes.odometry.ended = true;
     }
 
-    /// The observation stream has ended.
+    /// The lidar stream has ended.
     pub fn end_scans(&mut self) {
-        self.scans.ended = true;
+        self.lanes.lidar.ended = true;
     }
 
     /// Where a scan stamped `stamp` that has just arrived goes ([`ScanPlace`]).
@@ -253,85 +247,76 @@ impl Sequencer {
     /// [`Sequencer::took_directly`] then books it. If all of that holds but odometry has
     /// not passed `stamp` yet, it is [`ScanPlace::AwaitOdometry`].
     pub fn place_scan(&self, stamp: u64) -> ScanPlace {
-        let next = self.scans.queue.is_empty()
-            && !self.scans.quiet
-            && !self.odometry.quiet
+        let PerInput { odometry, lidar } = &self.lanes;
+        let next = lidar.queue.is_empty()
+            && !lidar.quiet
+            && !odometry.quiet
             && stamp >= self.newest_released();
-        match (next, self.odometry.passed(stamp)) {
+        match (next, odometry.passed(stamp)) {
             (true, true) => ScanPlace::Direct,
             (true, false) => ScanPlace::AwaitOdometry,
             (false, _) => ScanPlace::Queue,
         }
     }
 
-    /// The next odometry stamped at or before `stamp`, to apply before a scan taken
-    /// directly.
-    pub fn odometry_through(&mut self, stamp: u64) -> Option<Odometry> {
-        self.odometry
+    /// The next odometry ([`Input::Odometry`]) stamped at or before `stamp`, to apply
+    /// before a scan taken directly.
+    pub fn odometry_through(&mut self, stamp: u64) -> Option<Input> {
+        let odometry = &mut self.lanes.odometry;
+        odometry
             .head()
             .is_some_and(|o| o <= stamp)
-            .then(|| self.odometry.pop())
+            .then(|| odometry.pop())
             .flatten()
     }
 
     /// Books a scan stamped `stamp` that went to the filter directly, as if it had been
     /// queued and released.
     pub fn took_directly(&mut self, stamp: u64) {
-        self.scans.saw(stamp);
-        self.scans.released = Some(stamp);
+        self.lanes.lidar.saw(stamp);
+        self.lanes.lidar.released = Some(stamp);
     }
 
     /// Newest stamp released on either stream (0 before the first): anything older that
     /// arrives now is late.
     fn newest_released(&self) -> u64 {
-        self.odometry.released.max(self.scans.released).unwrap_or(0)
+        let PerInput { odometry, lidar } = &self.lanes;
+        odometry.released.max(lidar.released).unwrap_or(0)
     }
 
     /// The next input in stamp order, if it can be released now.
     pub fn release(&mut self) -> Option<Input> {
-        let odometry = match (self.odometry.head(), self.scans.head()) {
-            (Some(o), Some(s)) => o <= s,
-            (Some(o), None) if self.scans.passed(o) => true,
-            (None, Some(s)) if self.odometry.passed(s) => false,
+        let PerInput { odometry, lidar } = &self.lanes;
+        let next = match (odometry.head(), lidar.head()) {
+            (Some(o), Some(s)) if o <= s => Stream::Odometry,
+            (Some(_), Some(_)) => Stream::Lidar,
+            (Some(o), None) if lidar.passed(o) => Stream::Odometry,
+            (None, Some(s)) if odometry.passed(s) => Stream::Lidar,
             _ => return None,
         };
-        if odometry {
-            self.odometry.pop().map(Input::Odometry)
-        } else {
-            self.scans.pop()
-        }
+        self.lanes[next].pop()
     }
 
-    /// Inputs waiting: (odometry, scans).
-    pub fn queued(&self) -> [u32; 2] {
-        [
-            self.odometry.queue.len() as u32,
-            self.scans.queue.len() as u32,
-        ]
+    /// Inputs waiting per stream.
+    pub fn queued(&self) -> PerInput<u32> {
+        self.lanes.as_ref().map(|lane| lane.queue.len() as u32)
     }
 
-    /// Newest stamp received per stream (odometry, scans), 0 before the first.
-    pub fn watermarks(&self) -> [u64; 2] {
-        [
-            self.odometry.watermark.unwrap_or(0),
-            self.scans.watermark.unwrap_or(0),
-        ]
+    /// Newest stamp received per stream, 0 before the first.
+    pub fn watermarks(&self) -> PerInput<u64> {
+        self.lanes.as_ref().map(|lane| lane.watermark.unwrap_or(0))
     }
 
-    /// Stamp of the last input released per stream (odometry, scans), 0 before the first.
-    pub fn released(&self) -> [u64; 2] {
-        [
-            self.odometry.released.unwrap_or(0),
-            self.scans.released.unwrap_or(0),
-        ]
+    /// Stamp of the last input released per stream, 0 before the first.
+    pub fn released(&self) -> PerInput<u64> {
+        self.lanes.as_ref().map(|lane| lane.released.unwrap_or(0))
     }
 
     /// True when both streams have ended and everything was released.
     pub fn finished(&self) -> bool {
-        self.odometry.ended
-            && self.scans.ended
-            && self.odometry.queue.is_empty()
-            && self.scans.queue.is_empty()
+        self.lanes
+            .iter()
+            .all(|(_, lane)| lane.ended && lane.queue.is_empty())
     }
 }
 
@@ -364,14 +349,17 @@ mod tests {
         }
     }
 
+    /// The kind and stamp of an input.
+    fn stamp(input: Input) -> (char, u64) {
+        match input {
+            Input::Odometry(o) => ('o', o.header.stamp_ns),
+            Input::Scan(s) => ('s', s.header.header.stamp_ns),
+            Input::RawScan(s) => ('r', s.header.header.stamp_ns),
+        }
+    }
+
     fn stamps(seq: &mut Sequencer) -> Vec<(char, u64)> {
-        std::iter::from_fn(|| seq.release())
-            .map(|i| match i {
-                Input::Odometry(o) => ('o', o.header.stamp_ns),
-                Input::Scan(s) => ('s', s.header.header.stamp_ns),
-                Input::RawScan(s) => ('r', s.header.header.stamp_ns),
-            })
-            .collect()
+        std::iter::from_fn(|| seq.release()).map(stamp).collect()
     }
 
     #[test]
@@ -386,16 +374,22 @@ mod tests {
         seq.push_odometry(odo(20));
         seq.push_odometry(odo(30));
         assert_eq!(seq.place_scan(20), ScanPlace::Direct);
-        let through: Vec<u64> = std::iter::from_fn(|| seq.odometry_through(20))
-            .map(|o| o.header.stamp_ns)
+        let through: Vec<(char, u64)> = std::iter::from_fn(|| seq.odometry_through(20))
+            .map(stamp)
             .collect();
         assert_eq!(
             through,
-            [10, 20],
+            [('o', 10), ('o', 20)],
             "odometry up to the scan's stamp, odometry first"
         );
         seq.took_directly(20);
-        assert_eq!(seq.released(), [20, 20]);
+        assert_eq!(
+            seq.released(),
+            PerInput {
+                odometry: 20,
+                lidar: 20
+            }
+        );
         assert_eq!(
             stamps(&mut seq),
             vec![],
@@ -406,13 +400,13 @@ mod tests {
             ScanPlace::Queue,
             "late: 20 was released"
         );
-        seq.set_odometry_quiet(true);
+        seq.set_quiet(Stream::Odometry, true);
         assert_eq!(
             seq.place_scan(40),
             ScanPlace::Queue,
             "nothing waits for a quiet stream"
         );
-        seq.set_odometry_quiet(false);
+        seq.set_quiet(Stream::Odometry, false);
         assert_eq!(seq.place_scan(40), ScanPlace::AwaitOdometry);
         seq.push_scan(scan(40));
         assert_eq!(
@@ -438,7 +432,13 @@ mod tests {
             vec![('o', 20), ('s', 20)],
             "equal stamps: odometry first"
         );
-        assert_eq!(seq.released(), [20, 20]);
+        assert_eq!(
+            seq.released(),
+            PerInput {
+                odometry: 20,
+                lidar: 20
+            }
+        );
     }
 
     #[test]
@@ -520,12 +520,12 @@ mod tests {
         seq.push_odometry(odo(10));
         seq.push_odometry(odo(20));
         assert_eq!(stamps(&mut seq), vec![('s', 5)], "waits for the lidar");
-        seq.set_scans_quiet(true);
+        seq.set_quiet(Stream::Lidar, true);
         assert_eq!(stamps(&mut seq), vec![('o', 10), ('o', 20)]);
         assert_eq!(seq.push_scan(scan(15)), Pushed::Late);
-        seq.set_scans_quiet(false);
+        seq.set_quiet(Stream::Lidar, false);
         assert_eq!(seq.push_scan(scan(25)), Pushed::Queued);
-        seq.set_odometry_quiet(true);
+        seq.set_quiet(Stream::Odometry, true);
         assert_eq!(stamps(&mut seq), vec![('s', 25)], "no wait for odometry");
     }
 
@@ -535,7 +535,13 @@ mod tests {
         assert_eq!(seq.push_odometry(odo(1)), Pushed::Queued);
         assert_eq!(seq.push_odometry(odo(2)), Pushed::Queued);
         assert_eq!(seq.push_odometry(odo(3)), Pushed::Overflowed);
-        assert_eq!(seq.queued(), [2, 0]);
+        assert_eq!(
+            seq.queued(),
+            PerInput {
+                odometry: 2,
+                lidar: 0
+            }
+        );
         seq.end_scans();
         assert_eq!(stamps(&mut seq), vec![('o', 2), ('o', 3)]);
     }

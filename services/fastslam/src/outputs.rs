@@ -1,0 +1,165 @@
+//! The service's outputs: the pose, status, landmark map and occupancy grid publishers,
+//! the `map/get` server, and the sequence numbers each stream continues (also across a
+//! resume).
+
+use crate::checkpoint::Checkpoint;
+use crate::slam::Slam;
+use fastslam_protocol::ipc::{Ipc, Pub, SliceServer};
+use fastslam_protocol::status::ServiceStatus;
+use fastslam_protocol::validate;
+use fastslam_protocol::{
+    EndOfStream, Header, LandmarkMapHeader, MapLandmark, MapRequest, OccupancyGridHeader,
+    PoseEstimate, StreamId, topics,
+};
+
+/// The service's output ports (and the `map/get` server) and the last header sent on each.
+pub(crate) struct Outputs {
+    pose: Pub<PoseEstimate, ()>,
+    map_get: SliceServer<MapRequest, LandmarkMapHeader, MapLandmark>,
+    map: Pub<[MapLandmark], LandmarkMapHeader>,
+    grid: Pub<[i8], OccupancyGridHeader>,
+    status: Pub<ServiceStatus, ()>,
+    eos: Pub<EndOfStream, ()>,
+    last_pose: Option<Header>,
+    last_map: Option<Header>,
+    last_grid: Option<Header>,
+    last_status: Option<Header>,
+}
+
+/// Next header of a stream whose last header was `last`.
+fn next_header(last: Option<Header>, stamp_ns: u64) -> Header {
+    Header {
+        stamp_ns,
+        seq: last.map_or(0, |h| h.seq + 1),
+    }
+}
+
+impl Outputs {
+    /// Creates the publishers and the `map/get` server.
+    pub(crate) fn open(ipc: &Ipc) -> anyhow::Result<Self> {
+        Ok(Self {
+            // As fast as possible, the pose and status of several steps share a wake-up.
+            pose: ipc.publisher(&topics::POSE)?.coalescing(),
+            map_get: ipc.slice_server(&topics::MAP_GET)?,
+            map: ipc.slice_publisher(&topics::MAP)?,
+            grid: ipc.slice_publisher(&topics::GRID)?,
+            status: ipc.publisher(&topics::STATUS)?.coalescing(),
+            eos: ipc.publisher(&topics::END_OF_STREAM)?,
+            last_pose: None,
+            last_map: None,
+            last_grid: None,
+            last_status: None,
+        })
+    }
+
+    /// Continues the sequence numbers of the run a checkpoint was taken from.
+    pub(crate) fn resume(&mut self, checkpoint: &Checkpoint) {
+        let header = |seq: Option<u64>| seq.map(|seq| Header { stamp_ns: 0, seq });
+        let [pose, map, grid, status] = checkpoint.last_seq;
+        self.last_pose = header(pose);
+        self.last_map = header(map);
+        self.last_grid = header(grid);
+        self.last_status = header(status);
+    }
+
+    /// Waits until the pose has `count` subscribers, so a client that starts late loses
+    /// nothing.
+    pub(crate) fn wait_for_subscribers(&self, ipc: &Ipc, count: usize) -> anyhow::Result<()> {
+        self.pose.wait_for_subscribers(ipc, count)?;
+        Ok(())
+    }
+
+    /// Sequence numbers last published: pose, map, grid, status.
+    pub(crate) fn last_seq(&self) -> [Option<u64>; 4] {
+        [
+            self.last_pose,
+            self.last_map,
+            self.last_grid,
+            self.last_status,
+        ]
+        .map(|h| h.map(|h| h.seq))
+    }
+
+    /// Stamp of the last pose published (0 before the first): the final map and grid
+    /// carry it.
+    pub(crate) fn last_pose_ns(&self) -> u64 {
+        self.last_pose.map_or(0, |h| h.stamp_ns)
+    }
+
+    /// Publishes a pose, numbered after the last one.
+    pub(crate) fn pose(&mut self, mut pose: PoseEstimate) -> anyhow::Result<()> {
+        pose.header = next_header(self.last_pose, pose.header.stamp_ns);
+        self.pose.send(pose)?;
+        self.last_pose = Some(pose.header);
+        Ok(())
+    }
+
+    /// Publishes the best particle's landmark map, stamped `stamp_ns`.
+    pub(crate) fn map(&mut self, slam: &Slam, stamp_ns: u64) -> anyhow::Result<()> {
+        let header = next_header(self.last_map, stamp_ns);
+        let (h, map) = slam.map(header);
+        self.map.send(h, &map)?;
+        self.last_map = Some(header);
+        Ok(())
+    }
+
+    /// Answers pending `map/get` requests with the best particle's map now, under the
+    /// header of the last pose published (the estimate the map belongs to).
+    pub(crate) fn answer_map_requests(&self, slam: &Slam) -> anyhow::Result<()> {
+        let header = self.last_pose.unwrap_or_default();
+        let answered = self.map_get.answer(|_| slam.map(header))?;
+        if answered > 0 {
+            tracing::debug!(answered, "map requests answered");
+        }
+        Ok(())
+    }
+
+    /// Publishes the best particle's grid, if raw scans have given one.
+    pub(crate) fn grid(&mut self, slam: &mut Slam, stamp_ns: u64) -> anyhow::Result<()> {
+        let header = next_header(self.last_grid, stamp_ns);
+        let Some((h, cells)) = slam.grid(header) else {
+            return Ok(());
+        };
+        if let Err(reason) = validate::occupancy_grid(&h, &cells) {
+            tracing::warn!(%reason, "occupancy grid not published");
+            return Ok(());
+        }
+        self.grid.send(h, &cells)?;
+        self.last_grid = Some(header);
+        Ok(())
+    }
+
+    /// Publishes a status, numbered after the last one.
+    pub(crate) fn status(&mut self, mut status: ServiceStatus) -> anyhow::Result<()> {
+        status.header = next_header(self.last_status, status.header.stamp_ns);
+        self.status.send(status)?;
+        self.last_status = Some(status.header);
+        Ok(())
+    }
+
+    /// Wakes the subscribers of poses and status sent without a wake-up of their own:
+    /// before the service sleeps, and at the end.
+    pub(crate) fn flush(&self) -> anyhow::Result<()> {
+        self.pose.flush()?;
+        self.status.flush()?;
+        Ok(())
+    }
+
+    /// Says the end: flushes, sends the end-of-stream of every output, and waits until
+    /// the map and grid have no reader left.
+    pub(crate) fn finish(&self, ipc: &Ipc) -> anyhow::Result<()> {
+        self.flush()?;
+        for (stream, last) in [
+            (StreamId::Pose, self.last_pose),
+            (StreamId::Map, self.last_map),
+            (StreamId::Grid, self.last_grid),
+            (StreamId::Status, self.last_status),
+        ] {
+            self.eos.send(EndOfStream::new(stream, last))?;
+        }
+        // The map and grid live in growable segments: stay until their readers have them.
+        self.map.wait_until_unsubscribed(ipc)?;
+        self.grid.wait_until_unsubscribed(ipc)?;
+        Ok(())
+    }
+}

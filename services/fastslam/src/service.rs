@@ -1,0 +1,437 @@
+//! The service's wake loop as a type. [`Service`] holds everything that lives from one
+//! wake-up to the next; [`Service::wake`] runs the stages of a wake-up, in order: answer
+//! map requests, drain odometry, drain end-of-stream, take lidar messages, check
+//! deadlines, release the queue, flush. [`Service::finish`] ends the run. Underneath,
+//! [`Core`] applies inputs to the filter and publishes what they produce.
+
+use crate::admit::Admission;
+use crate::checkpoint::{Checkpoint, ResumeFloor};
+use crate::config::ServiceConfig;
+use crate::deadline::{Change, Watchdog};
+use crate::health::Health;
+use crate::inputs::{Inputs, Lidar, LidarMessage};
+use crate::outputs::Outputs;
+use crate::per_input::{PerInput, Stream};
+use crate::persist::PersistArgs;
+use crate::sequencer::{Input, Pushed, ScanPlace, Sequencer};
+use crate::slam::{PoseSink, Slam, Step};
+use fastslam_protocol::ipc::{Flow, Ipc, Sub, Taken};
+use fastslam_protocol::status::RejectionKind;
+use fastslam_protocol::stream::StreamEnd;
+use fastslam_protocol::validate::Rejection;
+use fastslam_protocol::{Header, Odometry};
+use std::time::{Duration, Instant};
+
+/// The longest a scan is held back in shared memory waiting for odometry, as a share of
+/// the sensors' deadline; then it is queued (a copy). A publisher that sends both streams
+/// from one thread could otherwise wait on a full lidar buffer, with the odometry the
+/// held scan needs still unsent. Well inside the deadline, so that holding never makes
+/// the lidar look quiet.
+const HOLD_SHARE_OF_DEADLINE: u32 = 4;
+
+/// The service between wake-ups: the [`Core`], and around it the state of the inputs —
+/// their checks, the resume floor, deadlines and stream ends.
+pub(crate) struct Service {
+    core: Core,
+    /// The input checks, with their per-stream state.
+    admission: Admission,
+    /// Skips the inputs a resumed run's checkpoint already covers.
+    floor: ResumeFloor,
+    /// Each stream's deadline.
+    watchdogs: PerInput<Watchdog>,
+    /// Each stream's end: announced, and its last message in.
+    ends: PerInput<StreamEnd>,
+    /// What hearing from each stream changed during this wake-up (a quiet stream is
+    /// back); the deadline check reads and resets it.
+    heard: PerInput<Option<Change>>,
+    /// The first output error of a scan applied while the lidar was drained; returned
+    /// once the drain is over.
+    failed: Option<anyhow::Error>,
+    /// The sensors' deadline.
+    deadline: Duration,
+    /// The longest a scan is held in shared memory ([`HOLD_SHARE_OF_DEADLINE`]).
+    hold_limit: Duration,
+}
+
+impl Service {
+    /// The service about to take its first input: `slam` and `out` continue `resumed`,
+    /// if given.
+    pub(crate) fn new(
+        config: ServiceConfig,
+        persist: PersistArgs,
+        slam: Slam,
+        resumed: Option<&Checkpoint>,
+        out: Outputs,
+    ) -> Self {
+        let input = &config.input;
+        let max_jump_ns = (input.max_stamp_jump_s * 1e9) as u64;
+        let admission = Admission::new(max_jump_ns, input.motion_limits());
+        let deadline = Duration::from_secs_f64(input.deadline_s);
+        Self {
+            admission,
+            floor: ResumeFloor::of(resumed),
+            watchdogs: PerInput::from_fn(|_| Watchdog::new(deadline)),
+            ends: PerInput::default(),
+            heard: PerInput::default(),
+            failed: None,
+            deadline,
+            hold_limit: deadline / HOLD_SHARE_OF_DEADLINE,
+            core: Core::new(config, persist, slam, resumed, out),
+        }
+    }
+
+    /// The longest a scan is held back in shared memory: the wake loop ticks at least
+    /// this often, so the limit is checked in time even with no input waking it.
+    pub(crate) fn hold_limit(&self) -> Duration {
+        self.hold_limit
+    }
+
+    /// One wake-up: every stage, in order.
+    ///
+    /// # Errors
+    /// IPC errors (receiving, publishing).
+    pub(crate) fn wake(&mut self, inputs: &Inputs) -> anyhow::Result<Flow> {
+        let now = Instant::now();
+        self.answer_map_requests()?;
+        self.drain_odometry(&inputs.odometry, now)?;
+        // Before the lidar: a scan held for odometry goes once the odometry has ended.
+        self.drain_end_of_stream(inputs)?;
+        self.take_lidar_messages(&inputs.lidar, now)?;
+        self.check_deadlines(now)?;
+        self.core.health.log.flush(now);
+        self.core.release_queued()?;
+        self.core.out.flush()?;
+        Ok(if self.finished(&inputs.lidar) {
+            Flow::Stop
+        } else {
+            Flow::Continue
+        })
+    }
+
+    /// Answers pending `map/get` requests with the map as it is now.
+    fn answer_map_requests(&self) -> anyhow::Result<()> {
+        self.core.out.answer_map_requests(&self.core.slam)
+    }
+
+    /// Takes every odometry message received ([`Service::take_odometry`]).
+    fn drain_odometry(&mut self, odometry: &Sub<Odometry, ()>, now: Instant) -> anyhow::Result<()> {
+        odometry.drain(|s| self.take_odometry(*s.payload(), now))?;
+        Ok(())
+    }
+
+    /// One odometry message: admitted first, then queued.
+    fn take_odometry(&mut self, m: Odometry, now: Instant) {
+        let admitted = self.admit(Stream::Odometry, m.header, "odometry", now, |a| {
+            a.odometry(&m)
+        });
+        if admitted {
+            let pushed = self.core.sequencer.push_odometry(m);
+            self.core
+                .count_pushed(now, "odometry", m.header.seq, pushed);
+        }
+    }
+
+    /// Takes every end-of-stream received; ends the odometry in the sequencer once its
+    /// last message is in.
+    fn drain_end_of_stream(&mut self, inputs: &Inputs) -> anyhow::Result<()> {
+        inputs.end_of_stream.drain(|s| {
+            if let Some(stream) = inputs.closed_by(s.payload().stream) {
+                self.ends[stream].announce(s.payload());
+            }
+        })?;
+        if self.ends.odometry.finished() {
+            self.core.sequencer.end_odometry();
+        }
+        Ok(())
+    }
+
+    /// Takes the lidar messages received ([`Service::take_lidar`]) until one is held;
+    /// ends the lidar in the sequencer once its last message is in.
+    fn take_lidar_messages(&mut self, lidar: &Lidar, now: Instant) -> anyhow::Result<()> {
+        let drained = match lidar {
+            Lidar::Observations(sub) => sub.drain(|s, held| self.take_lidar(s, held, now)),
+            Lidar::Scans(sub) => sub.drain(|s, held| self.take_lidar(s, held, now)),
+        };
+        drained?;
+        if let Some(e) = self.failed.take() {
+            return Err(e);
+        }
+        if self.ends.lidar.finished() {
+            self.core.sequencer.end_scans();
+        }
+        Ok(())
+    }
+
+    /// One lidar message `m`: when new (`held_since` is `None`), admitted first. Then
+    /// applied straight from shared memory, held there while it waits for odometry (up
+    /// to the hold limit), or copied into the queue.
+    fn take_lidar<M: LidarMessage>(
+        &mut self,
+        m: &M,
+        held_since: Option<Instant>,
+        now: Instant,
+    ) -> Taken {
+        let h = m.header();
+        if held_since.is_none()
+            && !self.admit(Stream::Lidar, h, M::WHAT, now, |a| a.lidar(m.check(), h))
+        {
+            return Taken::Done;
+        }
+        let held_for = held_since.map_or(Duration::ZERO, |t| now.saturating_duration_since(t));
+        match self.core.sequencer.place_scan(h.stamp_ns) {
+            ScanPlace::Direct => {
+                let applied = self
+                    .core
+                    .direct(h.stamp_ns, |slam, publish| m.apply(slam, publish));
+                self.failed = self.failed.take().or(applied.err());
+            }
+            ScanPlace::AwaitOdometry if held_for < self.hold_limit => return Taken::Hold,
+            ScanPlace::AwaitOdometry | ScanPlace::Queue => {
+                let pushed = m.queue(&mut self.core.sequencer);
+                self.core.count_pushed(now, M::WHAT, h.seq, pushed);
+            }
+        }
+        Taken::Done
+    }
+
+    /// A new message of `stream` with header `h`, logged as `what` if rejected: counted
+    /// towards its stream's end, skipped if the checkpoint covers it, then checked by
+    /// `check`. True when it passed; its stream has then been heard from.
+    fn admit(
+        &mut self,
+        stream: Stream,
+        h: Header,
+        what: &str,
+        now: Instant,
+        check: impl FnOnce(&mut Admission) -> Result<(), Rejection>,
+    ) -> bool {
+        self.ends[stream].saw(h.seq);
+        if !self.floor.admits(stream, h.stamp_ns) {
+            return false;
+        }
+        if let Err(r) = check(&mut self.admission) {
+            self.core.health.log.reject(now, what, h.seq, r.kind(), &r);
+            return false;
+        }
+        self.heard[stream] = self.watchdogs[stream].heard(now).or(self.heard[stream]);
+        true
+    }
+
+    /// Sensor deadlines: a stream quiet beyond its deadline is not waited for; its return
+    /// ends that.
+    fn check_deadlines(&mut self, now: Instant) -> anyhow::Result<()> {
+        let heard = std::mem::take(&mut self.heard);
+        let changes = PerInput::from_fn(|s| heard[s].or_else(|| self.watchdogs[s].check(now)));
+        for (stream, change) in changes.iter() {
+            if let Some(change) = *change {
+                self.changed(stream, change)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// `stream` went quiet or came back: logged, its checks resynchronised (when quiet),
+    /// the sequencer's wait and the filter's coasting (odometry) set, and a status sent.
+    fn changed(&mut self, stream: Stream, change: Change) -> anyhow::Result<()> {
+        let quiet = change == Change::WentQuiet;
+        if quiet {
+            let deadline = self.deadline;
+            tracing::warn!(
+                ?stream,
+                ?deadline,
+                "input quiet beyond its deadline: degraded"
+            );
+            self.admission.resync(stream);
+        } else {
+            tracing::info!(?stream, "input back: recovered");
+        }
+        self.core.sequencer.set_quiet(stream, quiet);
+        if stream == Stream::Odometry {
+            self.core.slam.set_coasting(quiet);
+        }
+        let status = self.core.health.now(&self.core.sequencer);
+        self.core.out.status(status)
+    }
+
+    /// True when both inputs have ended, everything was applied and no scan is held.
+    fn finished(&self, lidar: &Lidar) -> bool {
+        self.core.sequencer.finished() && !lidar.holds()
+    }
+
+    /// Ends the run (finished, or stopped by a signal): the state goes to disk before
+    /// anyone is told; then the final map, grid and status, the outputs' end-of-stream,
+    /// and the wait for the readers of the map and grid.
+    ///
+    /// # Errors
+    /// When the checkpoint or map cannot be written, or IPC errors.
+    pub(crate) fn finish(self, ipc: &Ipc) -> anyhow::Result<()> {
+        let mut core = self.core;
+        core.persist.write_checkpoint(|| core.checkpoint())?;
+        core.persist.save_map(&core.slam)?;
+        let last_ns = core.out.last_pose_ns();
+        core.out.map(&core.slam, last_ns)?;
+        core.out.grid(&mut core.slam, last_ns)?;
+        let status = core.health.final_status(&core.slam, &core.sequencer);
+        core.out.status(status)?;
+        core.out.finish(ipc)?;
+        let moves = core.slam.move_stats().unwrap_or_default();
+        tracing::info!(
+            steps = core.health.steps(),
+            rejections = ?core.health.log.counts(),
+            scans = core.scans,
+            scans_from_shared_memory = core.direct_scans,
+            moves_proposed = moves.proposed,
+            moves_accepted = moves.accepted,
+            skipped_before_checkpoint = self.floor.skipped(),
+            "inputs finished"
+        );
+        Ok(())
+    }
+}
+
+/// The filter side of the service: the filter, its counters, the input queue and the
+/// output ports. It applies inputs in stamp order and publishes what they produce.
+struct Core {
+    slam: Slam,
+    health: Health,
+    sequencer: Sequencer,
+    out: Outputs,
+    config: ServiceConfig,
+    persist: PersistArgs,
+    /// Scans applied straight from shared memory / all scans applied.
+    direct_scans: u64,
+    scans: u64,
+}
+
+impl Core {
+    /// The filter side of a run; counters continue `resumed`, if given.
+    fn new(
+        config: ServiceConfig,
+        persist: PersistArgs,
+        slam: Slam,
+        resumed: Option<&Checkpoint>,
+        out: Outputs,
+    ) -> Self {
+        let mut health = Health::new(Duration::from_secs_f64(config.input.log_interval_s));
+        if let Some(c) = resumed {
+            health.resume(c.steps, c.resamplings);
+        }
+        Self {
+            slam,
+            health,
+            sequencer: Sequencer::new(config.input.max_queue),
+            out,
+            config,
+            persist,
+            direct_scans: 0,
+            scans: 0,
+        }
+    }
+
+    /// The checkpoint of the state now.
+    fn checkpoint(&self) -> Checkpoint {
+        Checkpoint {
+            seed: self.config.filter.seed,
+            filter: self.slam.state(),
+            last_odometry_ns: self.slam.last_odometry_ns(),
+            processed_ns: self.sequencer.released(),
+            steps: self.health.steps(),
+            resamplings: self.health.resamplings(),
+            last_seq: self.out.last_seq(),
+        }
+    }
+
+    /// Applies every input the sequencer can release now, in stamp order.
+    fn release_queued(&mut self) -> anyhow::Result<()> {
+        while let Some(input) = self.sequencer.release() {
+            self.scans += u64::from(!matches!(input, Input::Odometry(_)));
+            let stepped = self.step(|slam, publish| slam.apply(&input, publish));
+            self.sequencer.recycle(input);
+            stepped?;
+        }
+        Ok(())
+    }
+
+    /// Applies a scan stamped `stamp` that the sequencer would release next
+    /// ([`ScanPlace::Direct`]) straight from shared memory: first the odometry up
+    /// to its stamp, then `step` on the sample's own slice (no copy).
+    fn direct(
+        &mut self,
+        stamp: u64,
+        step: impl FnOnce(&mut Slam, PoseSink<'_>) -> fastslam_estimation::Result<Step>,
+    ) -> anyhow::Result<()> {
+        while let Some(odometry) = self.sequencer.odometry_through(stamp) {
+            self.step(|slam, publish| slam.apply(&odometry, publish))?;
+        }
+        self.sequencer.took_directly(stamp);
+        self.direct_scans += 1;
+        self.scans += 1;
+        self.step(|slam, publish| step(slam, publish).map(Some))
+    }
+
+    /// Runs one filter input through `apply`, publishing its pose the moment the filter
+    /// has it (before the maps are updated, about half-way through a scan's step), then
+    /// the rest of what it produced ([`Core::after`]).
+    fn step(
+        &mut self,
+        apply: impl FnOnce(&mut Slam, PoseSink<'_>) -> fastslam_estimation::Result<Option<Step>>,
+    ) -> anyhow::Result<()> {
+        let started = Instant::now();
+        let out = &mut self.out;
+        let mut sent = Ok(());
+        let applied = apply(&mut self.slam, &mut |pose| sent = out.pose(pose));
+        sent?;
+        self.after(applied, started)
+    }
+
+    /// Publishes what an applied input produced besides its pose (map and grid when due,
+    /// status, checkpoint when due), or counts the filter's refusal.
+    fn after(
+        &mut self,
+        applied: fastslam_estimation::Result<Option<Step>>,
+        started: Instant,
+    ) -> anyhow::Result<()> {
+        match applied {
+            Ok(Some(step)) => {
+                let status =
+                    self.health
+                        .step(&step, started.elapsed(), &self.slam, &self.sequencer);
+                let stamp_ns = step.pose.header.stamp_ns;
+                let output = &self.config.output;
+                let due = |every: u64| every > 0 && self.health.steps().is_multiple_of(every);
+                if due(output.map_every) {
+                    self.out.map(&self.slam, stamp_ns)?;
+                }
+                if due(output.grid_every) {
+                    self.out.grid(&mut self.slam, stamp_ns)?;
+                }
+                self.out.status(status)?;
+                if self.persist.checkpoint_due(self.health.steps()) {
+                    let write = self.persist.write_checkpoint(|| self.checkpoint());
+                    if let Err(e) = write {
+                        tracing::warn!("{e:#}");
+                    }
+                }
+            }
+            Ok(None) => {}
+            Err(e) => {
+                let kind = RejectionKind::Filter;
+                self.health.log.reject(Instant::now(), "input", 0, kind, &e);
+            }
+        }
+        Ok(())
+    }
+
+    /// Counts `pushed` if the sequencer dropped or refused an input of `what`.
+    fn count_pushed(&mut self, now: Instant, what: &str, seq: u64, pushed: Pushed) {
+        let (kind, reason) = match pushed {
+            Pushed::Queued => return,
+            Pushed::Overflowed => (
+                RejectionKind::Overflow,
+                "queue full: its oldest input was dropped",
+            ),
+            Pushed::Late => (RejectionKind::Late, "older than inputs already processed"),
+        };
+        self.health.log.reject(now, what, seq, kind, &reason);
+    }
+}
