@@ -1,4 +1,4 @@
-//! Scores a [`Recording`] against ground truth (ALGORITHMS.md §6): trajectory error
+//! Scores a [`Recording`] against ground truth (docs/ALGORITHMS.md §6): trajectory error
 //! (ATE, RPE, heading, final), consistency (NEES), map error with an optimal landmark
 //! assignment, filter health from the status topic, and cost (step time, end-to-end
 //! latency, CPU time and peak memory). `METRICS.md` documents every field.

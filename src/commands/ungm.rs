@@ -1,4 +1,4 @@
-//! `fastslam-stack ungm`: the UNGM benchmark of ALGORITHMS.md §5 in the shape of the ICOA
+//! `fastslam-stack ungm`: the UNGM benchmark of docs/ALGORITHMS.md §5 in the shape of the ICOA
 //! paper's Table 1, for every optimiser, with the 20 000-particle bootstrap filter as the
 //! reference. The computation lives in `fastslam_estimation::ungm`; this parses flags and
 //! prints.
@@ -98,7 +98,7 @@ pub fn run(args: &UngmArgs) -> anyhow::Result<()> {
         };
         let model = Ungm::new(q, r)?;
         println!(
-            "\nUNGM (ALGORITHMS.md §5), Q = {q}, R = {r}: {} runs of T = {}, K = {} generations, \
+            "\nUNGM (docs/ALGORITHMS.md §5), Q = {q}, R = {r}: {} runs of T = {}, K = {} generations, \
              λ = {}, box ±{}σ, seed {}",
             config.runs,
             config.steps,

@@ -3,7 +3,7 @@
 //! particle optimisers of the papers and the moves that run them inside a filter, a generic
 //! particle filter with the UNGM benchmark, run statistics, landmark extraction from raw
 //! scans and occupancy grid mapping. No IPC, no threads it did not ask for, no I/O — so it
-//! is testable and benchmarkable on its own. See `ALGORITHMS.md` for every formula.
+//! is testable and benchmarkable on its own. See docs/ALGORITHMS.md for every formula.
 
 mod check;
 pub mod error;

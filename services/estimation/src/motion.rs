@@ -1,4 +1,4 @@
-//! Vehicle motion models (ALGORITHMS.md §2): the unicycle / differential drive of the
+//! Vehicle motion models (docs/ALGORITHMS.md §2): the unicycle / differential drive of the
 //! ICOA paper (eq. 24) and the bicycle of the IBA paper (eq. 14), as data.
 //!
 //! Both models take two controls — (v, ω) for the unicycle, (v, γ) for the bicycle — with

@@ -1,4 +1,4 @@
-//! Range–bearing observation of point landmarks (ALGORITHMS.md §2): the measurement
+//! Range–bearing observation of point landmarks (docs/ALGORITHMS.md §2): the measurement
 //! function, its Jacobians, the inverse model that initialises a landmark, the innovation
 //! with the bearing wrapped, and the [`Sensor`] description (noise, range, field of view)
 //! used for gating and negative evidence.
@@ -178,7 +178,7 @@ pub fn inverse(pose: &Pose2, z: &Vector2<f64>) -> (Vector2<f64>, Matrix2<f64>) {
 }
 
 /// A new landmark's Gaussian from one observation: mean from [`inverse`] and
-/// `Σ = G R Gᵀ` (ALGORITHMS.md §1 step 4), made exactly symmetric.
+/// `Σ = G R Gᵀ` (docs/ALGORITHMS.md §1 step 4), made exactly symmetric.
 pub fn initialise(
     pose: &Pose2,
     z: &Vector2<f64>,

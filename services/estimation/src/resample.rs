@@ -1,4 +1,4 @@
-//! Resampling schemes (ALGORITHMS.md §1 step 6 and §4.4).
+//! Resampling schemes (docs/ALGORITHMS.md §1 step 6 and §4.4).
 //!
 //! Every full scheme has one signature, `fn scheme(w: &Weights, m: usize, rng) -> Vec<usize>`,
 //! returning the ancestor index of each of the `m` new particles (their weights are then
@@ -43,7 +43,7 @@ pub fn systematic(w: &Weights, m: usize, rng: &mut impl Rng) -> Vec<usize> {
 }
 
 /// Bias-corrected exponentially weighted average threshold of IBA's partial resampling
-/// (ALGORITHMS.md §4.4, IBA paper eq. 13): with the weights sorted ascending,
+/// (docs/ALGORITHMS.md §4.4, IBA paper eq. 13): with the weights sorted ascending,
 /// `vᵢ = β vᵢ₋₁ + (1−β) wᵢ` (`v₀ = 0`), `δᵢ = vᵢ / (1 − βⁱ)`, threshold `δ̄ = mean(δᵢ)`.
 ///
 /// `beta` must lie in (0, 1) (the paper uses 0.9); the filter's config checks it.
@@ -76,7 +76,7 @@ pub struct PartialResample {
     pub replaced: usize,
 }
 
-/// IBA's partial resampling (ALGORITHMS.md §4.4): particles with `wᵢ ≥ δ̄`
+/// IBA's partial resampling (docs/ALGORITHMS.md §4.4): particles with `wᵢ ≥ δ̄`
 /// ([`ewa_threshold`]) are kept in place with their weights; the `L` others are replaced
 /// by `L` [`systematic`] draws from the whole set, each with weight `W_L / L`, where `W_L`
 /// is the total weight of the replaced particles.
@@ -114,11 +114,11 @@ pub enum ResamplingScheme {
     /// Systematic (low-variance) resampling of the whole set; weights become uniform.
     #[default]
     Systematic,
-    /// IBA's partial resampling with the bias-corrected EWA threshold (ALGORITHMS.md §4.4).
+    /// IBA's partial resampling with the bias-corrected EWA threshold (docs/ALGORITHMS.md §4.4).
     PartialEwa,
 }
 
-/// When and how to resample (ALGORITHMS.md §1 step 6).
+/// When and how to resample (docs/ALGORITHMS.md §1 step 6).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ResamplingConfig {
@@ -126,7 +126,7 @@ pub struct ResamplingConfig {
     pub scheme: ResamplingScheme,
     /// Resample when `N_eff < neff_ratio · N` (dimensionless, in [0, 1]; 0 never
     /// resamples, 1 resamples at every step unless the weights are exactly equal).
-    /// Library default 0.5 (ALGORITHMS.md); the Bailey scenario sets 0.75.
+    /// Library default 0.5 (docs/ALGORITHMS.md); the Bailey scenario sets 0.75.
     pub neff_ratio: f64,
     /// `β` of the EWA threshold of partial resampling (dimensionless, in (0, 1)); IBA 0.9.
     pub ewa_beta: f64,

@@ -1,4 +1,4 @@
-//! The univariate non-stationary growth model (UNGM) benchmark of ALGORITHMS.md §5 (ICOA
+//! The univariate non-stationary growth model (UNGM) benchmark of docs/ALGORITHMS.md §5 (ICOA
 //! paper §3.1, eqs. 21–23, Table 1), run by the generic particle filter ([`crate::pf`]) with
 //! every optimiser.
 //!

@@ -1,6 +1,6 @@
 //! Particle weights as an immutable value: normalised once from log-weights with
 //! log-sum-exp, checked for NaN and degeneracy, with the effective sample size computed
-//! once (ALGORITHMS.md §1 step 5).
+//! once (docs/ALGORITHMS.md §1 step 5).
 
 use crate::{Error, Result};
 

@@ -1,4 +1,4 @@
-//! Reference tests of the optimisers on the standard test functions (ALGORITHMS.md §4,
+//! Reference tests of the optimisers on the standard test functions (docs/ALGORITHMS.md §4,
 //! `optimizer-reference/`): Sphere, Rastrigin, Rosenbrock and Ackley in 3 and 10 dimensions,
 //! unshifted and shifted, population 30, 200 generations, [`SEEDS`] seeds per case. Each
 //! median is compared with the matching column of `summary.csv` (20 seeds): COA with
@@ -15,7 +15,7 @@
 //!
 //! # Deviations (explained, asserted as they are)
 //!
-//! - **COA** draws `r` per dimension (ALGORITHMS.md §4.1); both references draw one scalar
+//! - **COA** draws `r` per dimension (docs/ALGORITHMS.md §4.1); both references draw one scalar
 //!   per member, which moves a coati along a line through the origin (phase 1) and along the
 //!   box diagonal (phase 2). A control run of the same code with scalar `r` (15 seeds)
 //!   reproduced COA_mealpy: shifted Sphere 10-D 854 (ref 1195), shifted Rosenbrock 10-D

@@ -1,4 +1,4 @@
-//! The UNGM benchmark's reference (ALGORITHMS.md §5): a bootstrap particle filter with
+//! The UNGM benchmark's reference (docs/ALGORITHMS.md §5): a bootstrap particle filter with
 //! 20 000 particles approximates the posterior mean, the floor no filter on this model
 //! beats on average. Our own earlier measurement put its 50-run mean RMSE at 2.76
 //! (Q = 1, R = 0.1) and 4.52 (Q = 10, R = 1); the benchmark must reproduce both within 5 %.

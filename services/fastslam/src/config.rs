@@ -27,7 +27,7 @@
 //! grid_every = 50
 //! ```
 //!
-//! IBA comes with its partial resampling (ALGORITHMS.md §4.4): with `kind = "iba"` and
+//! IBA comes with its partial resampling (docs/ALGORITHMS.md §4.4): with `kind = "iba"` and
 //! `[optimizer.iba] partial_resampling = true` (the default) the filter resamples with the
 //! partial EWA scheme whatever `[filter.resampling] scheme` says
 //! ([`ServiceConfig::filter_config`]).

@@ -14,7 +14,6 @@
 //! - `cli`, off by default, implies `ipc`: the `cli` module, the flags, logging and
 //!   `main` of the stack's own processes (clap, tracing-subscriber).
 #![doc = include_str!("../README.md")]
-#![warn(missing_docs)]
 
 #[cfg(feature = "cli")]
 pub mod cli;

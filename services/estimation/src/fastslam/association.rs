@@ -1,5 +1,5 @@
 //! Data association and weighting of one scan against one particle's map
-//! (ALGORITHMS.md §1 step 3), read-only: it decides what each observation does and what it
+//! (docs/ALGORITHMS.md §1 step 3), read-only: it decides what each observation does and what it
 //! contributes to the particle's log-weight; [`Particle`](super::Particle) applies the
 //! decisions afterwards.
 //!
@@ -42,7 +42,7 @@ pub enum AssociationMode {
     Unknown,
 }
 
-/// Association settings (ALGORITHMS.md §1 step 3). Defaults: Bailey's webmap simulator.
+/// Association settings (docs/ALGORITHMS.md §1 step 3). Defaults: Bailey's webmap simulator.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct AssociationConfig {
@@ -195,7 +195,7 @@ impl<'a> Scan<'a> {
     }
 
     /// `log p(z₁..zₙ | pose, map)` under this module's association: the observation term of
-    /// a particle at a candidate `pose` with its own `map` (ALGORITHMS.md §3 fitness).
+    /// a particle at a candidate `pose` with its own `map` (docs/ALGORITHMS.md §3 fitness).
     ///
     /// # Performance
     /// O(n · (log M + k)) for n observations and k landmarks per search window.

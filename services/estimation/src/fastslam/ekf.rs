@@ -1,4 +1,4 @@
-//! The per-landmark 2-D EKF of FastSLAM (ALGORITHMS.md §1 steps 3–4): innovation and its
+//! The per-landmark 2-D EKF of FastSLAM (docs/ALGORITHMS.md §1 steps 3–4): innovation and its
 //! likelihood for gating and weighting, then the Joseph-form update that keeps the
 //! landmark covariance symmetric positive definite.
 

@@ -1,4 +1,4 @@
-//! What the filter publishes (ALGORITHMS.md §1 step 7): the weighted pose estimate with
+//! What the filter publishes (docs/ALGORITHMS.md §1 step 7): the weighted pose estimate with
 //! its covariance, and landmarks of the best particle's map.
 
 use super::landmarks::Landmark;

@@ -1,4 +1,4 @@
-//! Negative evidence (ALGORITHMS.md §1 step 4): a landmark that stays unconfirmed while the
+//! Negative evidence (docs/ALGORITHMS.md §1 step 4): a landmark that stays unconfirmed while the
 //! sensor keeps looking at it was probably spurious and is removed.
 //!
 //! A landmark is *tentative* while `hits < min_hits`. Every scan in which a tentative

@@ -1,6 +1,6 @@
 //! A particle's landmark map: persistent (structurally shared) storage with a spatial
 //! index, so resampled copies share everything and a write copies only the path to the
-//! landmark it changes (ALGORITHMS.md §1 step 6, DESIGN.md "Fast").
+//! landmark it changes (docs/ALGORITHMS.md §1 step 6, DESIGN.md "Fast").
 //!
 //! Storage is two persistent B+ trees from `imbl` (16 entries per node):
 //! - `by_cell`: key [`Slot`] `(cell_x, cell_y, id)` → [`Landmark`]. Cells are squares of side

@@ -1,5 +1,5 @@
 //! One FastSLAM particle: a pose hypothesis, its log-weight and its own landmark map
-//! (ALGORITHMS.md §1), with the map update that applies a scan's association decisions.
+//! (docs/ALGORITHMS.md §1), with the map update that applies a scan's association decisions.
 
 use super::association::{Decision, Scan, ScanAssociation};
 use super::ekf;
@@ -26,7 +26,7 @@ pub struct Particle {
 
 /// The Gaussian motion prior `N(x̂, P)` of a particle's pose in the current filter step: what
 /// FastSLAM 2.0's proposal starts from, and the motion-prior term of the optimisers' fitness
-/// and of the Metropolis–Hastings target (ALGORITHMS.md §3).
+/// and of the Metropolis–Hastings target (docs/ALGORITHMS.md §3).
 ///
 /// After an update it is the particle's pose with the covariance floor; every prediction
 /// propagates the mean without noise and adds the control noise,
@@ -107,7 +107,7 @@ impl Particle {
         &self.prior
     }
 
-    /// Moves the particle (step 2 of ALGORITHMS.md §1: an optimiser moving predicted
+    /// Moves the particle (step 2 of docs/ALGORITHMS.md §1: an optimiser moving predicted
     /// poses); the map moves with it. The heading is wrapped.
     ///
     /// # Errors

@@ -1,4 +1,4 @@
-//! The proposal distribution of a particle's new pose (ALGORITHMS.md §1): the motion model
+//! The proposal distribution of a particle's new pose (docs/ALGORITHMS.md §1): the motion model
 //! (FastSLAM 1.0, [`Proposal::Motion`]) or FastSLAM 2.0's Gaussian that also uses the
 //! current scan ([`Proposal::FastSlam2`]; Montemerlo et al. 2003, Bailey's `fastslam2`
 //! simulator code).

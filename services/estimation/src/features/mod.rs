@@ -1,4 +1,4 @@
-//! Landmark extraction from raw 2D scans (ALGORITHMS.md §2): poles and tree trunks as
+//! Landmark extraction from raw 2D scans (docs/ALGORITHMS.md §2): poles and tree trunks as
 //! range–bearing observations of their centres, with their diameters.
 //!
 //! The pipeline, one stage per module:

@@ -1,5 +1,5 @@
 //! BA — butterfly optimisation (Arora & Singh 2019; IBA paper §2.1, eqs. 4–7;
-//! ALGORITHMS.md §4.3).
+//! docs/ALGORITHMS.md §4.3).
 //!
 //! Fragrance `F_i = c · I_i^a` of stimulus `I_i = exp(−(F(x_i) − min_j F(x_j)))` — the fitness
 //! shifted so its population minimum is 0, so `I ∈ (0, 1]`. With probability `p` a butterfly

@@ -109,7 +109,7 @@ impl Bounds {
                 .all(|(v, (lo, hi))| lo <= v && v <= hi)
     }
 
-    /// Clips every coordinate of `x` into its interval (ALGORITHMS.md §3: every candidate is
+    /// Clips every coordinate of `x` into its interval (docs/ALGORITHMS.md §3: every candidate is
     /// clipped). ±∞ goes to the nearer limit; a NaN coordinate (from degenerate arithmetic
     /// such as `0 × ∞` in a Lévy step) goes to the centre, so a candidate is always a point
     /// of the box.

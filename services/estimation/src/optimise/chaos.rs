@@ -1,4 +1,4 @@
-//! The circle chaotic map of ICOA (ICOA paper eq. 13, ALGORITHMS.md §4.2):
+//! The circle chaotic map of ICOA (ICOA paper eq. 13, docs/ALGORITHMS.md §4.2):
 //! `c_{n+1} = mod(c_n + Ω − (K / 2π) sin(2π c_n), 1)` with `Ω = 0.2`, `K = 0.5`.
 //!
 //! ICOA draws from it instead of U(0,1) when it initialises a population from a box and as

@@ -1,5 +1,5 @@
 //! COA — Coati Optimisation Algorithm (Dehghani et al. 2023; ICOA paper §2.1, eqs. 6–12;
-//! ALGORITHMS.md §4.1).
+//! docs/ALGORITHMS.md §4.1).
 //!
 //! Each generation: phase 1 (exploration) — the first half of the population climbs toward
 //! the best member `X_b` ("iguana"), the second half reacts to an iguana dropped at a random

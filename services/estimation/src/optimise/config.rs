@@ -36,7 +36,7 @@ pub enum OptimiserKind {
 }
 
 impl OptimiserKind {
-    /// Every choice, in the order of ALGORITHMS.md.
+    /// Every choice, in the order of docs/ALGORITHMS.md.
     pub const ALL: [Self; 8] = [
         Self::None,
         Self::Coa,
@@ -146,7 +146,7 @@ impl OptimiserConfig {
         self.pso.validate()
     }
 
-    /// Whether the filter must resample with IBA's partial EWA scheme (ALGORITHMS.md §4.4):
+    /// Whether the filter must resample with IBA's partial EWA scheme (docs/ALGORITHMS.md §4.4):
     /// IBA is selected and [`IbaConfig::partial_resampling`] is on.
     pub fn partial_resampling(&self) -> bool {
         self.kind == OptimiserKind::Iba && self.iba.partial_resampling

@@ -1,5 +1,5 @@
 //! GWO — grey wolf optimisation (Mirjalili et al. 2014; GWO-RBPF patent;
-//! ALGORITHMS.md §4.5).
+//! docs/ALGORITHMS.md §4.5).
 //!
 //! Leaders α, β, δ are the three best positions seen so far in the run. Each wolf moves to
 //! the mean of three pulls, `X_n = X_leader − A |C X_leader − X|` with `A = 2a r₁ − a`,

@@ -1,4 +1,4 @@
-//! IBA — improved butterfly optimisation (IBA paper §2.2, eqs. 8–12; ALGORITHMS.md §4.4).
+//! IBA — improved butterfly optimisation (IBA paper §2.2, eqs. 8–12; docs/ALGORITHMS.md §4.4).
 //! The paper's partial resampling (eq. 13, §4.4 item 4) is a resampling scheme of the filter,
 //! not part of this optimiser; [`IbaConfig::partial_resampling`] tells the filter to use it.
 //!
@@ -47,7 +47,7 @@ pub struct IbaConfig {
     /// innovations are already normalised). Default 1.
     pub noise_variance: f64,
     /// Whether a filter running IBA resamples with IBA's partial EWA scheme (§2.3, eq. 13;
-    /// ALGORITHMS.md §4.4 item 4) instead of its configured scheme. Default true: the paper's
+    /// docs/ALGORITHMS.md §4.4 item 4) instead of its configured scheme. Default true: the paper's
     /// method is the optimiser *and* the partial resampling.
     pub partial_resampling: bool,
 }

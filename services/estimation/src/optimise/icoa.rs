@@ -1,4 +1,4 @@
-//! ICOA — improved COA (ICOA paper §2.2, eqs. 13–20; ALGORITHMS.md §4.2).
+//! ICOA — improved COA (ICOA paper §2.2, eqs. 13–20; docs/ALGORITHMS.md §4.2).
 //!
 //! COA plus: a persistent circle chaotic sequence (population initialisation, eq. 14, and the
 //! phase-1 coefficient, eqs. 16–17); a cosine inertia weight `ω(k)` on `X` in phase 1's first

@@ -1,4 +1,4 @@
-//! Lévy-flight steps by Mantegna's algorithm (BA and IBA, ALGORITHMS.md §4.3):
+//! Lévy-flight steps by Mantegna's algorithm (BA and IBA, docs/ALGORITHMS.md §4.3):
 //! `L = u / |v|^{1/β}` with `u ~ N(0, σ_u²)`, `v ~ N(0, 1)` and
 //! `σ_u = [Γ(1+β) sin(πβ/2) / (Γ((1+β)/2) β 2^{(β−1)/2})]^{1/β}` (0.69657 for β = 1.5).
 //!

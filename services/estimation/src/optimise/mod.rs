@@ -1,4 +1,4 @@
-//! Particle optimisers behind one interface (ALGORITHMS.md §3–§4): COA, ICOA, BA, IBA, GWO,
+//! Particle optimisers behind one interface (docs/ALGORITHMS.md §3–§4): COA, ICOA, BA, IBA, GWO,
 //! QPSO and PSO move a population of `D`-dimensional vectors inside a [`Bounds`] box toward
 //! lower fitness.
 //!

@@ -13,7 +13,7 @@ pub trait Problem: Sync {
     fn bounds(&self) -> &Bounds;
 
     /// Fitness of candidate `x` for population member `member` (lower is better). In the
-    /// filter, member `i` is particle `i` and the fitness is ALGORITHMS.md §3's
+    /// filter, member `i` is particle `i` and the fitness is docs/ALGORITHMS.md §3's
     /// `F(x_i)` under particle `i`'s own map. A NaN is ranked as the worst value (+∞), so it
     /// is never accepted over a real value.
     fn fitness(&self, member: usize, x: &[f64]) -> f64;

@@ -1,5 +1,5 @@
 //! PSO — canonical particle swarm (Kennedy & Eberhart 1995, inertia weight of Shi & Eberhart
-//! 1998; ALGORITHMS.md §4.5).
+//! 1998; docs/ALGORITHMS.md §4.5).
 //!
 //! `v ← w v + c₁ r₁ (P_i − X) + c₂ r₂ (g* − X)` per dimension with `w` falling linearly
 //! 0.9 → 0.4, each component clamped to `±v_max = ±0.2 (ub − lb)`; `X' = X + v`, clipped to the

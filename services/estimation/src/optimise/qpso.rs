@@ -1,5 +1,5 @@
 //! QPSO — quantum-behaved particle swarm (Sun et al. 2004/2012; QPSO-RBPF-SLAM paper;
-//! ALGORITHMS.md §4.5).
+//! docs/ALGORITHMS.md §4.5).
 //!
 //! Personal bests `P_i`, `mbest = mean(P)`, and per dimension `φ ~ U(0,1)`,
 //! `p = φ P_i + (1 − φ) g*`, `X' = p ± β |mbest − X| ln(1/u)` with `u ~ U(0,1]` and the sign
