@@ -44,11 +44,11 @@ mod estimate;
 pub mod evidence;
 pub mod landmarks;
 mod particle;
-mod update;
 pub mod proposal;
 pub mod refine;
 pub mod snapshot;
 pub mod trail;
+mod update;
 
 pub use crate::moves::WeightBasis;
 use crate::resample::Resampled;
