@@ -11,6 +11,7 @@ use crate::methods::Methods;
 use crate::settings;
 use anyhow::Context;
 use fastslam_client::metrics::{AlignMode, ScoreAt, fit_alignment, scored_at};
+use fastslam_client::reference::NoiseModel;
 use fastslam_client::{Metrics, Recording};
 use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::moves::{MoveCorrection, MoveStats};
@@ -271,6 +272,7 @@ pub fn run_in_process(
                 let admitted = validate::observations(&header, &observations)
                     .and_then(|()| scan_order.accept(header.header.stamp_ns));
                 if admitted.is_ok() {
+                    recording.add_observations(&header, &observations);
                     sequencer.push_scan(Scan {
                         header,
                         observations,
@@ -299,7 +301,8 @@ pub fn run_in_process(
     let (align, score_at) = source.scoring();
     let alignment = fit_alignment(&scored_at(&recording, score_at), align);
     let recording = alignment.apply(&recording);
-    let metrics = Metrics::compute(&recording, true, alignment, score_at);
+    let metrics = Metrics::compute(&recording, true, alignment, score_at)
+        .with_reference(&recording, &NoiseModel::of(&config.filter_config()));
     Ok(RunOutcome {
         metrics,
         filter_time,
@@ -327,6 +330,11 @@ pub struct Row {
     pub ate: Summary,
     /// Dead reckoning's ATE RMSE per run (m): the baseline.
     pub dead_reckoning: Summary,
+    /// The achievable-accuracy reference's ATE RMSE per run (m), where the data carries
+    /// landmark ids (else not a number).
+    pub reference: Summary,
+    /// The estimate's ATE over the reference's, per run: "times the achievable error".
+    pub over_reference: Summary,
     /// Landmark RMSE per run after optimal assignment (m).
     pub landmark: Summary,
     /// Mean pose NEES per run (3 when consistent).
@@ -420,6 +428,8 @@ fn summarise(method: String, particles: usize, runs: &[RunOutcome]) -> Row {
         particles,
         ate: column(&|r| r.metrics.estimate.ate_rmse_m),
         dead_reckoning: column(&|r| r.metrics.dead_reckoning.ate_rmse_m),
+        reference: column(&|r| reference_ate(&r.metrics)),
+        over_reference: column(&|r| r.metrics.estimate.ate_rmse_m / reference_ate(&r.metrics)),
         landmark: column(&|r| r.metrics.map.rmse_m),
         nees: column(&|r| r.metrics.consistency.nees_mean),
         nees_within: column(&|r| r.metrics.consistency.nees_within_95),
@@ -431,4 +441,9 @@ fn summarise(method: String, particles: usize, runs: &[RunOutcome]) -> Row {
         cpu: column(&|r| r.cpu.as_secs_f64()),
         moves,
     }
+}
+
+/// The reference's ATE RMSE (m), not a number without a reference.
+fn reference_ate(m: &Metrics) -> f64 {
+    m.reference.map_or(f64::NAN, |r| r.ate_rmse_m)
 }

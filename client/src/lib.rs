@@ -13,6 +13,7 @@ pub mod plot;
 pub mod process;
 pub mod progress;
 pub mod recording;
+pub mod reference;
 pub mod report;
 pub mod resources;
 pub mod rpe;

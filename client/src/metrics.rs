@@ -5,6 +5,7 @@
 
 use crate::align::{Se2, umeyama_se2};
 use crate::recording::{Estimate, Recording, StampedPose};
+use crate::reference::{self, NoiseModel, ReferenceMetrics};
 use crate::resources::ProcessUsage;
 use crate::rpe::{RPE_DELTAS_M, Rpe, rpe};
 use crate::stats::{Spread, mean};
@@ -76,6 +77,10 @@ pub struct Metrics {
     pub estimate: TrajectoryMetrics,
     /// Dead reckoning (the odometry's own pose) at the same stamps: the baseline.
     pub dead_reckoning: TrajectoryMetrics,
+    /// The achievable-accuracy reference (absent without sightings with landmark ids or
+    /// without the filter's noise model), see [`crate::reference`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference: Option<ReferenceMetrics>,
     /// Consistency of the estimate's covariance.
     pub consistency: Consistency,
     /// The final landmark map against the true one.
@@ -229,11 +234,22 @@ impl Metrics {
             scored_at: at,
             estimate: trajectory(&estimates, &rec.truth),
             dead_reckoning: trajectory(&dead_reckoning, &rec.truth),
+            reference: None,
             consistency: consistency(rec),
             map: map(&rec.map, &rec.true_map, LANDMARK_CUTOFF_M),
             filter: filter_health(rec),
             cost: cost(rec),
         }
+    }
+}
+
+impl Metrics {
+    /// Adds the reference of `rec` solved under `model` (nothing when it has none),
+    /// scored as these metrics are.
+    pub fn with_reference(mut self, rec: &Recording, model: &NoiseModel) -> Self {
+        self.reference = reference::solve(rec, model)
+            .map(|r| r.score(&rec.truth, self.alignment.method, self.scored_at));
+        self
     }
 }
 

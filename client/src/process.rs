@@ -5,6 +5,7 @@
 use crate::latency::LatencyMatcher;
 use crate::metrics::{AlignMode, ScoreAt, fit_alignment, interpolate, scored_at};
 use crate::progress::{LiveAte, Progress};
+use crate::reference::NoiseModel;
 use crate::resources::ProcessMonitor;
 use crate::{Metrics, Recording, report};
 use fastslam_protocol::ipc::{Ended, Flow, Ipc, Sub, WakeSource};
@@ -14,6 +15,7 @@ use fastslam_protocol::{
     ObservationsHeader, OccupancyGridHeader, Odometry, PoseEstimate, ServiceStatus, StreamId, cli,
     topics, validate,
 };
+use fastslam_service::config::ServiceConfig;
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -49,6 +51,12 @@ pub struct Args {
     /// (truth: for sparse truth such as GPS fixes; the estimate is interpolated there).
     #[arg(long, value_enum, default_value_t = ScoreAt::Estimates)]
     pub score_at: ScoreAt,
+    /// The service's config file (TOML). With it the client also solves the
+    /// achievable-accuracy reference under the filter's own noise model, when the
+    /// observations carry landmark ids (metrics.json `reference`); the launcher passes
+    /// the file its service runs with.
+    #[arg(long)]
+    pub service_config: Option<PathBuf>,
 }
 
 /// Records until every stream has ended (or a signal arrives), then writes the run folder.
@@ -56,6 +64,13 @@ pub struct Args {
 /// # Errors
 /// IPC failures or a run folder that cannot be written.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let noise = (args.service_config.as_deref())
+        .map(|path| {
+            anyhow::Ok(NoiseModel::of(
+                &ServiceConfig::load(Some(path))?.filter_config(),
+            ))
+        })
+        .transpose()?;
     let ipc = Ipc::open(
         &args.stack.stack(),
         "client",
@@ -112,9 +127,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 rec.add_odometry(s.payload())
             });
         })?;
-        lidar.drain(|header| {
+        lidar.drain(|header, observations| {
             ends.saw(lidar.stream(), header.seq);
             latency.observation(header.stamp_ns, Instant::now());
+            if let Some((h, o)) = observations {
+                rec.add_observations(h, o);
+            }
         })?;
         pose.drain(|s| {
             let stamp_ns = s.header.stamp_ns;
@@ -182,7 +200,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     let alignment = fit_alignment(&scored_at(&rec, args.score_at), args.align);
     let rec = alignment.apply(&rec);
-    let metrics = Metrics::compute(&rec, ended == Ended::Done, alignment, args.score_at);
+    let mut metrics = Metrics::compute(&rec, ended == Ended::Done, alignment, args.score_at);
+    if let Some(noise) = &noise {
+        metrics = metrics.with_reference(&rec, noise);
+    }
     report::write(&args.out, &rec, &metrics)?;
     tracing::info!(
         folder = %args.out.display(), complete = metrics.complete,
@@ -287,14 +308,22 @@ impl Lidar {
         }
     }
 
-    /// Calls `each` with the header of every pending message.
+    /// Calls `each` with the header of every pending message, and for landmark
+    /// observations the message itself.
     ///
     /// # Errors
     /// IPC failures.
-    fn drain(&self, mut each: impl FnMut(fastslam_protocol::Header)) -> anyhow::Result<usize> {
+    fn drain(
+        &self,
+        mut each: impl FnMut(fastslam_protocol::Header, Option<(&ObservationsHeader, &[Observation])>),
+    ) -> anyhow::Result<usize> {
         Ok(match self {
-            Self::Observations(s) => s.drain(|m| each(m.user_header().header))?,
-            Self::Scans(s) => s.drain(|m| each(m.user_header().header))?,
+            Self::Observations(s) => s.drain(|m| {
+                let header = m.user_header();
+                let valid = validate::observations(header, m.payload()).is_ok();
+                each(header.header, valid.then(|| (header, m.payload())))
+            })?,
+            Self::Scans(s) => s.drain(|m| each(m.user_header().header, None))?,
         })
     }
 }

@@ -1,8 +1,11 @@
 //! Everything the client received, kept in stamp order.
 
 use crate::resources::ProcessUsage;
+use fastslam_estimation::motion::Control;
+use fastslam_estimation::observation::Observation;
 use fastslam_protocol::{
-    GroundTruth, MapLandmark, OccupancyGridHeader, Odometry, PoseEstimate, ServiceStatus, status,
+    GroundTruth, MapLandmark, ObservationsHeader, OccupancyGridHeader, Odometry, PoseEstimate,
+    ServiceStatus, status,
 };
 
 /// A planar pose at a stamp.
@@ -27,6 +30,25 @@ pub struct Estimate {
     pub covariance: [f64; 9],
 }
 
+/// The control an odometry message carried, at its stamp.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StampedControl {
+    /// Stamp (ns).
+    pub stamp_ns: u64,
+    /// Speed, yaw rate and steering angle as measured.
+    pub control: Control,
+}
+
+/// The observations of one scan that carry a landmark id: what the reference solve
+/// ([`crate::reference`]) uses.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sightings {
+    /// Stamp of the scan (ns).
+    pub stamp_ns: u64,
+    /// Range, bearing and landmark id of each.
+    pub observations: Vec<Observation>,
+}
+
 /// What the client recorded during a run.
 #[derive(Debug, Clone, Default)]
 pub struct Recording {
@@ -34,6 +56,10 @@ pub struct Recording {
     pub truth: Vec<StampedPose>,
     /// Dead-reckoned poses from the odometry messages.
     pub dead_reckoning: Vec<StampedPose>,
+    /// The controls of the odometry messages.
+    pub controls: Vec<StampedControl>,
+    /// Landmark observations with ids, per scan (none from raw scans).
+    pub sightings: Vec<Sightings>,
     /// The service's estimates.
     pub estimates: Vec<Estimate>,
     /// The newest landmark map from the service.
@@ -83,7 +109,7 @@ impl Recording {
         });
     }
 
-    /// Adds an odometry sample's dead-reckoned pose.
+    /// Adds an odometry sample's dead-reckoned pose and control.
     pub fn add_odometry(&mut self, m: &Odometry) {
         self.dead_reckoning.push(StampedPose {
             stamp_ns: m.header.stamp_ns,
@@ -91,6 +117,39 @@ impl Recording {
             y: m.y,
             theta: m.theta,
         });
+        self.controls.push(StampedControl {
+            stamp_ns: m.header.stamp_ns,
+            control: Control {
+                v: m.v,
+                omega: m.omega,
+                steering: m.steering,
+            },
+        });
+    }
+
+    /// Adds the observations of a scan that carry a landmark id (a scan without any adds
+    /// nothing).
+    pub fn add_observations(
+        &mut self,
+        header: &ObservationsHeader,
+        observations: &[fastslam_protocol::Observation],
+    ) {
+        let observations: Vec<Observation> = observations
+            .iter()
+            .filter_map(|o| {
+                o.known_id().map(|id| Observation {
+                    range: o.range,
+                    bearing: o.bearing,
+                    id: Some(id),
+                })
+            })
+            .collect();
+        if !observations.is_empty() {
+            self.sightings.push(Sightings {
+                stamp_ns: header.header.stamp_ns,
+                observations,
+            });
+        }
     }
 
     /// Adds a pose estimate.

@@ -178,13 +178,19 @@ const SERVICE_CPU: Field = |m| m.cost.service_cpu_s;
 const ATE: Field = |m| m.estimate.ate_rmse_m;
 
 /// The per-run columns of `runs.csv`: (header, field of `metrics.json`).
-const RUN_COLUMNS: [(&str, Field); 13] = [
+const RUN_COLUMNS: [(&str, Field); 15] = [
     ("service_cpu_s", SERVICE_CPU),
     ("stack_cpu_s", |m| m.cost.stack_cpu_s),
     ("ate_rmse_m", ATE),
     ("heading_rmse_rad", |m| m.estimate.heading_rmse_rad),
     ("final_error_m", |m| m.estimate.final_error_m),
     ("dead_reckoning_ate_rmse_m", |m| m.dead_reckoning.ate_rmse_m),
+    ("reference_ate_rmse_m", |m| {
+        m.reference.map_or(f64::NAN, |r| r.ate_rmse_m)
+    }),
+    ("ate_over_reference", |m| {
+        m.estimate.ate_rmse_m / m.reference.map_or(f64::NAN, |r| r.ate_rmse_m)
+    }),
     ("landmark_rmse_m", |m| m.map.rmse_m),
     ("landmarks_matched", |m| m.map.matched as f64),
     ("landmarks_spurious", |m| m.map.spurious as f64),

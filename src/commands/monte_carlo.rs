@@ -88,7 +88,7 @@ pub fn run(args: &MonteCarloArgs) -> anyhow::Result<()> {
         seeds[seeds.len() - 1]
     );
     println!(
-        "  {:<28} {:>5}  {:>30}  {:>30}  {:>30}  {:>10}  {:>8}  {:>12}  {:>8}  DR ATE (m) · moves kept",
+        "  {:<28} {:>5}  {:>30}  {:>30}  {:>30}  {:>10}  {:>8}  {:>12}  {:>8}  DR / achievable ATE (m)  × achievable · moves kept",
         "method",
         "N",
         "ATE RMSE (m)",
@@ -162,7 +162,7 @@ fn print_row(row: &Row) {
         )
     });
     println!(
-        "  {:<28} {:>5}  {:>30}  {:>30}  {:>30}  {:>10.3}  {:>8.3}  {:>7.2} ± {:<4.2}  {:>8.2}  {:.3}{moves}",
+        "  {:<28} {:>5}  {:>30}  {:>30}  {:>30}  {:>10.3}  {:>8.3}  {:>7.2} ± {:<4.2}  {:>8.2}  {:.3} / {:.3}  {:.1} ± {:.1}{moves}",
         row.method,
         row.particles,
         cell(&row.ate),
@@ -173,6 +173,9 @@ fn print_row(row: &Row) {
         row.seconds.mean,
         row.seconds.std,
         row.cpu.mean,
-        row.dead_reckoning.mean
+        row.dead_reckoning.mean,
+        row.reference.mean,
+        row.over_reference.mean,
+        row.over_reference.std
     );
 }

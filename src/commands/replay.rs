@@ -200,6 +200,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
     service_flags.extend(["--config".into(), config.display().to_string()]);
     let mut client = stack_flags.clone();
     client.extend(["--out".into(), out.display().to_string()]);
+    client.extend(["--service-config".into(), config.display().to_string()]);
     client.extend(profile.client.flags.iter().cloned());
     let mut replay = stack_flags;
     replay.extend([

@@ -4,6 +4,7 @@
 use crate::progress;
 use crate::supervisor::{Outcome, Supervisor, stop_flag};
 use anyhow::{Context, bail};
+use fastslam_client::Metrics;
 use fastslam_protocol::ipc;
 use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::scenario::{BUILT_IN, DEFAULT_SCENARIO};
@@ -120,6 +121,9 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     service.extend(args.service_flags.iter().cloned());
     let mut client = stack_flags.clone();
     client.extend(["--out".into(), out.display().to_string()]);
+    if let Some(c) = &service_config {
+        client.extend(["--service-config".into(), c.display().to_string()]);
+    }
     for flags in [&mut service, &mut client] {
         if args.busy_poll {
             flags.push("--busy-poll".into());
@@ -265,35 +269,33 @@ fn tail(path: &Path, n: usize) -> String {
 
 /// Prints where the run folder is and its headline metrics.
 fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
-    let path = out.join("metrics.json");
-    let text =
-        std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
-    let m: serde_json::Value = serde_json::from_str(&text)?;
-    let num = |p: &str| {
-        m.pointer(p)
-            .and_then(serde_json::Value::as_f64)
-            .unwrap_or(f64::NAN)
-    };
+    let m = Metrics::read(&out.join("metrics.json"))?;
     println!("run folder: {}", out.display());
     println!(
         "  ATE RMSE       {:8.3} m   (dead reckoning {:.3} m)",
-        num("/estimate/ate_rmse_m"),
-        num("/dead_reckoning/ate_rmse_m")
+        m.estimate.ate_rmse_m, m.dead_reckoning.ate_rmse_m
     );
-    println!("  final error    {:8.3} m", num("/estimate/final_error_m"));
+    if let Some(r) = &m.reference {
+        println!(
+            "  achievable ATE {:8.3} m   (full-SLAM MAP over the same data; the estimate is {:.1}× it; \
+             χ²/dof {:.2})",
+            r.ate_rmse_m,
+            m.estimate.ate_rmse_m / r.ate_rmse_m,
+            r.chi2_per_dof
+        );
+    }
+    println!("  final error    {:8.3} m", m.estimate.final_error_m);
     println!(
         "  landmark RMSE  {:8.3} m   ({} of {} matched, {} spurious)",
-        num("/map/rmse_m"),
-        num("/map/matched"),
-        num("/map/truth"),
-        num("/map/spurious")
+        m.map.rmse_m, m.map.matched, m.map.truth, m.map.spurious
     );
+    let c = &m.consistency;
     println!(
         "  NEES mean      {:>8}     ({:.0} % of steps within the 95 % bound; 3 when consistent; \
          {} steps with a singular covariance)",
-        short(num("/consistency/nees_mean")),
-        100.0 * num("/consistency/nees_within_95"),
-        num("/consistency/singular")
+        short(c.nees_mean),
+        100.0 * c.nees_within_95,
+        c.singular
     );
     println!("  wall time      {:8.2} s", wall.as_secs_f64());
     Ok(())
