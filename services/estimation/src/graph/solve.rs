@@ -7,7 +7,7 @@ use crate::pose::Pose2;
 use crate::{Error, Result};
 use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
-use faer::sparse::{SparseColMat, Triplet};
+use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat, Triplet};
 use faer::{Mat, Side};
 use nalgebra::{DMatrix, Vector2};
 use std::time::Instant;
@@ -136,6 +136,47 @@ impl Normal {
     }
 }
 
+/// The sparsity of the damped normal equations — the factors' entries, then the
+/// diagonal — with the order that fills it and its symbolic Cholesky factorisation: the
+/// same every iteration while the same factors linearise, so built once.
+struct Pattern {
+    indices: Vec<(usize, usize)>,
+    matrix: SymbolicSparseColMat<usize>,
+    argsort: Argsort<usize>,
+    llt: SymbolicLlt<usize>,
+}
+
+impl Pattern {
+    /// The pattern of `normal` (with `n` unknowns): `cached` when it still fits, else
+    /// built and cached.
+    fn reuse_or_build<'a>(
+        cached: &'a mut Option<Pattern>,
+        normal: &Normal,
+        n: usize,
+    ) -> Result<&'a Pattern> {
+        let indices: Vec<(usize, usize)> = (normal.entries.iter().map(|t| (t.row, t.col)))
+            .chain((0..n).map(|i| (i, i)))
+            .collect();
+        if cached.as_ref().is_some_and(|p| p.indices == indices) {
+            return Ok(cached.as_ref().expect("checked"));
+        }
+        let pairs: Vec<Pair<usize, usize>> = indices
+            .iter()
+            .map(|&(row, col)| Pair::new(row, col))
+            .collect();
+        let (matrix, argsort) = SymbolicSparseColMat::try_new_from_indices(n, n, &pairs)
+            .map_err(|e| factorisation(format!("{e:?}")))?;
+        let llt = SymbolicLlt::try_new(matrix.as_ref(), Side::Lower)
+            .map_err(|e| factorisation(format!("{e:?}")))?;
+        Ok(cached.insert(Pattern {
+            indices,
+            matrix,
+            argsort,
+            llt,
+        }))
+    }
+}
+
 impl Graph {
     /// First column of pose `i` and landmark `k` in the unknowns.
     fn pose_column(&self, i: usize) -> usize {
@@ -249,28 +290,23 @@ impl Graph {
         let mut cost = self.cost(kernel);
         let initial_cost = cost;
         let mut lambda = 1e-4;
-        let mut symbolic: Option<SymbolicLlt<usize>> = None;
+        let mut pattern: Option<Pattern> = None;
         let (mut iterations, mut converged) = (0, false);
         'outer: while iterations < options.max_iterations {
             let normal = self.normal(kernel);
+            let pattern = Pattern::reuse_or_build(&mut pattern, &normal, n)?;
             loop {
                 iterations += 1;
-                let mut entries = normal.entries.clone();
-                for (i, d) in normal.diagonal.iter().enumerate() {
-                    entries.push(Triplet::new(i, i, lambda * (d + 1e-9)));
-                }
-                let h = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &entries)
-                    .map_err(|e| factorisation(format!("{e:?}")))?;
-                let symbolic = match &symbolic {
-                    Some(s) => s.clone(),
-                    None => symbolic
-                        .insert(
-                            SymbolicLlt::try_new(h.symbolic(), Side::Lower)
-                                .map_err(|e| factorisation(format!("{e:?}")))?,
-                        )
-                        .clone(),
-                };
-                let step = Llt::try_new_with_symbolic(symbolic, h.as_ref(), Side::Lower)
+                let values: Vec<f64> = (normal.entries.iter().map(|t| t.val))
+                    .chain(normal.diagonal.iter().map(|d| lambda * (d + 1e-9)))
+                    .collect();
+                let h = SparseColMat::new_from_argsort(
+                    pattern.matrix.clone(),
+                    &pattern.argsort,
+                    &values,
+                )
+                .map_err(|e| factorisation(format!("{e:?}")))?;
+                let step = Llt::try_new_with_symbolic(pattern.llt.clone(), h.as_ref(), Side::Lower)
                     .ok()
                     .map(|llt| {
                         let mut rhs = Mat::from_fn(n, 1, |i, _| -normal.gradient[i]);
