@@ -40,6 +40,15 @@ fn fastslam_beats_dead_reckoning_through_the_real_processes() {
         "landmarks mapped once each: {m}"
     );
     assert!(num(&m, "/map/matched") >= 10.0, "{m}");
+    // The client solved the reference over what crossed IPC, with the service's noise
+    // model: a pose per scan with sightings, every landmark seen, and the
+    // fit's χ² per degree of freedom is about 1 (the odometry's bias is far below the
+    // noise of one control).
+    assert!(num(&m, "/reference/poses") > 500.0, "{m}");
+    assert_eq!(num(&m, "/reference/landmarks"), mapped, "{m}");
+    let chi2 = num(&m, "/reference/chi2_per_dof");
+    assert!((0.8..1.25).contains(&chi2), "{m}");
+    assert!(stdout.contains("achievable ATE"), "{stdout}");
     assert_zero_copy(&out);
     for file in [
         "estimate.tum",
