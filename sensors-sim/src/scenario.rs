@@ -138,6 +138,10 @@ pub enum VehicleSpec {
     },
 }
 
+/// The most loops a route may have: 10 000 loops of the Bailey webmap are 23 days of
+/// simulated driving; more is a typo, refused instead of running until a timeout.
+pub const MAX_LOOPS: u32 = 10_000;
+
 /// The route: waypoints driven in order, `loops` times.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -327,6 +331,9 @@ impl Scenario {
         if self.route.waypoints.is_empty() || self.route.loops == 0 {
             return invalid("route", "needs at least one waypoint and one loop");
         }
+        if self.route.loops > MAX_LOOPS {
+            return invalid("route.loops", "must be at most 10000");
+        }
         if !positive(self.route.switch_distance_m) {
             return invalid("route.switch_distance_m", "must be > 0");
         }
@@ -450,10 +457,15 @@ mod tests {
             Scenario::parse("t", &typo),
             Err(ScenarioError::Parse { .. })
         ));
-        let bad = good.replace("control_period_s = 0.025", "control_period_s = -1.0");
-        assert!(matches!(
-            Scenario::parse("t", &bad),
-            Err(ScenarioError::Invalid { .. })
-        ));
+        for (from, to) in [
+            ("control_period_s = 0.025", "control_period_s = -1.0"),
+            ("loops = 2", "loops = 10001"),
+        ] {
+            assert!(good.contains(from), "{from}");
+            assert!(matches!(
+                Scenario::parse("t", &good.replace(from, to)),
+                Err(ScenarioError::Invalid { .. })
+            ));
+        }
     }
 }

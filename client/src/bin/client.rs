@@ -2,6 +2,6 @@
 
 use fastslam_client::process;
 
-fn main() -> anyhow::Result<()> {
+fn main() -> std::process::ExitCode {
     fastslam_protocol::cli::main_of("client", process::ABOUT, process::run)
 }

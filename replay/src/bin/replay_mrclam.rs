@@ -2,6 +2,6 @@
 
 use fastslam_replay::processes::mrclam;
 
-fn main() -> anyhow::Result<()> {
+fn main() -> std::process::ExitCode {
     fastslam_protocol::cli::main_of("replay-mrclam", mrclam::ABOUT, mrclam::run)
 }

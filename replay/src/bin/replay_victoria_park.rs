@@ -2,7 +2,7 @@
 
 use fastslam_replay::processes::victoria_park;
 
-fn main() -> anyhow::Result<()> {
+fn main() -> std::process::ExitCode {
     fastslam_protocol::cli::main_of(
         "replay-victoria-park",
         victoria_park::ABOUT,

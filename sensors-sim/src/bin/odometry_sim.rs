@@ -2,6 +2,6 @@
 
 use fastslam_sensors_sim::processes::odometry;
 
-fn main() -> anyhow::Result<()> {
+fn main() -> std::process::ExitCode {
     fastslam_protocol::cli::main_of("odometry-sim", odometry::ABOUT, odometry::run)
 }

@@ -78,11 +78,24 @@ struct ProcessCli<A: clap::Args> {
 
 /// The whole `main` of a process binary: flags (with `about` as the `--help` text),
 /// logging, then `run`, inside a span named after the process so interleaved logs stay
-/// readable.
-///
-/// # Errors
-/// Whatever `run` returns.
+/// readable. A failure prints one `error: …` line with its causes (never a backtrace,
+/// whatever `RUST_BACKTRACE` says) and exits with status 1.
 pub fn main_of<A: clap::Args, E: std::fmt::Display>(
+    process: &'static str,
+    about: &'static str,
+    run: impl FnOnce(A) -> Result<(), E>,
+) -> std::process::ExitCode {
+    match parsed_and_run(process, about, run) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+/// [`main_of`] up to the verdict.
+fn parsed_and_run<A: clap::Args, E: std::fmt::Display>(
     process: &'static str,
     about: &'static str,
     run: impl FnOnce(A) -> Result<(), E>,

@@ -108,13 +108,22 @@ impl Default for FastSlamConfig {
     }
 }
 
+/// The most particles a filter accepts: a million particles with their maps take
+/// gigabytes and seconds per step; a count above this is a typo, refused with its reason
+/// instead of ending in a failed allocation.
+pub const MAX_PARTICLES: usize = 1_000_000;
+
 impl FastSlamConfig {
     /// Checks every section.
     ///
     /// # Errors
     /// [`crate::Error::InvalidParameter`] naming the first bad value.
     pub fn validate(&self) -> Result<()> {
-        require(self.particles > 0, "particles", || "must be >= 1".into())?;
+        require(
+            (1..=MAX_PARTICLES).contains(&self.particles),
+            "particles",
+            || format!("must be in 1..={MAX_PARTICLES}, not {}", self.particles),
+        )?;
         self.motion.validate()?;
         self.sensor.validate()?;
         self.association.validate()?;
@@ -154,11 +163,18 @@ mod tests {
 
     #[test]
     fn invalid_values_are_rejected_by_name() {
-        let cases: [(&str, FastSlamConfig); 6] = [
+        let cases: [(&str, FastSlamConfig); 7] = [
             (
                 "particles",
                 FastSlamConfig {
                     particles: 0,
+                    ..FastSlamConfig::default()
+                },
+            ),
+            (
+                "particles",
+                FastSlamConfig {
+                    particles: MAX_PARTICLES + 1,
                     ..FastSlamConfig::default()
                 },
             ),

@@ -6,6 +6,7 @@ use super::{
     Ba, BaConfig, Coa, Gwo, GwoConfig, Iba, IbaConfig, Icoa, IcoaConfig, Optimiser, Pso, PsoConfig,
     Qpso, QpsoConfig,
 };
+use crate::check::require;
 use crate::rng::SimRng;
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -130,6 +131,10 @@ impl Default for OptimiserConfig {
     }
 }
 
+/// The most generations per step an optimiser runs: the papers use 5–50; a count above
+/// this would stall every step and is refused.
+pub const MAX_ITERATIONS: usize = 10_000;
+
 impl OptimiserConfig {
     /// Checks every section (also those of optimisers not selected, so a bad value is found
     /// when the file is loaded, not when someone switches `kind`).
@@ -138,6 +143,11 @@ impl OptimiserConfig {
     ///
     /// [`Error::InvalidParameter`] naming the first bad constant.
     pub fn validate(&self) -> Result<()> {
+        require(
+            (1..=MAX_ITERATIONS).contains(&self.iterations),
+            "optimizer.iterations",
+            || format!("must be in 1..={MAX_ITERATIONS}, not {}", self.iterations),
+        )?;
         self.icoa.validate()?;
         self.ba.validate()?;
         self.iba.validate()?;
@@ -193,6 +203,22 @@ mod tests {
             Err(Error::UnknownOptimiser { .. })
         ));
         assert!("sa".parse::<OptimiserKind>().is_err());
+    }
+
+    #[test]
+    fn generations_are_bounded() {
+        for iterations in [0, MAX_ITERATIONS + 1] {
+            let config = OptimiserConfig {
+                iterations,
+                ..OptimiserConfig::default()
+            };
+            assert!(config.validate().is_err(), "{iterations}");
+        }
+        let most = OptimiserConfig {
+            iterations: MAX_ITERATIONS,
+            ..OptimiserConfig::default()
+        };
+        assert!(most.validate().is_ok());
     }
 
     #[test]

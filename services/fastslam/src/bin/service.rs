@@ -2,6 +2,6 @@
 
 use fastslam_service::process;
 
-fn main() -> anyhow::Result<()> {
+fn main() -> std::process::ExitCode {
     fastslam_protocol::cli::main_of("service", process::ABOUT, process::run)
 }
