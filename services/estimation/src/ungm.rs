@@ -194,7 +194,7 @@ pub fn evaluate(
     config: &BenchmarkConfig,
 ) -> Result<MethodResult> {
     let mut resampling = config.resampling.clone();
-    if method.optimiser.partial_resampling() {
+    if method.optimiser.partial_resampling(method.moves.correction) {
         resampling.scheme = ResamplingScheme::PartialEwa;
     }
     let filter = FilterConfig {

@@ -27,10 +27,11 @@
 //! grid_every = 50
 //! ```
 //!
-//! IBA comes with its partial resampling (docs/ALGORITHMS.md §4.4): with `kind = "iba"` and
-//! `[optimizer.iba] partial_resampling = true` (the default) the filter resamples with the
-//! partial EWA scheme whatever `[filter.resampling] scheme` says
-//! ([`ServiceConfig::filter_config`]).
+//! IBA comes with its partial resampling (docs/ALGORITHMS.md §4.4): with `kind = "iba"`,
+//! `[optimizer.iba] partial_resampling = true` (the default) and the papers' mode
+//! (`[moves] correction = "none"`) the filter resamples with the partial EWA scheme
+//! whatever `[filter.resampling] scheme` says ([`ServiceConfig::filter_config`]); the
+//! scheme is biased, so the corrected modes keep the filter's own.
 
 use clap::builder::PossibleValuesParser;
 use fastslam_estimation::fastslam::{FastSlamConfig, Proposal, ResamplingScheme};
@@ -374,10 +375,11 @@ impl ServiceConfig {
     }
 
     /// The filter's configuration as it runs: `[filter]`, with the resampling scheme
-    /// switched to partial EWA when the optimiser asks for it (IBA, §4.4).
+    /// switched to partial EWA when the optimiser asks for it (IBA in the papers' mode,
+    /// §4.4).
     pub fn filter_config(&self) -> FastSlamConfig {
         let mut filter = self.filter.clone();
-        if self.optimizer.partial_resampling() {
+        if self.optimizer.partial_resampling(self.moves.correction) {
             filter.resampling.scheme = ResamplingScheme::PartialEwa;
         }
         filter
@@ -497,6 +499,15 @@ mod tests {
             c.filter_config().resampling.scheme,
             ResamplingScheme::Systematic
         );
+        // The corrected modes keep the filter's own scheme: partial EWA is biased.
+        c.optimizer.kind = OptimiserKind::Iba;
+        for correction in [MoveCorrection::Proposal, MoveCorrection::ResampleMove] {
+            c.moves.correction = correction;
+            assert_eq!(
+                c.filter_config().resampling.scheme,
+                ResamplingScheme::Systematic
+            );
+        }
     }
 
     #[test]

@@ -7,6 +7,7 @@ use super::{
     Qpso, QpsoConfig,
 };
 use crate::check::require;
+use crate::moves::MoveCorrection;
 use crate::rng::SimRng;
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -156,10 +157,15 @@ impl OptimiserConfig {
         self.pso.validate()
     }
 
-    /// Whether the filter must resample with IBA's partial EWA scheme (docs/ALGORITHMS.md §4.4):
-    /// IBA is selected and [`IbaConfig::partial_resampling`] is on.
-    pub fn partial_resampling(&self) -> bool {
-        self.kind == OptimiserKind::Iba && self.iba.partial_resampling
+    /// Whether the filter must resample with IBA's partial EWA scheme (docs/ALGORITHMS.md
+    /// §4.4): IBA is selected, [`IbaConfig::partial_resampling`] is on, and the moves run
+    /// in the papers' mode (`correction`). The scheme is biased — the replaced particles'
+    /// mass goes to draws from the whole cloud — so the corrected modes, which promise a
+    /// correct sampler, keep the filter's own scheme.
+    pub fn partial_resampling(&self, correction: MoveCorrection) -> bool {
+        self.kind == OptimiserKind::Iba
+            && self.iba.partial_resampling
+            && correction == MoveCorrection::None
     }
 
     /// The selected optimiser, or `None` for [`OptimiserKind::None`]. ICOA seeds its
