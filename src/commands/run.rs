@@ -5,6 +5,7 @@ use crate::progress;
 use crate::supervisor::{Outcome, Supervisor, stop_flag};
 use anyhow::{Context, bail};
 use fastslam_client::Metrics;
+use fastslam_client::expect::{Expectations, JudgeArgs};
 use fastslam_protocol::ipc;
 use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::scenario::{BUILT_IN, DEFAULT_SCENARIO};
@@ -49,6 +50,13 @@ pub struct RunArgs {
     /// removed with its shared-memory files at the end).
     #[arg(long)]
     pub prefix: Option<String>,
+    /// iceoryx2 root directory of the stack (default: $TMPDIR/fsl/<prefix>, removed at the
+    /// end; a root you name is kept).
+    #[arg(long)]
+    pub iox_root: Option<PathBuf>,
+    /// Expectations on the metrics and a JUnit report, passed on to the client.
+    #[command(flatten)]
+    pub judge: JudgeArgs,
     /// An extra flag for the FastSLAM service, passed through as is (repeatable), e.g.
     /// `--service-flag=--save-map=map.csv` or `--service-flag=--checkpoint=run.ckpt`.
     #[arg(long = "service-flag", value_name = "FLAG", allow_hyphen_values = true)]
@@ -71,13 +79,11 @@ pub struct RunArgs {
 /// # Errors
 /// When the scenario is invalid or the processes cannot be started.
 pub fn run(args: RunArgs) -> anyhow::Result<u8> {
+    let expectations = args.judge.expectations()?;
     let scenario = Scenario::load(&args.scenario)?;
     let seed = args.seed.unwrap_or(scenario.seed);
-    let prefix = args
-        .prefix
-        .clone()
-        .unwrap_or_else(fastslam_stack::fresh_prefix);
-    let root = fastslam_stack::stack_root(&prefix);
+    let place = Place::of(args.prefix.as_deref(), args.iox_root.as_deref());
+    let (prefix, root) = (place.prefix.clone(), place.root.clone());
     // The service's settings, checked here so a bad value fails before anything starts.
     let overrides = Overrides {
         particles: args.particles,
@@ -89,8 +95,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         args.runs_dir
             .join(format!("{}_{method}_seed{seed}", scenario.name))
     });
-    let logs = out.join("logs");
-    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    let logs = prepare(&out)?;
     let service_config = service_config_file(&args, &scenario, &out)?;
     let exe = std::env::current_exe().context("locating the launcher's own executable")?;
 
@@ -124,6 +129,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     if let Some(c) = &service_config {
         client.extend(["--service-config".into(), c.display().to_string()]);
     }
+    client.extend(args.judge.flags());
     for flags in [&mut service, &mut client] {
         if args.busy_poll {
             flags.push("--busy-poll".into());
@@ -154,6 +160,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         "stack {prefix}: {method} on {} (seed {seed})",
         scenario.name
     );
+    place.announce();
     let total_s = progress::simulated_duration_s(&scenario);
     let mut live_view = None;
     for (name, flags) in &processes {
@@ -178,23 +185,116 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     if let Some(view) = live_view {
         let _ = view.join();
     }
-    ipc::remove_stack_files(&prefix, Some(&root));
-
-    conclude(outcome, &out, &logs, started.elapsed())
+    place.remove();
+    let ended = Ended {
+        outcome,
+        out: &out,
+        logs: &logs,
+        wall: started.elapsed(),
+    };
+    conclude(ended, &args.judge, &expectations)
 }
 
-/// Reports how a stack ended: the summary of its run folder when it finished, else what
-/// went wrong and where the logs are. Returns the launcher's exit code (0 finished, 1
-/// failed or timed out, 130 interrupted).
+/// Where a launcher's stack lives: its prefix and iceoryx2 root.
+pub(crate) struct Place {
+    /// The stack prefix.
+    pub prefix: String,
+    /// The iceoryx2 root.
+    pub root: PathBuf,
+    /// True when the launcher chose the root (so it removes it at the end).
+    own_root: bool,
+}
+
+impl Place {
+    /// The prefix and root given, else a fresh prefix and a root of its own.
+    pub fn of(prefix: Option<&str>, root: Option<&Path>) -> Self {
+        let prefix = prefix.map_or_else(fastslam_stack::fresh_prefix, str::to_string);
+        Self {
+            root: root.map_or_else(|| fastslam_stack::stack_root(&prefix), Path::to_path_buf),
+            own_root: root.is_none(),
+            prefix,
+        }
+    }
+
+    /// Prints how a process of yours joins the stack.
+    pub fn announce(&self) {
+        eprintln!(
+            "join it with FASTSLAM_PREFIX={} FASTSLAM_IOX_ROOT={}",
+            self.prefix,
+            self.root.display()
+        );
+    }
+
+    /// Removes the stack's shared memory, and its root when the launcher chose it.
+    pub fn remove(&self) {
+        ipc::remove_stack_files(&self.prefix, self.own_root.then_some(self.root.as_path()));
+    }
+}
+
+/// Makes the run folder `out` and its `logs/` folder, without the metrics of an earlier
+/// run (so metrics.json is this run's or absent); returns the logs folder.
 ///
 /// # Errors
-/// When a finished run's metrics cannot be read.
+/// When a folder cannot be made or an old metrics.json cannot be removed.
+pub(crate) fn prepare(out: &Path) -> anyhow::Result<PathBuf> {
+    let logs = out.join("logs");
+    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    let metrics = out.join("metrics.json");
+    if metrics.is_file() {
+        std::fs::remove_file(&metrics)
+            .with_context(|| format!("removing {}", metrics.display()))?;
+    }
+    Ok(logs)
+}
+
+/// How a launcher's stack ended and where its run folder and logs are.
+pub(crate) struct Ended<'a> {
+    /// What the supervisor saw.
+    pub outcome: Outcome,
+    /// The run folder.
+    pub out: &'a Path,
+    /// The processes' logs.
+    pub logs: &'a Path,
+    /// Wall time of the run.
+    pub wall: Duration,
+}
+
+/// Reports how a stack ended: the summary of its run folder when it finished (with the
+/// expectations' lines when it is judged), else what went wrong and where the logs are.
+/// Returns the launcher's exit code (0 finished, 1 failed or timed out, 130 interrupted).
+///
+/// A client that exits 1 because the run failed its expectations (it wrote metrics.json
+/// that fail them) is the verdict, not a failure of the stack.
+///
+/// # Errors
+/// When a finished run's metrics cannot be read, or the run failed its expectations.
 pub(crate) fn conclude(
-    outcome: Outcome,
-    out: &Path,
-    logs: &Path,
-    wall: Duration,
+    ended: Ended<'_>,
+    judge: &JudgeArgs,
+    expectations: &Expectations,
 ) -> anyhow::Result<u8> {
+    let Ended {
+        outcome,
+        out,
+        logs,
+        wall,
+    } = ended;
+    let judged = judge.on()
+        && out.join("metrics.json").is_file()
+        && matches!(
+            outcome,
+            Outcome::Finished | Outcome::Failed { name: "client", .. }
+        );
+    if judged {
+        let verdict = expectations.judge_folder(out)?;
+        if outcome == Outcome::Finished || !verdict.passed() {
+            print_summary(out, wall)?;
+            for line in verdict.lines() {
+                println!("  {line}");
+            }
+            return verdict.into_result().map(|()| 0);
+        }
+    }
     match outcome {
         Outcome::Finished => {
             print_summary(out, wall)?;
@@ -268,7 +368,7 @@ fn tail(path: &Path, n: usize) -> String {
 }
 
 /// Prints where the run folder is and its headline metrics.
-fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
+pub(crate) fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
     let m = Metrics::read(&out.join("metrics.json"))?;
     println!("run folder: {}", out.display());
     println!(
