@@ -267,7 +267,7 @@ fn the_test_command_passes_the_python_publisher_on_sensible_expectations() {
         "estimate.ate_rmse_m < 0.5",
         "estimate.poses == 315",
         "map.matched >= 12",
-        "consistency.nees_within_95 >= 0.5",
+        "reference.ate_rmse_m < 0.2",
     ];
     let (result, junit) = test_python_publisher(&dir, &sensible);
     assert_success(&result);
