@@ -259,23 +259,21 @@ impl Stack {
     /// is raised, or the metrics cannot be read.
     pub fn finish_judged(mut self, timeout: Duration) -> anyhow::Result<(Metrics, Verdict)> {
         let started = Instant::now();
-        let mut ended = vec![false; self.children.len()];
-        while ended.contains(&false) {
-            for i in 0..ended.len() {
-                if ended[i] {
-                    continue;
-                }
-                if let Some(status) = self.children[i].1.try_wait()? {
-                    ended[i] = true;
-                    if !(status.success() || self.judged_failure(i)) {
-                        self.check(i, status)?;
-                    }
+        let mut running: Vec<usize> = (0..self.children.len()).collect();
+        while !running.is_empty() {
+            let mut still = Vec::new();
+            for i in running {
+                match self.children[i].1.try_wait()? {
+                    None => still.push(i),
+                    Some(status) if status.success() || self.judged_failure(i) => {}
+                    Some(status) => self.check(i, status)?,
                 }
             }
+            running = still;
             if self.stop.as_ref().is_some_and(|s| s.load(Ordering::SeqCst)) {
                 bail!("interrupted");
             }
-            if let Some(i) = ended.iter().position(|e| !e)
+            if let Some(&i) = running.first()
                 && started.elapsed() > timeout
             {
                 let name = self.children[i].0;
