@@ -50,13 +50,20 @@ pub fn metrics(out: &Path) -> serde_json::Value {
     serde_json::from_str(&text).expect("metrics.json is JSON")
 }
 
-/// The reproducible part of a run's metrics: everything but `cost` (time on the machine).
+/// The reproducible part of a run's metrics: everything but `cost` and the reference's
+/// `solve_s` (time on the machine).
 pub fn reproducible(out: &Path) -> serde_json::Value {
     let mut m = metrics(out);
-    m.as_object_mut()
-        .expect("metrics.json is an object")
+    let sections = m.as_object_mut().expect("metrics.json is an object");
+    sections
         .remove("cost")
         .expect("metrics.json has a cost section");
+    if let Some(reference) = sections
+        .get_mut("reference")
+        .and_then(|r| r.as_object_mut())
+    {
+        reference.remove("solve_s");
+    }
     m
 }
 
