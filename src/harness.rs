@@ -273,14 +273,15 @@ impl Stack {
             if self.stop.as_ref().is_some_and(|s| s.load(Ordering::SeqCst)) {
                 bail!("interrupted");
             }
-            if let Some(&i) = running.first()
-                && started.elapsed() > timeout
-            {
-                let name = self.children[i].0;
-                bail!(
-                    "the {name} did not end within {timeout:?}:\n{}",
-                    tail(&self.log(name))
-                );
+            if !running.is_empty() && started.elapsed() > timeout {
+                let names: Vec<&str> = running.iter().map(|&i| self.children[i].0).collect();
+                let log = tail(&self.log(names[0]));
+                let end = if log.is_empty() {
+                    String::new()
+                } else {
+                    format!("; the {}'s log ends with:\n{log}", names[0])
+                };
+                bail!("still running after {timeout:?}: {}{end}", names.join(", "));
             }
             std::thread::sleep(Duration::from_millis(20));
         }
