@@ -2,7 +2,7 @@
 //! data set's replay process, the FastSLAM service and the metrics client, each its own
 //! process — under a fresh stack prefix, with a run folder at the end.
 
-use crate::commands::run::{Ended, Place, conclude, prepare};
+use crate::commands::launch::{Ended, Place, conclude, prepare};
 use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::Context;
 use fastslam_client::expect::JudgeArgs;

@@ -3,7 +3,7 @@
 //! [`fastslam_stack::harness`]'s: the service and the client under a fresh prefix and
 //! iceoryx2 root, the publisher a shell command with both in its environment.
 
-use crate::commands::run::print_summary;
+use crate::commands::launch::print_summary;
 use crate::supervisor::stop_flag;
 use anyhow::Context;
 use fastslam_client::expect::JudgeArgs;
