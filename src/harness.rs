@@ -2,7 +2,8 @@
 //! each a real process, under a fresh stack prefix and iceoryx2 root of their own; your
 //! publisher joins it (a child process with [`Stack::env`], or a thread with
 //! [`Stack::config`]); [`Stack::finish`] waits for the run to end and hands back the
-//! client's [`Metrics`], typed.
+//! client's [`Metrics`], typed. Expectations given to the builder ([`StackBuilder::expect`])
+//! are judged by the client, as `fastslam-stack test` does.
 //!
 //! ```no_run
 //! use fastslam_stack::harness::Stack;
@@ -27,9 +28,13 @@
 use crate::topology::{REPLAY, Role};
 use anyhow::{Context, bail};
 use fastslam_client::Metrics;
+use fastslam_client::expect::{Expectations, JudgeArgs, Verdict};
 use fastslam_protocol::ipc::{StackConfig, remove_stack_files};
+use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// How a [`Stack`] is started.
@@ -39,6 +44,8 @@ pub struct StackBuilder {
     service_config: Option<String>,
     client_flags: Vec<String>,
     dir: Option<PathBuf>,
+    judge: JudgeArgs,
+    stop: Option<Arc<AtomicBool>>,
 }
 
 impl StackBuilder {
@@ -62,11 +69,34 @@ impl StackBuilder {
         self
     }
 
+    /// An expectation on the metrics (`"estimate.ate_rmse_m < 0.5"`, see
+    /// `client/METRICS.md`) for the client to judge; [`Stack::finish`] fails when one
+    /// does not hold.
+    pub fn expect(mut self, expression: impl Into<String>) -> Self {
+        self.judge.expect.push(expression.into());
+        self
+    }
+
+    /// Expectations and a JUnit report, as the client's flags give them.
+    pub fn judge(mut self, judge: JudgeArgs) -> Self {
+        self.judge.expect.extend(judge.expect);
+        self.judge.junit = judge.junit.or(self.judge.junit);
+        self
+    }
+
+    /// A flag that, once raised (a signal handler's), makes [`Stack::finish`] give up.
+    pub fn stop_flag(mut self, stop: Arc<AtomicBool>) -> Self {
+        self.stop = Some(stop);
+        self
+    }
+
     /// Starts the client, then the service, under a fresh prefix.
     ///
     /// # Errors
-    /// When the folder cannot be made or a process cannot be started.
+    /// When an expectation is malformed or names no number of the metrics, the folder
+    /// cannot be made, or a process cannot be started.
     pub fn start(self) -> anyhow::Result<Stack> {
+        let expectations = self.judge.expectations()?;
         let prefix = fresh_prefix();
         let dir = self
             .dir
@@ -80,15 +110,24 @@ impl StackBuilder {
             out: dir.join("run"),
             dir,
             children: Vec::new(),
+            judge: self.judge.on().then_some(expectations),
+            stop: self.stop,
         };
+        let old_metrics = stack.out.join("metrics.json");
+        if old_metrics.is_file() {
+            std::fs::remove_file(&old_metrics)
+                .with_context(|| format!("removing {}", old_metrics.display()))?;
+        }
         let mut service = Vec::new();
+        let mut client = vec!["--out".to_string(), stack.out.display().to_string()];
         if let Some(toml) = &self.service_config {
             let file = stack.dir.join("service.toml");
             std::fs::write(&file, toml).with_context(|| format!("writing {}", file.display()))?;
             service.extend(["--config".to_string(), file.display().to_string()]);
+            client.extend(["--service-config".to_string(), file.display().to_string()]);
         }
-        let mut client = vec!["--out".to_string(), stack.out.display().to_string()];
         client.extend(self.client_flags);
+        client.extend(self.judge.flags());
         for role in REPLAY.iter().filter(|r| r.name != "replay") {
             let flags = if role.name == "client" {
                 &client
@@ -107,9 +146,15 @@ pub struct Stack {
     stack: StackConfig,
     dir: PathBuf,
     out: PathBuf,
-    /// The client, then the service.
+    /// The client, then the service, then the publisher if it was started.
     children: Vec<(&'static str, Child)>,
+    /// The expectations when the run is judged.
+    judge: Option<Expectations>,
+    stop: Option<Arc<AtomicBool>>,
 }
+
+/// The name of the publisher among a stack's processes (and of its log).
+const PUBLISHER: &str = "publisher";
 
 /// A prefix no other stack of this machine uses: the process id and a counter.
 fn fresh_prefix() -> String {
@@ -130,6 +175,8 @@ impl Stack {
             service_config: None,
             client_flags: Vec::new(),
             dir: None,
+            judge: JudgeArgs::default(),
+            stop: None,
         }
     }
 
@@ -156,52 +203,101 @@ impl Stack {
         &self.out
     }
 
-    /// Runs `publisher` with [`Stack::env`] to its end; its output goes to
-    /// `publisher.log` in the stack's folder.
+    /// Starts `publisher` with [`Stack::env`], in a process group of its own (so that
+    /// stopping it stops what it started, a shell's children too); its output goes to
+    /// `publisher.log` in the stack's folder. [`Stack::finish`] waits for it.
     ///
     /// # Errors
-    /// When it cannot be started, or fails (with the end of its log).
-    pub fn run_publisher(&mut self, mut publisher: Command) -> anyhow::Result<()> {
-        let log_path = self.dir.join("publisher.log");
-        let log = std::fs::File::create(&log_path)?;
-        let status = publisher
+    /// When it cannot be started.
+    pub fn start_publisher(&mut self, mut publisher: Command) -> anyhow::Result<()> {
+        let log = std::fs::File::create(self.log(PUBLISHER))?;
+        let child = publisher
             .envs(self.env())
             .stdin(Stdio::null())
             .stdout(log.try_clone()?)
             .stderr(log)
-            .status()
+            .process_group(0)
+            .spawn()
             .context("starting the publisher")?;
-        if !status.success() {
-            bail!("the publisher failed ({status}):\n{}", tail(&log_path));
-        }
+        self.children.push((PUBLISHER, child));
         Ok(())
     }
 
-    /// Waits (up to `timeout`) until the service and the client have ended, then reads the
-    /// client's metrics.
+    /// Runs `publisher` as [`Stack::start_publisher`] does, to its end.
     ///
     /// # Errors
-    /// When a process fails or outlives `timeout` (with the end of its log), or the
-    /// metrics cannot be read.
-    pub fn finish(mut self, timeout: Duration) -> anyhow::Result<Metrics> {
-        let started = Instant::now();
-        for i in 0..self.children.len() {
-            let status = loop {
-                if let Some(status) = self.children[i].1.try_wait()? {
-                    break status;
-                }
-                if started.elapsed() > timeout {
-                    let name = self.children[i].0;
-                    bail!(
-                        "the {name} did not end within {timeout:?}:\n{}",
-                        tail(&self.log(name))
-                    );
-                }
-                std::thread::sleep(Duration::from_millis(20));
-            };
-            self.check(i, status)?;
+    /// When it cannot be started, or fails (with the end of its log).
+    pub fn run_publisher(&mut self, publisher: Command) -> anyhow::Result<()> {
+        self.start_publisher(publisher)?;
+        let last = self.children.len() - 1;
+        let status = self.children[last].1.wait()?;
+        self.check(last, status)
+    }
+
+    /// Waits (up to `timeout`) until every process has ended, then reads the client's
+    /// metrics.
+    ///
+    /// # Errors
+    /// When a process fails or outlives `timeout` (with the end of its log), the stop flag
+    /// is raised, the metrics cannot be read, or, with expectations, the run fails them
+    /// (or a stream did not end).
+    pub fn finish(self, timeout: Duration) -> anyhow::Result<Metrics> {
+        let judged = self.judge.is_some();
+        let (metrics, verdict) = self.finish_judged(timeout)?;
+        if judged {
+            verdict.into_result()?;
         }
-        Metrics::read(&self.out.join("metrics.json"))
+        Ok(metrics)
+    }
+
+    /// As [`Stack::finish`], but a run that fails its expectations is no error: returns
+    /// the metrics and the verdict (without expectations, only whether every stream
+    /// ended).
+    ///
+    /// # Errors
+    /// When a process fails or outlives `timeout` (with the end of its log), the stop flag
+    /// is raised, or the metrics cannot be read.
+    pub fn finish_judged(mut self, timeout: Duration) -> anyhow::Result<(Metrics, Verdict)> {
+        let started = Instant::now();
+        let mut running: Vec<usize> = (0..self.children.len()).collect();
+        while !running.is_empty() {
+            let mut still = Vec::new();
+            for i in running {
+                match self.children[i].1.try_wait()? {
+                    None => still.push(i),
+                    Some(status) if status.success() || self.judged_failure(i) => {}
+                    Some(status) => self.check(i, status)?,
+                }
+            }
+            running = still;
+            if self.stop.as_ref().is_some_and(|s| s.load(Ordering::SeqCst)) {
+                bail!("interrupted");
+            }
+            if !running.is_empty() && started.elapsed() > timeout {
+                let names: Vec<&str> = running.iter().map(|&i| self.children[i].0).collect();
+                let log = tail(&self.log(names[0]));
+                let end = if log.is_empty() {
+                    String::new()
+                } else {
+                    format!("; the {}'s log ends with:\n{log}", names[0])
+                };
+                bail!("still running after {timeout:?}: {}{end}", names.join(", "));
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let metrics = Metrics::read(&self.out.join("metrics.json"))?;
+        let verdict = self.judge.clone().unwrap_or_default().judge(&metrics);
+        Ok((metrics, verdict))
+    }
+
+    /// True when child `i` is the client and it failed because the run it judged failed
+    /// its expectations (it wrote metrics.json that fail them).
+    fn judged_failure(&self, i: usize) -> bool {
+        let judged = self
+            .judge
+            .as_ref()
+            .filter(|_| self.children[i].0 == "client");
+        judged.is_some_and(|e| e.judge_folder(&self.out).is_ok_and(|v| !v.passed()))
     }
 
     /// Fails with the end of the log of child `i` unless `status` is success.
@@ -238,9 +334,12 @@ impl Stack {
 
 impl Drop for Stack {
     fn drop(&mut self) {
-        for (_, child) in &mut self.children {
+        for (name, child) in &mut self.children {
             if child.try_wait().ok().flatten().is_none() {
-                let pid = nix::unistd::Pid::from_raw(child.id() as i32);
+                // The publisher leads a process group of its own: stop all of it.
+                let pid = child.id() as i32;
+                let target = if *name == PUBLISHER { -pid } else { pid };
+                let pid = nix::unistd::Pid::from_raw(target);
                 let _ = nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM);
                 let _ = child.wait();
             }

@@ -11,7 +11,7 @@ mod supervisor;
 
 use clap::{Parser, Subcommand};
 use commands::{
-    bench, compare, extraction_report, map_get, monte_carlo, replay, run, scenarios, ungm,
+    bench, compare, extraction_report, map_get, monte_carlo, replay, run, scenarios, test, ungm,
 };
 use fastslam_protocol::cli::run_process;
 use fastslam_sensors_sim::processes::{lidar, odometry, truth};
@@ -40,6 +40,10 @@ enum Command {
         #[command(subcommand)]
         data_set: replay::DataSet,
     },
+    /// Integration-test your own publisher: the service and the client on what it
+    /// publishes, judged by expectations on the metrics (exit status 0 pass, 1 fail).
+    #[command(long_about = test::LONG_ABOUT)]
+    Test(test::TestArgs),
     /// Ask a running stack's FastSLAM service for its current map and write it as CSV
     /// (the format `--save-map` writes and `--load-map` reads); prints the landmark count.
     MapGet(map_get::MapGetArgs),
@@ -112,6 +116,10 @@ fn dispatch(command: Command) -> anyhow::Result<u8> {
         Command::Replay { data_set } => {
             fastslam_protocol::cli::init_logging("launcher");
             replay::replay(data_set)
+        }
+        Command::Test(args) => {
+            fastslam_protocol::cli::init_logging("test");
+            test::run(&args)
         }
         Command::Scenarios => {
             scenarios::run();

@@ -13,20 +13,7 @@ use std::process::Command;
 use std::time::Duration;
 
 /// Service settings that suit the script's robot (its noise, known association).
-const SERVICE_TOML: &str = r#"
-[filter]
-particles = 50
-[filter.motion]
-model = "unicycle"
-sigma_v = 0.05
-sigma_omega = 0.02
-[filter.sensor]
-sigma_range = 0.1
-sigma_bearing = 0.01
-max_range = 15.0
-[filter.association]
-mode = "known"
-"#;
+const SERVICE_TOML: &str = include_str!("../examples/python/service.toml");
 
 #[test]
 fn the_service_runs_on_what_the_python_publisher_sends() {
@@ -41,8 +28,7 @@ fn the_service_runs_on_what_the_python_publisher_sends() {
     publisher
         .arg(&script)
         .args(["--prefix", &config.prefix, "--iox-root"])
-        .arg(config.root.as_deref().unwrap_or_default())
-        .args(["--wait-subscribers", "2"]); // service and client
+        .arg(config.root.as_deref().unwrap_or_default());
     stack.run_publisher(publisher).expect("publisher.py runs");
     let service_log = stack.log("service");
     let m = stack

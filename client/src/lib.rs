@@ -6,6 +6,7 @@
 //! pictures) is described in `METRICS.md`.
 
 pub mod align;
+pub mod expect;
 pub mod latency;
 pub mod metrics;
 pub mod occupancy;

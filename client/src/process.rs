@@ -2,6 +2,7 @@
 //! (or, marked incomplete, on SIGINT/SIGTERM). While it records, it prints a progress
 //! line on stdout a few times a second (see [`crate::progress`]).
 
+use crate::expect::JudgeArgs;
 use crate::latency::LatencyMatcher;
 use crate::metrics::{AlignMode, ScoreAt, fit_alignment, interpolate, scored_at};
 use crate::progress::{LiveAte, Progress};
@@ -26,7 +27,7 @@ const SAMPLE_EVERY: Duration = Duration::from_millis(200);
 /// What `--help` says about this process.
 pub const ABOUT: &str = "Metrics client: records ground truth, odometry, pose estimates, maps and the \
 occupancy grid from the stack and, when every stream has ended, writes a run folder scored against \
-ground truth.";
+ground truth; with `--expect`, it then judges the run.";
 
 /// Flags of the client.
 #[derive(Debug, Clone, clap::Args)]
@@ -57,6 +58,9 @@ pub struct Args {
     /// the file its service runs with.
     #[arg(long)]
     pub service_config: Option<PathBuf>,
+    /// Expectations on the metrics and a JUnit report.
+    #[command(flatten)]
+    pub judge: JudgeArgs,
 }
 
 /// Records until every stream has ended (or a signal arrives), then writes the run folder.
@@ -64,6 +68,7 @@ pub struct Args {
 /// # Errors
 /// IPC failures or a run folder that cannot be written.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let expectations = args.judge.expectations()?;
     let noise = (args.service_config.as_deref())
         .map(|path| {
             anyhow::Ok(NoiseModel::of(
@@ -210,6 +215,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ate_m = metrics.estimate.ate_rmse_m, landmark_rmse_m = metrics.map.rmse_m,
         "run folder written"
     );
+    if args.judge.on() {
+        let verdict = expectations.judge(&metrics);
+        let mut out = std::io::stdout().lock();
+        for line in verdict.lines() {
+            writeln!(out, "{line}")?;
+        }
+        if let Some(junit) = &args.judge.junit {
+            let suite = args.out.file_name().map_or_else(
+                || "fastslam".to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            );
+            verdict.write_junit(junit, &suite)?;
+        }
+        verdict.into_result()?;
+    }
     Ok(())
 }
 

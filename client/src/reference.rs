@@ -52,7 +52,7 @@ impl NoiseModel {
 }
 
 /// The reference as `metrics.json` reports it.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct ReferenceMetrics {
     /// ATE RMSE of the reference trajectory (m), scored as the estimate is.
     #[serde(deserialize_with = "crate::metrics::number")]

@@ -15,12 +15,18 @@ with their ids (run the service with known association). Needs the iceoryx2 whee
 
     python3 examples/python/publisher.py --prefix fastslam
 
-then start the service (and a client) under the same prefix, or let the script wait for
-them: it starts publishing once `--wait-subscribers` processes subscribed.
+then start the service and a client under the same prefix, or let the script wait for
+them: it starts publishing once `--wait-subscribers` processes subscribed. The stack's
+prefix and iceoryx2 root default to FASTSLAM_PREFIX and FASTSLAM_IOX_ROOT, which
+`fastslam-stack test` sets:
+
+    fastslam-stack test --config examples/python/service.toml \
+        --publisher "python3 examples/python/publisher.py" --expect "estimate.ate_rmse_m < 0.5"
 """
 
 import argparse
 import math
+import os
 import random
 import sys
 from pathlib import Path
@@ -101,13 +107,15 @@ def observe(x, y, theta, with_ids):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--prefix", default="fastslam", help="stack name (service prefix)")
-    parser.add_argument("--iox-root", help="iceoryx2 root directory (as the stack's)")
+    parser.add_argument("--prefix", default=os.environ.get("FASTSLAM_PREFIX", "fastslam"),
+                        help="stack name (service prefix; default: $FASTSLAM_PREFIX or fastslam)")
+    parser.add_argument("--iox-root", default=os.environ.get("FASTSLAM_IOX_ROOT"),
+                        help="iceoryx2 root directory, as the stack's (default: $FASTSLAM_IOX_ROOT)")
     parser.add_argument("--duration-s", type=float, default=63.0, help="simulated time")
     parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--wait-subscribers", type=int, default=1,
+    parser.add_argument("--wait-subscribers", type=int, default=2,
                         help="start once this many processes take odometry and observations "
-                             "(1: the service; 2: the service and a client)")
+                             "(2: the service and a client; 1: the service alone)")
     parser.add_argument("--unknown-ids", action="store_true", help="publish ids as -1")
     args = parser.parse_args()
     random.seed(args.seed)

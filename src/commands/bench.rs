@@ -294,6 +294,8 @@ fn stack_run(
         realtime,
         timeout_s: None,
         prefix: None,
+        iox_root: None,
+        judge: Default::default(),
         service_flags: Vec::new(),
         busy_poll,
         spin_us,

@@ -9,7 +9,7 @@
 //! are passed through to the service untouched: a name the service rejects fails that
 //! configuration with the service's reason and the others still run.
 
-use crate::commands::run::short;
+use crate::commands::launch::short;
 use crate::supervisor::stop_flag;
 use anyhow::Context;
 use fastslam_client::Metrics;

@@ -2,10 +2,10 @@
 //! data set's replay process, the FastSLAM service and the metrics client, each its own
 //! process — under a fresh stack prefix, with a run folder at the end.
 
-use crate::commands::run::conclude;
+use crate::commands::launch::{Ended, Place, conclude, prepare};
 use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::Context;
-use fastslam_protocol::ipc;
+use fastslam_client::expect::JudgeArgs;
 use fastslam_replay::dataset::Association;
 use fastslam_replay::profile::Profile;
 use fastslam_service::config::{EstimatorChoice, Overrides, ServiceConfig};
@@ -85,6 +85,13 @@ pub struct ReplayRunArgs {
     /// Stack prefix (default: a fresh one per run, removed with its shared memory).
     #[arg(long)]
     pub prefix: Option<String>,
+    /// iceoryx2 root directory of the stack (default: $TMPDIR/fsl/<prefix>, removed at the
+    /// end; a root you name is kept).
+    #[arg(long)]
+    pub iox_root: Option<PathBuf>,
+    /// Expectations on the metrics and a JUnit report, passed on to the client.
+    #[command(flatten)]
+    pub judge: JudgeArgs,
 }
 
 /// What the replay process needs beyond the common flags: its subcommand, run-folder
@@ -158,16 +165,14 @@ impl DataSet {
 pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
     let plan = data_set.plan()?;
     let args = plan.run;
+    let expectations = args.judge.expectations()?;
     let profile_arg = args
         .profile
         .clone()
         .unwrap_or_else(|| plan.default_profile.to_string());
     let profile = Profile::load(&profile_arg)?;
-    let prefix = args
-        .prefix
-        .clone()
-        .unwrap_or_else(fastslam_stack::fresh_prefix);
-    let root = fastslam_stack::stack_root(&prefix);
+    let place = Place::of(args.prefix.as_deref(), args.iox_root.as_deref());
+    let (prefix, root) = (place.prefix.clone(), place.root.clone());
     // The service's settings, checked here so a bad value fails before anything starts.
     let table = settings::replay_service_table(args.config.as_deref(), &profile, plan.association)?;
     let overrides = Overrides {
@@ -183,8 +188,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         args.runs_dir
             .join(format!("{}_{method}_seed{}", plan.label, args.seed))
     });
-    let logs = out.join("logs");
-    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    let logs = prepare(&out)?;
     let config = out.join("service.toml");
     std::fs::write(&config, toml::to_string_pretty(&table)?)?;
     let exe = std::env::current_exe().context("locating the launcher's own executable")?;
@@ -202,6 +206,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
     client.extend(["--out".into(), out.display().to_string()]);
     client.extend(["--service-config".into(), config.display().to_string()]);
     client.extend(profile.client.flags.iter().cloned());
+    client.extend(args.judge.flags());
     let mut replay = stack_flags;
     replay.extend([
         "--data".into(),
@@ -223,6 +228,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         "stack {prefix}: {method} on {} ({})",
         plan.label, profile.name
     );
+    place.announce();
     for role in &topology::REPLAY {
         let (name, flags) = match role.name {
             "client" => ("client", client.clone()),
@@ -236,8 +242,14 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
     }
     let outcome = stack.wait(&stop, args.timeout_s.map(Duration::from_secs_f64));
     drop(stack);
-    ipc::remove_stack_files(&prefix, Some(&root));
-    conclude(outcome, &out, &logs, started.elapsed())
+    place.remove();
+    let ended = Ended {
+        outcome,
+        out: &out,
+        logs: &logs,
+        wall: started.elapsed(),
+    };
+    conclude(ended, &args.judge, &expectations)
 }
 
 /// A built-in profile is passed by name, a file by absolute path.

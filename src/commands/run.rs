@@ -1,11 +1,11 @@
 //! `fastslam-stack run`: the whole stack on one scenario, under a fresh stack prefix, with
 //! a run folder at the end.
 
+use crate::commands::launch::{Ended, Place, conclude, prepare};
 use crate::progress;
-use crate::supervisor::{Outcome, Supervisor, stop_flag};
+use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::{Context, bail};
-use fastslam_client::Metrics;
-use fastslam_protocol::ipc;
+use fastslam_client::expect::JudgeArgs;
 use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::scenario::{BUILT_IN, DEFAULT_SCENARIO};
 use fastslam_service::config::{EstimatorChoice, Overrides};
@@ -49,6 +49,13 @@ pub struct RunArgs {
     /// removed with its shared-memory files at the end).
     #[arg(long)]
     pub prefix: Option<String>,
+    /// iceoryx2 root directory of the stack (default: $TMPDIR/fsl/<prefix>, removed at the
+    /// end; a root you name is kept).
+    #[arg(long)]
+    pub iox_root: Option<PathBuf>,
+    /// Expectations on the metrics and a JUnit report, passed on to the client.
+    #[command(flatten)]
+    pub judge: JudgeArgs,
     /// An extra flag for the FastSLAM service, passed through as is (repeatable), e.g.
     /// `--service-flag=--save-map=map.csv` or `--service-flag=--checkpoint=run.ckpt`.
     #[arg(long = "service-flag", value_name = "FLAG", allow_hyphen_values = true)]
@@ -71,13 +78,11 @@ pub struct RunArgs {
 /// # Errors
 /// When the scenario is invalid or the processes cannot be started.
 pub fn run(args: RunArgs) -> anyhow::Result<u8> {
+    let expectations = args.judge.expectations()?;
     let scenario = Scenario::load(&args.scenario)?;
     let seed = args.seed.unwrap_or(scenario.seed);
-    let prefix = args
-        .prefix
-        .clone()
-        .unwrap_or_else(fastslam_stack::fresh_prefix);
-    let root = fastslam_stack::stack_root(&prefix);
+    let place = Place::of(args.prefix.as_deref(), args.iox_root.as_deref());
+    let (prefix, root) = (place.prefix.clone(), place.root.clone());
     // The service's settings, checked here so a bad value fails before anything starts.
     let overrides = Overrides {
         particles: args.particles,
@@ -89,8 +94,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         args.runs_dir
             .join(format!("{}_{method}_seed{seed}", scenario.name))
     });
-    let logs = out.join("logs");
-    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    let logs = prepare(&out)?;
     let service_config = service_config_file(&args, &scenario, &out)?;
     let exe = std::env::current_exe().context("locating the launcher's own executable")?;
 
@@ -124,6 +128,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     if let Some(c) = &service_config {
         client.extend(["--service-config".into(), c.display().to_string()]);
     }
+    client.extend(args.judge.flags());
     for flags in [&mut service, &mut client] {
         if args.busy_poll {
             flags.push("--busy-poll".into());
@@ -154,6 +159,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         "stack {prefix}: {method} on {} (seed {seed})",
         scenario.name
     );
+    place.announce();
     let total_s = progress::simulated_duration_s(&scenario);
     let mut live_view = None;
     for (name, flags) in &processes {
@@ -178,47 +184,14 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     if let Some(view) = live_view {
         let _ = view.join();
     }
-    ipc::remove_stack_files(&prefix, Some(&root));
-
-    conclude(outcome, &out, &logs, started.elapsed())
-}
-
-/// Reports how a stack ended: the summary of its run folder when it finished, else what
-/// went wrong and where the logs are. Returns the launcher's exit code (0 finished, 1
-/// failed or timed out, 130 interrupted).
-///
-/// # Errors
-/// When a finished run's metrics cannot be read.
-pub(crate) fn conclude(
-    outcome: Outcome,
-    out: &Path,
-    logs: &Path,
-    wall: Duration,
-) -> anyhow::Result<u8> {
-    match outcome {
-        Outcome::Finished => {
-            print_summary(out, wall)?;
-            Ok(0)
-        }
-        Outcome::Failed { name, status } => {
-            eprintln!(
-                "{name} failed ({status}); the other processes were stopped. Its log ends with:"
-            );
-            eprintln!("{}", tail(&logs.join(format!("{name}.log")), 15));
-            Ok(1)
-        }
-        Outcome::Interrupted => {
-            eprintln!(
-                "interrupted; processes stopped, shared memory removed. Logs: {}",
-                logs.display()
-            );
-            Ok(130)
-        }
-        Outcome::TimedOut => {
-            eprintln!("timed out; processes stopped. Logs: {}", logs.display());
-            Ok(1)
-        }
-    }
+    place.remove();
+    let ended = Ended {
+        outcome,
+        out: &out,
+        logs: &logs,
+        wall: started.elapsed(),
+    };
+    conclude(ended, &args.judge, &expectations)
 }
 
 /// A built-in scenario is passed by name, a file by absolute path.
@@ -249,54 +222,4 @@ fn service_config_file(
     let path = out.join("service.toml");
     std::fs::write(&path, toml::to_string_pretty(table)?)?;
     Ok(Some(path))
-}
-
-/// A number in at most 8 characters: fixed point, or scientific when huge.
-pub(crate) fn short(v: f64) -> String {
-    if v.abs() < 1e5 {
-        format!("{v:.2}")
-    } else {
-        format!("{v:.2e}")
-    }
-}
-
-/// The last `n` lines of a log file.
-fn tail(path: &Path, n: usize) -> String {
-    let text = std::fs::read_to_string(path).unwrap_or_default();
-    let lines: Vec<&str> = text.lines().collect();
-    lines[lines.len().saturating_sub(n)..].join("\n")
-}
-
-/// Prints where the run folder is and its headline metrics.
-fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
-    let m = Metrics::read(&out.join("metrics.json"))?;
-    println!("run folder: {}", out.display());
-    println!(
-        "  ATE RMSE       {:8.3} m   (dead reckoning {:.3} m)",
-        m.estimate.ate_rmse_m, m.dead_reckoning.ate_rmse_m
-    );
-    if let Some(r) = &m.reference {
-        println!(
-            "  achievable ATE {:8.3} m   (full-SLAM MAP over the same data; the estimate is {:.1}× it; \
-             χ²/dof {:.2})",
-            r.ate_rmse_m,
-            m.estimate.ate_rmse_m / r.ate_rmse_m,
-            r.chi2_per_dof
-        );
-    }
-    println!("  final error    {:8.3} m", m.estimate.final_error_m);
-    println!(
-        "  landmark RMSE  {:8.3} m   ({} of {} matched, {} spurious)",
-        m.map.rmse_m, m.map.matched, m.map.truth, m.map.spurious
-    );
-    let c = &m.consistency;
-    println!(
-        "  NEES mean      {:>8}     ({:.0} % of steps within the 95 % bound; 3 when consistent; \
-         {} steps with a singular covariance)",
-        short(c.nees_mean),
-        100.0 * c.nees_within_95,
-        c.singular
-    );
-    println!("  wall time      {:8.2} s", wall.as_secs_f64());
-    Ok(())
 }

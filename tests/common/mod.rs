@@ -50,18 +50,26 @@ pub fn metrics(out: &Path) -> serde_json::Value {
     serde_json::from_str(&text).expect("metrics.json is JSON")
 }
 
-/// The reproducible part of a run's metrics: everything but `cost` and the reference's
-/// `solve_s` (time on the machine).
+/// The reproducible part of a run's metrics (see [`drop_timings`]).
 pub fn reproducible(out: &Path) -> serde_json::Value {
     let mut m = metrics(out);
-    m.as_object_mut()
-        .expect("metrics.json is an object")
+    drop_timings(&mut m);
+    m
+}
+
+/// Removes what measures time on the machine from metrics: `cost` (which must be there)
+/// and the reference's `solve_s`.
+pub fn drop_timings(metrics: &mut serde_json::Value) {
+    let sections = metrics.as_object_mut().expect("metrics.json is an object");
+    sections
         .remove("cost")
         .expect("metrics.json has a cost section");
-    if let Some(reference) = m.get_mut("reference").and_then(|r| r.as_object_mut()) {
+    if let Some(reference) = sections
+        .get_mut("reference")
+        .and_then(|r| r.as_object_mut())
+    {
         reference.remove("solve_s");
     }
-    m
 }
 
 /// A number in the metrics, by JSON pointer.

@@ -81,7 +81,7 @@ typedef struct fastslam_Header {
 #define FASTSLAM_GROUND_TRUTH_TYPE_NAME "fastslam::GroundTruth"
 typedef struct fastslam_GroundTruth {
     fastslam_Header header;
-    double x; /* m: position x, frame `map */
+    double x; /* m: position x, frame `map` */
     double y; /* m: position y */
     double theta; /* rad: heading in (−π, π] */
     double v; /* m/s: true speed over the interval ending at the stamp */
@@ -106,7 +106,7 @@ typedef struct fastslam_Odometry {
     double v; /* m/s: measured forward speed */
     double omega; /* rad/s: measured yaw rate (differential drive) */
     double steering; /* rad: measured steering angle (car-like) */
-    double x; /* m: dead-reckoned x, frame `odom */
+    double x; /* m: dead-reckoned x, frame `odom` */
     double y; /* m: dead-reckoned y */
     double theta; /* rad: dead-reckoned heading */
 } fastslam_Odometry;
@@ -160,7 +160,7 @@ _Static_assert(offsetof(fastslam_Observation, id) == 24, "fastslam_Observation m
 #define FASTSLAM_POSE_ESTIMATE_TYPE_NAME "fastslam::PoseEstimate"
 typedef struct fastslam_PoseEstimate {
     fastslam_Header header;
-    double x; /* m: position x, frame `map */
+    double x; /* m: position x, frame `map` */
     double y; /* m: position y */
     double theta; /* rad: heading */
     double covariance[9]; /* m², m·rad, rad²: covariance of (x, y, θ), row-major */
@@ -192,7 +192,7 @@ _Static_assert(offsetof(fastslam_LandmarkMapHeader, reserved) == 20, "fastslam_L
 #define FASTSLAM_MAP_LANDMARK_TYPE_NAME "fastslam::MapLandmark"
 typedef struct fastslam_MapLandmark {
     uint64_t id; /* —: stable id within the map */
-    double x; /* m: mean x, frame `map */
+    double x; /* m: mean x, frame `map` */
     double y; /* m: mean y */
     double cov_xx; /* m²: covariance xx */
     double cov_xy; /* m²: covariance xy */
@@ -277,7 +277,7 @@ typedef struct fastslam_LaserScanHeader {
     float range_min; /* m: shortest measurable range */
     float range_max; /* m: longest measurable range */
     uint32_t ranges; /* —: number of ranges, 1..=65536 */
-    uint32_t intensities; /* —: number of intensities after the ranges: 0 or `ranges */
+    uint32_t intensities; /* —: number of intensities after the ranges: 0 or `ranges` */
 } fastslam_LaserScanHeader;
 _Static_assert(sizeof(fastslam_LaserScanHeader) == 48, "fastslam_LaserScanHeader must match the Rust layout");
 _Static_assert(_Alignof(fastslam_LaserScanHeader) == 8, "fastslam_LaserScanHeader must match the Rust layout");
@@ -297,7 +297,7 @@ _Static_assert(offsetof(fastslam_LaserScanHeader, intensities) == 44, "fastslam_
 typedef struct fastslam_OccupancyGridHeader {
     fastslam_Header header;
     double resolution; /* m: side of a square cell */
-    double origin_x; /* m: x of cell (0, 0)'s lower-left corner, frame `map */
+    double origin_x; /* m: x of cell (0, 0)'s lower-left corner, frame `map` */
     double origin_y; /* m: y of that corner */
     double origin_theta; /* rad: rotation of the grid about its origin */
     uint32_t width; /* —: cells per row (along x) */

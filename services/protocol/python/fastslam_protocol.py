@@ -4,6 +4,10 @@ protocol's type names, sizes and alignments, and the topics' settings.
 GENERATED from services/protocol/README.md by tests/bindings.rs: do not edit;
 regenerate with FASTSLAM_BLESS=1 cargo test -p fastslam-protocol --test bindings.
 Use with the iceoryx2 wheel (0.10): the structures carry `type_name()`.
+
+A received slice sample's `len()` is its payload's size in bytes, not in elements:
+take the element count from the user header (a map's `LandmarkMapHeader.count`,
+an observation message's `ObservationsHeader.count`).
 """
 
 import ctypes
@@ -67,7 +71,7 @@ class GroundTruth(ctypes.Structure):
 
     _fields_ = [
         ("header", Header),
-        ("x", ctypes.c_double),  # m: position x, frame `map
+        ("x", ctypes.c_double),  # m: position x, frame `map`
         ("y", ctypes.c_double),  # m: position y
         ("theta", ctypes.c_double),  # rad: heading in (−π, π]
         ("v", ctypes.c_double),  # m/s: true speed over the interval ending at the stamp
@@ -90,7 +94,7 @@ class Odometry(ctypes.Structure):
         ("v", ctypes.c_double),  # m/s: measured forward speed
         ("omega", ctypes.c_double),  # rad/s: measured yaw rate (differential drive)
         ("steering", ctypes.c_double),  # rad: measured steering angle (car-like)
-        ("x", ctypes.c_double),  # m: dead-reckoned x, frame `odom
+        ("x", ctypes.c_double),  # m: dead-reckoned x, frame `odom`
         ("y", ctypes.c_double),  # m: dead-reckoned y
         ("theta", ctypes.c_double),  # rad: dead-reckoned heading
     ]
@@ -143,7 +147,7 @@ class PoseEstimate(ctypes.Structure):
 
     _fields_ = [
         ("header", Header),
-        ("x", ctypes.c_double),  # m: position x, frame `map
+        ("x", ctypes.c_double),  # m: position x, frame `map`
         ("y", ctypes.c_double),  # m: position y
         ("theta", ctypes.c_double),  # rad: heading
         ("covariance", ctypes.c_double * 9),  # m², m·rad, rad²: covariance of (x, y, θ), row-major
@@ -177,7 +181,7 @@ class MapLandmark(ctypes.Structure):
 
     _fields_ = [
         ("id", ctypes.c_uint64),  # —: stable id within the map
-        ("x", ctypes.c_double),  # m: mean x, frame `map
+        ("x", ctypes.c_double),  # m: mean x, frame `map`
         ("y", ctypes.c_double),  # m: mean y
         ("cov_xx", ctypes.c_double),  # m²: covariance xx
         ("cov_xy", ctypes.c_double),  # m²: covariance xy
@@ -260,7 +264,7 @@ class LaserScanHeader(ctypes.Structure):
         ("range_min", ctypes.c_float),  # m: shortest measurable range
         ("range_max", ctypes.c_float),  # m: longest measurable range
         ("ranges", ctypes.c_uint32),  # —: number of ranges, 1..=65536
-        ("intensities", ctypes.c_uint32),  # —: number of intensities after the ranges: 0 or `ranges
+        ("intensities", ctypes.c_uint32),  # —: number of intensities after the ranges: 0 or `ranges`
     ]
 
     @staticmethod
@@ -276,7 +280,7 @@ class OccupancyGridHeader(ctypes.Structure):
     _fields_ = [
         ("header", Header),
         ("resolution", ctypes.c_double),  # m: side of a square cell
-        ("origin_x", ctypes.c_double),  # m: x of cell (0, 0)'s lower-left corner, frame `map
+        ("origin_x", ctypes.c_double),  # m: x of cell (0, 0)'s lower-left corner, frame `map`
         ("origin_y", ctypes.c_double),  # m: y of that corner
         ("origin_theta", ctypes.c_double),  # rad: rotation of the grid about its origin
         ("width", ctypes.c_uint32),  # —: cells per row (along x)

@@ -340,7 +340,22 @@ fn python_module(types: &[DocType], topics: &[DocTopic]) -> String {
     .unwrap();
     writeln!(
         w,
-        "Use with the iceoryx2 wheel (0.10): the structures carry `type_name()`.\n\"\"\"\n"
+        "Use with the iceoryx2 wheel (0.10): the structures carry `type_name()`."
+    )
+    .unwrap();
+    writeln!(
+        w,
+        "\nA received slice sample's `len()` is its payload's size in bytes, not in elements:"
+    )
+    .unwrap();
+    writeln!(
+        w,
+        "take the element count from the user header (a map's `LandmarkMapHeader.count`,"
+    )
+    .unwrap();
+    writeln!(
+        w,
+        "an observation message's `ObservationsHeader.count`).\n\"\"\"\n"
     )
     .unwrap();
     writeln!(w, "import ctypes\nfrom typing import NamedTuple\n").unwrap();

@@ -55,10 +55,18 @@ pub struct DocTopic {
 
 /// The cells of a Markdown table row, trimmed, backticks removed.
 pub fn cells(line: &str) -> Vec<String> {
+    raw_cells(line)
+        .iter()
+        .map(|c| c.trim_matches('`').to_string())
+        .collect()
+}
+
+/// The cells of a Markdown table row, trimmed of spaces only (text that may end in code).
+pub fn raw_cells(line: &str) -> Vec<String> {
     line.trim()
         .trim_matches('|')
         .split('|')
-        .map(|c| c.trim().trim_matches('`').to_string())
+        .map(|c| c.trim().to_string())
         .collect()
 }
 
@@ -94,15 +102,15 @@ pub fn documented_table(readme: &str, name: &str) -> Vec<DocField> {
         .skip_while(|l| l.trim() != heading)
         .skip(1)
         .take_while(|l| !l.starts_with("###"))
-        .map(cells)
-        .filter(|c| c.len() >= 5)
-        .filter_map(|c| {
+        .map(|l| (cells(l), raw_cells(l)))
+        .filter(|(c, _)| c.len() >= 5)
+        .filter_map(|(c, raw)| {
             Some(DocField {
                 offset: c[0].parse().ok()?,
                 name: c[1].clone(),
                 ty: c[2].clone(),
                 unit: c[3].clone(),
-                meaning: c[4..].join("|"),
+                meaning: raw[4..].join("|"),
             })
         })
         .collect()

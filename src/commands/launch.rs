@@ -1,0 +1,187 @@
+//! What `run` and `replay` share around the stack they start: where it lives (prefix and
+//! iceoryx2 root), its run folder, and the report when it has ended — the summary, the
+//! expectations' verdict, or what went wrong.
+
+use crate::supervisor::Outcome;
+use anyhow::Context;
+use fastslam_client::Metrics;
+use fastslam_client::expect::{Expectations, JudgeArgs};
+use fastslam_protocol::ipc;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// Where a launcher's stack lives: its prefix and iceoryx2 root.
+pub(crate) struct Place {
+    /// The stack prefix.
+    pub prefix: String,
+    /// The iceoryx2 root.
+    pub root: PathBuf,
+    /// True when the launcher chose the root (so it removes it at the end).
+    own_root: bool,
+}
+
+impl Place {
+    /// The prefix and root given, else a fresh prefix and a root of its own.
+    pub fn of(prefix: Option<&str>, root: Option<&Path>) -> Self {
+        let prefix = prefix.map_or_else(fastslam_stack::fresh_prefix, str::to_string);
+        Self {
+            root: root.map_or_else(|| fastslam_stack::stack_root(&prefix), Path::to_path_buf),
+            own_root: root.is_none(),
+            prefix,
+        }
+    }
+
+    /// Prints how a process of yours joins the stack.
+    pub fn announce(&self) {
+        eprintln!(
+            "join it with FASTSLAM_PREFIX={} FASTSLAM_IOX_ROOT={}",
+            self.prefix,
+            self.root.display()
+        );
+    }
+
+    /// Removes the stack's shared memory, and its root when the launcher chose it.
+    pub fn remove(&self) {
+        ipc::remove_stack_files(&self.prefix, self.own_root.then_some(self.root.as_path()));
+    }
+}
+
+/// Makes the run folder `out` and its `logs/` folder, without the metrics of an earlier
+/// run (so metrics.json is this run's or absent); returns the logs folder.
+///
+/// # Errors
+/// When a folder cannot be made or an old metrics.json cannot be removed.
+pub(crate) fn prepare(out: &Path) -> anyhow::Result<PathBuf> {
+    let logs = out.join("logs");
+    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    let metrics = out.join("metrics.json");
+    if metrics.is_file() {
+        std::fs::remove_file(&metrics)
+            .with_context(|| format!("removing {}", metrics.display()))?;
+    }
+    Ok(logs)
+}
+
+/// How a launcher's stack ended and where its run folder and logs are.
+pub(crate) struct Ended<'a> {
+    /// What the supervisor saw.
+    pub outcome: Outcome,
+    /// The run folder.
+    pub out: &'a Path,
+    /// The processes' logs.
+    pub logs: &'a Path,
+    /// Wall time of the run.
+    pub wall: Duration,
+}
+
+/// Reports how a stack ended: the summary of its run folder when it finished (with the
+/// expectations' lines when it is judged), else what went wrong and where the logs are.
+/// Returns the launcher's exit code (0 finished, 1 failed or timed out, 130 interrupted).
+///
+/// A client that exits 1 because the run failed its expectations (it wrote metrics.json
+/// that fail them) is the verdict, not a failure of the stack.
+///
+/// # Errors
+/// When a finished run's metrics cannot be read, or the run failed its expectations.
+pub(crate) fn conclude(
+    ended: Ended<'_>,
+    judge: &JudgeArgs,
+    expectations: &Expectations,
+) -> anyhow::Result<u8> {
+    let Ended {
+        outcome,
+        out,
+        logs,
+        wall,
+    } = ended;
+    let judged = judge.on()
+        && out.join("metrics.json").is_file()
+        && matches!(
+            outcome,
+            Outcome::Finished | Outcome::Failed { name: "client", .. }
+        );
+    if judged {
+        let verdict = expectations.judge_folder(out)?;
+        if outcome == Outcome::Finished || !verdict.passed() {
+            print_summary(out, wall)?;
+            for line in verdict.lines() {
+                println!("  {line}");
+            }
+            return verdict.into_result().map(|()| 0);
+        }
+    }
+    match outcome {
+        Outcome::Finished => {
+            print_summary(out, wall)?;
+            Ok(0)
+        }
+        Outcome::Failed { name, status } => {
+            eprintln!(
+                "{name} failed ({status}); the other processes were stopped. Its log ends with:"
+            );
+            eprintln!("{}", tail(&logs.join(format!("{name}.log")), 15));
+            Ok(1)
+        }
+        Outcome::Interrupted => {
+            eprintln!(
+                "interrupted; processes stopped, shared memory removed. Logs: {}",
+                logs.display()
+            );
+            Ok(130)
+        }
+        Outcome::TimedOut => {
+            eprintln!("timed out; processes stopped. Logs: {}", logs.display());
+            Ok(1)
+        }
+    }
+}
+
+/// A number in at most 8 characters: fixed point, or scientific when huge.
+pub(crate) fn short(v: f64) -> String {
+    if v.abs() < 1e5 {
+        format!("{v:.2}")
+    } else {
+        format!("{v:.2e}")
+    }
+}
+
+/// The last `n` lines of a log file.
+fn tail(path: &Path, n: usize) -> String {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    let lines: Vec<&str> = text.lines().collect();
+    lines[lines.len().saturating_sub(n)..].join("\n")
+}
+
+/// Prints where the run folder is and its headline metrics.
+pub(crate) fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
+    let m = Metrics::read(&out.join("metrics.json"))?;
+    println!("run folder: {}", out.display());
+    println!(
+        "  ATE RMSE       {:8.3} m   (dead reckoning {:.3} m)",
+        m.estimate.ate_rmse_m, m.dead_reckoning.ate_rmse_m
+    );
+    if let Some(r) = &m.reference {
+        println!(
+            "  achievable ATE {:8.3} m   (full-SLAM MAP over the same data; the estimate is {:.1}× it; \
+             χ²/dof {:.2})",
+            r.ate_rmse_m,
+            m.estimate.ate_rmse_m / r.ate_rmse_m,
+            r.chi2_per_dof
+        );
+    }
+    println!("  final error    {:8.3} m", m.estimate.final_error_m);
+    println!(
+        "  landmark RMSE  {:8.3} m   ({} of {} matched, {} spurious)",
+        m.map.rmse_m, m.map.matched, m.map.truth, m.map.spurious
+    );
+    let c = &m.consistency;
+    println!(
+        "  NEES mean      {:>8}     ({:.0} % of steps within the 95 % bound; 3 when consistent; \
+         {} steps with a singular covariance)",
+        short(c.nees_mean),
+        100.0 * c.nees_within_95,
+        c.singular
+    );
+    println!("  wall time      {:8.2} s", wall.as_secs_f64());
+    Ok(())
+}
