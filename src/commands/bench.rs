@@ -1,5 +1,5 @@
-//! `fastslam-stack bench`: the performance figures of issue 8, printed with the machine
-//! they were measured on. BENCHMARKS.md records a run of it.
+//! `fastslam-stack bench`: the stack's performance figures (step time, latency, throughput,
+//! memory), printed with the machine they were measured on. BENCHMARKS.md records runs of it.
 //!
 //! 1. Filter step time over particles N × landmarks M per optimiser (synthetic workload of
 //!    `fastslam_estimation::workload`), with the growth ratios ×N and ×M.
