@@ -116,6 +116,10 @@ def main():
     parser.add_argument("--wait-subscribers", type=int, default=2,
                         help="start once this many processes take odometry and observations "
                              "(2: the service and a client; 1: the service alone)")
+    parser.add_argument("--wait-pose-subscribers", type=int, default=0,
+                        help="also wait until the service's `pose` topic has this many "
+                             "subscribers (the client and any outside reader, such as "
+                             "subscriber.py), so none of them misses the first poses")
     parser.add_argument("--unknown-ids", action="store_true", help="publish ids as -1")
     args = parser.parse_args()
     random.seed(args.seed)
@@ -143,6 +147,17 @@ def main():
            or observations.subscribers() < args.wait_subscribers
            or truth.subscribers() < min(args.wait_subscribers - 1, 1)):
         node.wait(iox.Duration.from_millis(5))
+    if args.wait_pose_subscribers > 0:
+        pose = (node.service_builder(iox.ServiceName.new(f"{args.prefix}/{fp.POSE.name}"))
+                .publish_subscribe(fp.PoseEstimate)
+                .enable_safe_overflow(False)
+                .subscriber_max_buffer_size(fp.POSE.buffer)
+                .history_size(fp.POSE.history)
+                .max_publishers(fp.MAX_PUBLISHERS)
+                .max_subscribers(fp.MAX_SUBSCRIBERS)
+                .open())  # the service created it before subscribing to our topics
+        while pose.dynamic_config.number_of_subscribers < args.wait_pose_subscribers:
+            node.wait(iox.Duration.from_millis(5))
 
     true_map = [fp.MapLandmark(id=k, x=x, y=y) for k, (x, y) in enumerate(LANDMARKS)]
     map_header = fp.LandmarkMapHeader(header=fp.Header(0, 0), count=len(true_map))
