@@ -300,9 +300,9 @@ pub fn run_in_process(
     recording.map = slam.map(Header { stamp_ns, seq: 0 }).1;
     let (align, score_at) = source.scoring();
     let alignment = fit_alignment(&scored_at(&recording, score_at), align);
-    let recording = alignment.apply(&recording);
+    let mut recording = alignment.apply(&recording);
     let metrics = Metrics::compute(&recording, true, alignment, score_at)
-        .with_reference(&recording, &NoiseModel::of(&config.filter_config()));
+        .with_reference(&mut recording, &NoiseModel::of(&config.filter_config()));
     Ok(RunOutcome {
         metrics,
         filter_time,

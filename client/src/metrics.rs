@@ -245,10 +245,13 @@ impl Metrics {
 
 impl Metrics {
     /// Adds the reference of `rec` solved under `model` (nothing when it has none),
-    /// scored as these metrics are.
-    pub fn with_reference(mut self, rec: &Recording, model: &NoiseModel) -> Self {
-        self.reference = reference::solve(rec, model)
-            .map(|r| r.score(&rec.truth, self.alignment.method, self.scored_at));
+    /// scored as these metrics are; its poses, in the truth's frame, go into
+    /// `rec.reference` for the run folder.
+    pub fn with_reference(mut self, rec: &mut Recording, model: &NoiseModel) -> Self {
+        let solved = reference::solve(rec, model);
+        let align = self.alignment.method;
+        self.reference = (solved.as_ref()).map(|r| r.score(&rec.truth, align, self.scored_at));
+        rec.reference = solved.map_or_else(Vec::new, |r| r.aligned(&rec.truth, align));
         self
     }
 }

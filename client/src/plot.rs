@@ -34,6 +34,8 @@ pub const ESTIMATE: RGBColor = RGBColor(31, 119, 180);
 pub const DEAD_RECKONING: RGBColor = RGBColor(255, 127, 14);
 /// Estimated landmarks and their ellipses: red.
 pub const LANDMARK: RGBColor = RGBColor(214, 39, 40);
+/// The achievable-accuracy reference: green.
+pub const REFERENCE: RGBColor = RGBColor(44, 160, 44);
 /// Further series (comparison plot), after the three above.
 const PALETTE: [RGBColor; 8] = [
     ESTIMATE,
@@ -223,6 +225,8 @@ pub struct TrajectoryPlot<'a> {
     pub estimate: &'a [StampedPose],
     /// Dead reckoning.
     pub dead_reckoning: &'a [StampedPose],
+    /// The achievable-accuracy reference (empty without one).
+    pub reference: &'a [StampedPose],
     /// The service's final map (means and covariances).
     pub map: &'a [MapLandmark],
     /// The true landmarks.
@@ -238,12 +242,17 @@ impl TrajectoryPlot<'_> {
     /// Axis ranges covering everything, padded, with equal scale on both axes for a
     /// chart (margins and label areas included) of `size` pixels.
     fn ranges(&self, size: (u32, u32)) -> ((f64, f64), (f64, f64)) {
-        let points = [self.truth, self.estimate, self.dead_reckoning]
-            .into_iter()
-            .flatten()
-            .map(|p| (p.x, p.y))
-            .chain(self.map.iter().chain(self.true_map).map(|l| (l.x, l.y)))
-            .filter(|p| p.0.is_finite() && p.1.is_finite());
+        let points = [
+            self.truth,
+            self.estimate,
+            self.dead_reckoning,
+            self.reference,
+        ]
+        .into_iter()
+        .flatten()
+        .map(|p| (p.x, p.y))
+        .chain(self.map.iter().chain(self.true_map).map(|l| (l.x, l.y)))
+        .filter(|p| p.0.is_finite() && p.1.is_finite());
         let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
         for (x, y) in points {
             (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
@@ -283,11 +292,13 @@ impl TrajectoryPlot<'_> {
         // Points closer than about a pixel add nothing but gaps in the drawn line.
         let pixel = (x1 - x0) / f64::from(chart.plotting_area().dim_in_pixel().0.max(1));
         let path = |track: &[StampedPose]| thinned(track, pixel);
-        for (track, colour, label) in [
+        let tracks = [
             (self.dead_reckoning, DEAD_RECKONING, "dead reckoning"),
             (self.truth, TRUTH, "truth"),
+            (self.reference, REFERENCE, "achievable (MAP)"),
             (self.estimate, ESTIMATE, "estimate"),
-        ] {
+        ];
+        for (track, colour, label) in tracks.into_iter().filter(|t| !t.0.is_empty()) {
             chart
                 .draw_series(LineSeries::new(path(track), colour.stroke_width(2)))
                 .map_err(text)?
@@ -531,6 +542,7 @@ mod tests {
             truth: &truth,
             estimate: &estimate,
             dead_reckoning: &[],
+            reference: &[],
             map: &[],
             true_map: &[],
         };

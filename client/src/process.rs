@@ -204,10 +204,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     rec.processes = monitor.usage();
 
     let alignment = fit_alignment(&scored_at(&rec, args.score_at), args.align);
-    let rec = alignment.apply(&rec);
+    let mut rec = alignment.apply(&rec);
     let mut metrics = Metrics::compute(&rec, ended == Ended::Done, alignment, args.score_at);
     if let Some(noise) = &noise {
-        metrics = metrics.with_reference(&rec, noise);
+        metrics = metrics.with_reference(&mut rec, noise);
     }
     report::write(&args.out, &rec, &metrics)?;
     tracing::info!(

@@ -60,6 +60,9 @@ pub struct Recording {
     pub controls: Vec<StampedControl>,
     /// Landmark observations with ids, per scan (none from raw scans).
     pub sightings: Vec<Sightings>,
+    /// The achievable-accuracy reference's trajectory in the truth's frame, once solved
+    /// (see [`crate::reference`]); empty without one.
+    pub reference: Vec<StampedPose>,
     /// The service's estimates.
     pub estimates: Vec<Estimate>,
     /// The newest landmark map from the service.

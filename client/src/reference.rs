@@ -147,10 +147,9 @@ pub fn solve(rec: &Recording, model: &NoiseModel) -> Option<Reference> {
 }
 
 impl Reference {
-    /// Scores the reference against `truth` as the estimate is scored: aligned onto
-    /// the truth when `align` asks (fitted to its own poses), at its poses or at the
-    /// truth's stamps as `at` says.
-    pub fn score(&self, truth: &[StampedPose], align: AlignMode, at: ScoreAt) -> ReferenceMetrics {
+    /// The reference's poses in the truth's frame: as solved, or aligned onto `truth`
+    /// (fitted to its own poses) when `align` asks — what is scored and drawn.
+    pub fn aligned(&self, truth: &[StampedPose], align: AlignMode) -> Vec<StampedPose> {
         let transform = match align {
             AlignMode::None => Se2::IDENTITY,
             _ => {
@@ -162,8 +161,14 @@ impl Reference {
                 umeyama_se2(&est, &tru).unwrap_or(Se2::IDENTITY)
             }
         };
-        let aligned: Vec<StampedPose> =
-            self.poses.iter().map(|p| transform.apply_pose(p)).collect();
+        self.poses.iter().map(|p| transform.apply_pose(p)).collect()
+    }
+
+    /// Scores the reference against `truth` as the estimate is scored: aligned onto
+    /// the truth when `align` asks ([`Reference::aligned`]), at its poses or at the
+    /// truth's stamps as `at` says.
+    pub fn score(&self, truth: &[StampedPose], align: AlignMode, at: ScoreAt) -> ReferenceMetrics {
+        let aligned = self.aligned(truth, align);
         let scored = match at {
             ScoreAt::Estimates => aligned,
             ScoreAt::Truth => truth

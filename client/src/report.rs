@@ -22,6 +22,8 @@ pub mod files {
     pub const TRUTH_TUM: &str = "truth.tum";
     /// Dead-reckoned odometry, TUM format.
     pub const DEAD_RECKONING_TUM: &str = "dead_reckoning.tum";
+    /// The achievable-accuracy reference's trajectory (only when there is one).
+    pub const REFERENCE_TUM: &str = "reference.tum";
     /// The service's final landmark map.
     pub const MAP_CSV: &str = "map.csv";
     /// The true landmark map.
@@ -46,6 +48,9 @@ pub fn write(dir: &Path, rec: &Recording, metrics: &Metrics) -> std::io::Result<
     write_tum(&dir.join(files::ESTIMATE_TUM), &estimates)?;
     write_tum(&dir.join(files::TRUTH_TUM), &rec.truth)?;
     write_tum(&dir.join(files::DEAD_RECKONING_TUM), &rec.dead_reckoning)?;
+    if !rec.reference.is_empty() {
+        write_tum(&dir.join(files::REFERENCE_TUM), &rec.reference)?;
+    }
     write_map(&dir.join(files::MAP_CSV), &rec.map)?;
     write_map(&dir.join(files::TRUE_MAP_CSV), &rec.true_map)?;
     if let Some((header, cells)) = &rec.grid {
@@ -57,6 +62,7 @@ pub fn write(dir: &Path, rec: &Recording, metrics: &Metrics) -> std::io::Result<
         truth: &rec.truth,
         estimate: &estimates,
         dead_reckoning: &rec.dead_reckoning,
+        reference: &rec.reference,
         map: &rec.map,
         true_map: &rec.true_map,
     };
