@@ -358,8 +358,9 @@ pub struct Comparison {
     /// Optimisers, corrections and particle counts (default N: the configuration's).
     #[command(flatten)]
     pub methods: Methods,
-    /// Proposals, comma-separated: motion (FastSLAM 1.0) and/or fastslam2.
-    #[arg(long, value_delimiter = ',', default_value = "motion")]
+    /// Proposals, comma-separated: motion (FastSLAM 1.0) and/or fastslam2 (default: the
+    /// configuration's).
+    #[arg(long, value_delimiter = ',')]
     pub proposals: Vec<Proposal>,
     /// Seeds of simulation and filter (as `run --seed`): an inclusive range `a..b` or a
     /// comma-separated list.
@@ -383,7 +384,12 @@ pub fn compare(
     let particles = comparison
         .methods
         .particles_or(&[configured.filter.particles]);
-    for &proposal in &comparison.proposals {
+    let proposals = if comparison.proposals.is_empty() {
+        vec![configured.filter.proposal]
+    } else {
+        comparison.proposals.clone()
+    };
+    for proposal in proposals {
         for (kind, correction) in comparison.methods.methods() {
             for &particles in &particles {
                 let mut runs = Vec::with_capacity(comparison.seeds.0.len());
