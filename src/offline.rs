@@ -434,8 +434,8 @@ fn summarise(method: String, particles: usize, runs: &[RunOutcome]) -> Row {
         particles,
         ate: column(&|r| r.metrics.estimate.ate_rmse_m),
         dead_reckoning: column(&|r| r.metrics.dead_reckoning.ate_rmse_m),
-        reference: column(&|r| reference_ate(&r.metrics)),
-        over_reference: column(&|r| r.metrics.estimate.ate_rmse_m / reference_ate(&r.metrics)),
+        reference: column(&|r| r.metrics.reference_ate_m()),
+        over_reference: column(&|r| r.metrics.estimate.ate_rmse_m / r.metrics.reference_ate_m()),
         landmark: column(&|r| r.metrics.map.rmse_m),
         nees: column(&|r| r.metrics.consistency.nees_mean),
         nees_within: column(&|r| r.metrics.consistency.nees_within_95),
@@ -447,9 +447,4 @@ fn summarise(method: String, particles: usize, runs: &[RunOutcome]) -> Row {
         cpu: column(&|r| r.cpu.as_secs_f64()),
         moves,
     }
-}
-
-/// The reference's ATE RMSE (m), not a number without a reference.
-fn reference_ate(m: &Metrics) -> f64 {
-    m.reference.map_or(f64::NAN, |r| r.ate_rmse_m)
 }

@@ -244,6 +244,11 @@ impl Metrics {
 }
 
 impl Metrics {
+    /// The reference's ATE RMSE (m); not a number without a reference.
+    pub fn reference_ate_m(&self) -> f64 {
+        self.reference.map_or(f64::NAN, |r| r.ate_rmse_m)
+    }
+
     /// Adds the reference of `rec` solved under `model` (nothing when it has none),
     /// scored as these metrics are; its poses, in the truth's frame, go into
     /// `rec.reference` for the run folder.
@@ -294,17 +299,20 @@ pub fn fit_alignment(rec: &Recording, mode: AlignMode) -> Alignment {
     if mode == AlignMode::None {
         return Alignment::default();
     }
-    let fit = |poses: &mut dyn Iterator<Item = &StampedPose>| {
-        let (est, truth): (Vec<_>, Vec<_>) = poses
-            .filter_map(|p| interpolate(&rec.truth, p.stamp_ns).map(|t| ((p.x, p.y), (t.x, t.y))))
-            .unzip();
-        umeyama_se2(&est, &truth).unwrap_or(Se2::IDENTITY)
-    };
     Alignment {
         method: mode,
-        estimate: fit(&mut rec.estimates.iter().map(|e| &e.pose)),
-        dead_reckoning: fit(&mut rec.dead_reckoning.iter()),
+        estimate: fit_se2(rec.estimates.iter().map(|e| &e.pose), &rec.truth),
+        dead_reckoning: fit_se2(&rec.dead_reckoning, &rec.truth),
     }
+}
+
+/// The least-squares rigid transform that brings `poses` onto `truth` (interpolated at
+/// their stamps); the identity when fewer than two poses have truth.
+pub fn fit_se2<'a>(poses: impl IntoIterator<Item = &'a StampedPose>, truth: &[StampedPose]) -> Se2 {
+    let (est, tru): (Vec<_>, Vec<_>) = (poses.into_iter())
+        .filter_map(|p| interpolate(truth, p.stamp_ns).map(|t| ((p.x, p.y), (t.x, t.y))))
+        .unzip();
+    umeyama_se2(&est, &tru).unwrap_or(Se2::IDENTITY)
 }
 
 impl Alignment {

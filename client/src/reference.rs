@@ -10,8 +10,8 @@
 //! noise), and a range–bearing factor per sighting with the filter's sensor noise. It is
 //! solved by Levenberg–Marquardt from dead reckoning.
 
-use crate::align::{Se2, umeyama_se2};
-use crate::metrics::{AlignMode, ScoreAt, TrajectoryMetrics, interpolate, trajectory};
+use crate::align::Se2;
+use crate::metrics::{AlignMode, ScoreAt, TrajectoryMetrics, fit_se2, interpolate, trajectory};
 use crate::recording::{Recording, StampedPose};
 use fastslam_estimation::fastslam::{FastSlamConfig, PriorFloor};
 use fastslam_estimation::graph::{Graph, OdometryIntegrator, Prior, SolveOptions};
@@ -152,14 +152,7 @@ impl Reference {
     pub fn aligned(&self, truth: &[StampedPose], align: AlignMode) -> Vec<StampedPose> {
         let transform = match align {
             AlignMode::None => Se2::IDENTITY,
-            _ => {
-                let (est, tru): (Vec<_>, Vec<_>) = (self.poses.iter())
-                    .filter_map(|p| {
-                        interpolate(truth, p.stamp_ns).map(|t| ((p.x, p.y), (t.x, t.y)))
-                    })
-                    .unzip();
-                umeyama_se2(&est, &tru).unwrap_or(Se2::IDENTITY)
-            }
+            _ => fit_se2(&self.poses, truth),
         };
         self.poses.iter().map(|p| transform.apply_pose(p)).collect()
     }

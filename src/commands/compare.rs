@@ -185,11 +185,9 @@ const RUN_COLUMNS: [(&str, Field); 15] = [
     ("heading_rmse_rad", |m| m.estimate.heading_rmse_rad),
     ("final_error_m", |m| m.estimate.final_error_m),
     ("dead_reckoning_ate_rmse_m", |m| m.dead_reckoning.ate_rmse_m),
-    ("reference_ate_rmse_m", |m| {
-        m.reference.map_or(f64::NAN, |r| r.ate_rmse_m)
-    }),
+    ("reference_ate_rmse_m", Metrics::reference_ate_m),
     ("ate_over_reference", |m| {
-        m.estimate.ate_rmse_m / m.reference.map_or(f64::NAN, |r| r.ate_rmse_m)
+        m.estimate.ate_rmse_m / m.reference_ate_m()
     }),
     ("landmark_rmse_m", |m| m.map.rmse_m),
     ("landmarks_matched", |m| m.map.matched as f64),

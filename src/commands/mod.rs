@@ -16,3 +16,22 @@ pub mod run;
 pub mod scenarios;
 pub mod test;
 pub mod ungm;
+
+/// Writes `lines` (a CSV header and its rows) to `path` with a final newline, and says
+/// so; nothing without a path (`--csv` not given).
+///
+/// # Errors
+/// When the file cannot be written.
+pub(crate) fn write_csv(
+    path: Option<&std::path::Path>,
+    mut lines: Vec<String>,
+) -> anyhow::Result<()> {
+    use anyhow::Context;
+    if let Some(path) = path {
+        lines.push(String::new());
+        std::fs::write(path, lines.join("\n"))
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        println!("rows written to {}", path.display());
+    }
+    Ok(())
+}

@@ -105,13 +105,7 @@ pub fn run(args: &MonteCarloArgs) -> anyhow::Result<()> {
         csv.push(csv_row(source.name(), row));
     })
     .context("monte carlo")?;
-    if let Some(path) = &args.csv {
-        csv.push(String::new());
-        std::fs::write(path, csv.join("\n"))
-            .with_context(|| format!("cannot write {}", path.display()))?;
-        println!("rows written to {}", path.display());
-    }
-    Ok(())
+    super::write_csv(args.csv.as_deref(), csv)
 }
 
 /// The scenario, or the data set `--replay` names, loaded.

@@ -140,13 +140,7 @@ pub fn run(args: &UngmArgs) -> anyhow::Result<()> {
             println!();
         }
     }
-    if let Some(path) = &args.csv {
-        csv.push(String::new());
-        std::fs::write(path, csv.join("\n"))
-            .with_context(|| format!("cannot write {}", path.display()))?;
-        println!("rows written to {}", path.display());
-    }
-    Ok(())
+    super::write_csv(args.csv.as_deref(), csv)
 }
 
 /// The methods of the table with their labels (`coa`, `coa+proposal`), in the order given.
