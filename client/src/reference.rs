@@ -4,52 +4,22 @@
 //! A filter approximates this posterior; its error is what the data supports, so a
 //! filter's ATE divided by the reference's says how far from achievable it lands.
 //!
-//! The graph has a pose at every scan with sightings (the first pose, at the first
-//! odometry stamp, fixed at the origin where the service starts), an odometry factor
-//! between consecutive poses (the controls integrated with the filter's motion model and
-//! noise), and a range–bearing factor per sighting with the filter's sensor noise. It is
-//! solved by Levenberg–Marquardt from dead reckoning.
+//! The graph is the smoothing back-end's (`fastslam_estimation::graph::Smoother`: a pose
+//! at every scan with sightings, the first at the first odometry stamp and fixed at the
+//! origin where the service starts, odometry factors with the filter's motion model and
+//! noise, a range–bearing factor per sighting with the filter's sensor noise), keyed by
+//! the true ids, without a robust kernel, and solved once by Levenberg–Marquardt from
+//! dead reckoning.
 
 use crate::align::Se2;
 use crate::metrics::{AlignMode, ScoreAt, TrajectoryMetrics, fit_se2, interpolate, trajectory};
 use crate::recording::{Recording, StampedPose};
-use fastslam_estimation::fastslam::{FastSlamConfig, PriorFloor};
-use fastslam_estimation::graph::{Graph, OdometryIntegrator, Prior, SolveOptions};
-use fastslam_estimation::motion::MotionModel;
-use fastslam_estimation::observation::inverse;
-use fastslam_estimation::pose::Pose2;
-use nalgebra::{Matrix2, Matrix3, Vector3};
+use fastslam_estimation::graph::{Feed, KernelKind, SmootherConfig, SolveOptions, Smoother};
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
 use std::time::Instant;
 
 /// The noise the reference assumes: the filter's own models.
-#[derive(Debug, Clone)]
-pub struct NoiseModel {
-    /// Motion model with its control noise.
-    pub motion: MotionModel,
-    /// Covariance of a range–bearing observation.
-    pub sensor: Matrix2<f64>,
-    /// Added to every odometry factor's covariance (the filter's prior floor), so a
-    /// vehicle standing still still gives an invertible factor.
-    pub floor: Matrix3<f64>,
-}
-
-impl NoiseModel {
-    /// The noise model of a filter configured as `config`.
-    pub fn of(config: &FastSlamConfig) -> Self {
-        let PriorFloor { position, heading } = config.prior_floor;
-        Self {
-            motion: config.motion.clone(),
-            sensor: config.sensor.noise(),
-            floor: Matrix3::from_diagonal(&Vector3::new(
-                position * position,
-                position * position,
-                heading * heading,
-            )),
-        }
-    }
-}
+pub use fastslam_estimation::graph::NoiseModel;
 
 /// The reference as `metrics.json` reports it.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
@@ -88,61 +58,47 @@ pub struct Reference {
 /// sightings with landmark ids (raw scans, or ids stripped) or the solve fails.
 pub fn solve(rec: &Recording, model: &NoiseModel) -> Option<Reference> {
     let started = Instant::now();
-    let first = rec.controls.first()?;
-    rec.sightings.first()?;
-    let mut graph = Graph::default();
-    graph.add_pose(Pose2::default());
-    graph.priors.push(Prior {
-        pose: 0,
-        mean: Pose2::default(),
-        information: Matrix3::identity() * 1e8,
+    let config = SmootherConfig {
+        kernel: KernelKind::None,
+        max_iterations: SolveOptions::default().max_iterations,
+        ..SmootherConfig::default()
+    };
+    let mut graph = Smoother::new(config, model.clone()).ok()?;
+    let mut last_ns = rec.controls.first()?.stamp_ns;
+    // The first pose sits at the first odometry stamp.
+    graph.feed(&Feed::Control {
+        from_ns: last_ns,
+        to_ns: last_ns,
+        control: rec.controls[0].control,
     });
-    let mut stamps = vec![first.stamp_ns];
-    let mut odometry = OdometryIntegrator::new(model.motion.clone(), model.floor);
-    let (mut dead, mut last_ns) = (Pose2::default(), first.stamp_ns);
     let mut controls = rec.controls[1..].iter().peekable();
-    let mut landmarks: HashMap<u64, usize> = HashMap::new();
     for scan in &rec.sightings {
         while let Some(c) = controls.next_if(|c| c.stamp_ns <= scan.stamp_ns) {
-            let dt = c.stamp_ns.saturating_sub(last_ns) as f64 * 1e-9;
-            if dt > 0.0 {
-                odometry.add(&c.control, dt);
-                dead = model.motion.propagate(&dead, &c.control, dt);
-                last_ns = c.stamp_ns;
-            }
+            graph.feed(&Feed::Control {
+                from_ns: last_ns,
+                to_ns: c.stamp_ns,
+                control: c.control,
+            });
+            last_ns = last_ns.max(c.stamp_ns);
         }
-        let pose = if odometry.controls() == 0 {
-            graph.poses.len() - 1
-        } else {
-            let to = graph.add_pose(dead);
-            graph.betweens.push(odometry.take(to - 1, to)?);
-            stamps.push(scan.stamp_ns);
-            to
-        };
-        for obs in &scan.observations {
-            let id = obs.id?;
-            let landmark = *landmarks
-                .entry(id)
-                .or_insert_with(|| graph.add_landmark(inverse(&graph.poses[pose], &obs.z()).0));
-            graph
-                .add_sighting(pose, landmark, obs, &model.sensor)
-                .ok()?;
-        }
+        graph.feed(&Feed::Scan {
+            stamp_ns: scan.stamp_ns,
+            sightings: scan.observations.clone(),
+        });
     }
-    graph.solve(&SolveOptions::default()).ok()?;
-    let dof = graph.residuals().saturating_sub(graph.unknowns()).max(1) as f64;
+    let solution = graph.solve().ok()?;
     Some(Reference {
-        poses: (stamps.iter().zip(&graph.poses))
-            .map(|(&stamp_ns, p)| StampedPose {
+        poses: (solution.poses.iter())
+            .map(|&(stamp_ns, p)| StampedPose {
                 stamp_ns,
                 x: p.x,
                 y: p.y,
                 theta: p.theta,
             })
             .collect(),
-        chi2_per_dof: graph.chi2() / dof,
+        chi2_per_dof: solution.chi2_per_dof,
         solve_s: started.elapsed().as_secs_f64(),
-        landmarks: graph.landmarks.len(),
+        landmarks: solution.landmarks.len(),
     })
 }
 
@@ -189,7 +145,9 @@ impl Reference {
 mod tests {
     use super::*;
     use crate::recording::{Sightings, StampedControl};
-    use fastslam_estimation::motion::{Control, Unicycle};
+    use fastslam_estimation::Pose2;
+    use fastslam_estimation::motion::{Control, MotionModel, Unicycle};
+    use nalgebra::{Matrix2, Matrix3};
     use fastslam_estimation::observation::{Observation, measure};
     use fastslam_estimation::rng::seeded;
     use nalgebra::Vector2;

@@ -580,6 +580,32 @@ impl FastSlam {
         landmarks.sort_unstable_by_key(|l| l.id);
         landmarks
     }
+
+    /// The last scan's accepted observations as the best particle explains them now:
+    /// each with `id` set to the landmark of the best particle's map it is associated
+    /// with (the one it updated or created), those it ignores left out. Taken by
+    /// `sensor` (the last update's). The keyed sightings of the smoothing back-end
+    /// (`graph::Smoother`), which works with unknown association too.
+    ///
+    /// # Performance
+    /// One association of the scan against one map.
+    pub fn best_sightings(&self, sensor: &Sensor) -> Vec<Observation> {
+        let best = self.best();
+        let association = &self.config.association;
+        let accepted = &self.scratch.accepted;
+        let scan = Scan::new(accepted, sensor, association, self.step);
+        let decisions = scan.associate(&best.map, &best.pose).decisions;
+        (accepted.iter().zip(decisions))
+            .filter_map(|(obs, decision)| {
+                let id = match decision {
+                    Decision::Update { slot, .. } => slot.id(),
+                    Decision::New { id: Some(id) } => id,
+                    Decision::New { id: None } | Decision::Ignore => return None,
+                };
+                Some(Observation { id: Some(id), ..*obs })
+            })
+            .collect()
+    }
 }
 
 #[cfg(test)]

@@ -18,9 +18,11 @@
 //!   factor with the filter's own motion model and noise.
 
 mod integrate;
+mod smoother;
 mod solve;
 
 pub use integrate::OdometryIntegrator;
+pub use smoother::{Feed, KernelKind, NoiseModel, Smoother, SmootherConfig, Solution};
 pub use solve::{Kernel, SolveOptions, SolveReport};
 
 use crate::observation::{Observation, predict};

@@ -9,7 +9,7 @@ use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
 use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat, Triplet};
 use faer::{Mat, Side};
-use nalgebra::{DMatrix, Vector2};
+use nalgebra::{DMatrix, Matrix2, Vector2};
 use std::time::Instant;
 
 /// How sightings with large normalised residuals are down-weighted (the other factors are
@@ -345,6 +345,45 @@ impl Graph {
             converged,
             seconds: started.elapsed().as_secs_f64(),
         })
+    }
+
+    /// The marginal covariance of every landmark at the current estimates: the 2 × 2
+    /// blocks of `H⁻¹` (`H` the Gauss–Newton information with the kernel's weights), by
+    /// solving the factorised `H` for the landmarks' unit columns, 64 at a time.
+    ///
+    /// # Errors
+    /// When `H` cannot be factorised (a variable no factor constrains).
+    pub fn landmark_covariances(&self, kernel: Kernel) -> Result<Vec<Matrix2<f64>>> {
+        self.check_indices()?;
+        let n = self.unknowns();
+        let normal = self.normal(kernel);
+        let mut cached = None;
+        let pattern = Pattern::reuse_or_build(&mut cached, &normal, n)?;
+        let values: Vec<f64> = (normal.entries.iter().map(|t| t.val))
+            .chain(std::iter::repeat_n(0.0, n))
+            .collect();
+        let h = SparseColMat::new_from_argsort(pattern.matrix.clone(), &pattern.argsort, &values)
+            .map_err(|e| factorisation(format!("{e:?}")))?;
+        let llt = Llt::try_new_with_symbolic(pattern.llt.clone(), h.as_ref(), Side::Lower)
+            .map_err(|e| factorisation(format!("{e:?}")))?;
+        let columns: Vec<usize> = (0..self.landmarks.len())
+            .flat_map(|k| {
+                let c = self.landmark_column(k);
+                [c, c + 1]
+            })
+            .collect();
+        let mut out = Vec::with_capacity(self.landmarks.len());
+        for chunk in columns.chunks(64) {
+            let mut rhs = Mat::from_fn(n, chunk.len(), |i, j| f64::from(u8::from(i == chunk[j])));
+            llt.solve_in_place(rhs.as_mut());
+            for pair in 0..chunk.len() / 2 {
+                let (a, b) = (2 * pair, 2 * pair + 1);
+                let (ra, rb) = (chunk[a], chunk[b]);
+                let off = 0.5 * (rhs[(rb, a)] + rhs[(ra, b)]);
+                out.push(Matrix2::new(rhs[(ra, a)], off, off, rhs[(rb, b)]));
+            }
+        }
+        Ok(out)
     }
 
     /// Every factor's indices inside the variables.
