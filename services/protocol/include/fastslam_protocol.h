@@ -53,6 +53,16 @@
 #define FASTSLAM_TOPIC_GRID_BUFFER 2
 #define FASTSLAM_TOPIC_GRID_HISTORY 1
 
+/* smoothed/trajectory: payload [fastslam::TrajectoryPose], user header fastslam::TrajectoryHeader */
+#define FASTSLAM_TOPIC_SMOOTHED_TRAJECTORY "smoothed/trajectory"
+#define FASTSLAM_TOPIC_SMOOTHED_TRAJECTORY_BUFFER 2
+#define FASTSLAM_TOPIC_SMOOTHED_TRAJECTORY_HISTORY 1
+
+/* smoothed/map: payload [fastslam::MapLandmark], user header fastslam::LandmarkMapHeader */
+#define FASTSLAM_TOPIC_SMOOTHED_MAP "smoothed/map"
+#define FASTSLAM_TOPIC_SMOOTHED_MAP_BUFFER 2
+#define FASTSLAM_TOPIC_SMOOTHED_MAP_HISTORY 1
+
 /* status: payload fastslam::ServiceStatus, user header none */
 #define FASTSLAM_TOPIC_STATUS "status"
 #define FASTSLAM_TOPIC_STATUS_BUFFER 256
@@ -71,6 +81,8 @@
 #define FASTSLAM_STREAM_STATUS 6
 #define FASTSLAM_STREAM_SCAN 7
 #define FASTSLAM_STREAM_GRID 8
+#define FASTSLAM_STREAM_SMOOTHED_TRAJECTORY 9
+#define FASTSLAM_STREAM_SMOOTHED_MAP 10
 
 typedef struct fastslam_Header {
     uint64_t stamp_ns; /* ns */
@@ -256,7 +268,7 @@ _Static_assert(offsetof(fastslam_ServiceStatus, rejections) == 96, "fastslam_Ser
 #define FASTSLAM_END_OF_STREAM_TYPE_NAME "fastslam::EndOfStream"
 typedef struct fastslam_EndOfStream {
     fastslam_Header header;
-    uint32_t stream; /* —: 1 ground truth, 2 odometry, 3 observations, 4 pose, 5 map, 6 status, 7 scan, 8 grid */
+    uint32_t stream; /* —: 1 ground truth, 2 odometry, 3 observations, 4 pose, 5 map, 6 status, 7 scan, 8 grid, 9 smoothed trajectory, 10 smoothed map */
     uint32_t reserved; /* —: 0 */
 } fastslam_EndOfStream;
 _Static_assert(sizeof(fastslam_EndOfStream) == 24, "fastslam_EndOfStream must match the Rust layout");
@@ -313,5 +325,36 @@ _Static_assert(offsetof(fastslam_OccupancyGridHeader, origin_y) == 32, "fastslam
 _Static_assert(offsetof(fastslam_OccupancyGridHeader, origin_theta) == 40, "fastslam_OccupancyGridHeader must match the Rust layout");
 _Static_assert(offsetof(fastslam_OccupancyGridHeader, width) == 48, "fastslam_OccupancyGridHeader must match the Rust layout");
 _Static_assert(offsetof(fastslam_OccupancyGridHeader, height) == 52, "fastslam_OccupancyGridHeader must match the Rust layout");
+
+/* fastslam::TrajectoryHeader: header of a smoothed trajectory */
+#define FASTSLAM_TRAJECTORY_HEADER_TYPE_NAME "fastslam::TrajectoryHeader"
+typedef struct fastslam_TrajectoryHeader {
+    fastslam_Header header;
+    uint32_t count; /* —: number of poses (= slice length) */
+    uint32_t solves; /* —: solves run so far, this one included */
+    double chi2_per_dof; /* —: χ² per degree of freedom at the solution (≈ 1 when the noise model and associations hold) */
+} fastslam_TrajectoryHeader;
+_Static_assert(sizeof(fastslam_TrajectoryHeader) == 32, "fastslam_TrajectoryHeader must match the Rust layout");
+_Static_assert(_Alignof(fastslam_TrajectoryHeader) == 8, "fastslam_TrajectoryHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_TrajectoryHeader, header.stamp_ns) == 0, "fastslam_TrajectoryHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_TrajectoryHeader, header.seq) == 8, "fastslam_TrajectoryHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_TrajectoryHeader, count) == 16, "fastslam_TrajectoryHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_TrajectoryHeader, solves) == 20, "fastslam_TrajectoryHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_TrajectoryHeader, chi2_per_dof) == 24, "fastslam_TrajectoryHeader must match the Rust layout");
+
+/* fastslam::TrajectoryPose: one pose of a trajectory */
+#define FASTSLAM_TRAJECTORY_POSE_TYPE_NAME "fastslam::TrajectoryPose"
+typedef struct fastslam_TrajectoryPose {
+    uint64_t stamp_ns; /* ns: stamp of the pose */
+    double x; /* m: position x, frame `map` */
+    double y; /* m: position y */
+    double theta; /* rad: heading */
+} fastslam_TrajectoryPose;
+_Static_assert(sizeof(fastslam_TrajectoryPose) == 32, "fastslam_TrajectoryPose must match the Rust layout");
+_Static_assert(_Alignof(fastslam_TrajectoryPose) == 8, "fastslam_TrajectoryPose must match the Rust layout");
+_Static_assert(offsetof(fastslam_TrajectoryPose, stamp_ns) == 0, "fastslam_TrajectoryPose must match the Rust layout");
+_Static_assert(offsetof(fastslam_TrajectoryPose, x) == 8, "fastslam_TrajectoryPose must match the Rust layout");
+_Static_assert(offsetof(fastslam_TrajectoryPose, y) == 16, "fastslam_TrajectoryPose must match the Rust layout");
+_Static_assert(offsetof(fastslam_TrajectoryPose, theta) == 24, "fastslam_TrajectoryPose must match the Rust layout");
 
 #endif /* FASTSLAM_PROTOCOL_H */

@@ -43,6 +43,10 @@ MAP = Topic("map", 4, 1, "[fastslam::MapLandmark]", "fastslam::LandmarkMapHeader
 
 GRID = Topic("grid", 2, 1, "[i8] (cells)", "fastslam::OccupancyGridHeader")
 
+SMOOTHED_TRAJECTORY = Topic("smoothed/trajectory", 2, 1, "[fastslam::TrajectoryPose]", "fastslam::TrajectoryHeader")
+
+SMOOTHED_MAP = Topic("smoothed/map", 2, 1, "[fastslam::MapLandmark]", "fastslam::LandmarkMapHeader")
+
 STATUS = Topic("status", 256, 1, "fastslam::ServiceStatus", "")
 
 END_OF_STREAM = Topic("end_of_stream", 16, 0, "fastslam::EndOfStream", "")
@@ -55,6 +59,8 @@ STREAM_MAP = 5
 STREAM_STATUS = 6
 STREAM_SCAN = 7
 STREAM_GRID = 8
+STREAM_SMOOTHED_TRAJECTORY = 9
+STREAM_SMOOTHED_MAP = 10
 
 
 class Header(ctypes.Structure):
@@ -241,7 +247,7 @@ class EndOfStream(ctypes.Structure):
 
     _fields_ = [
         ("header", Header),
-        ("stream", ctypes.c_uint32),  # —: 1 ground truth, 2 odometry, 3 observations, 4 pose, 5 map, 6 status, 7 scan, 8 grid
+        ("stream", ctypes.c_uint32),  # —: 1 ground truth, 2 odometry, 3 observations, 4 pose, 5 map, 6 status, 7 scan, 8 grid, 9 smoothed trajectory, 10 smoothed map
         ("reserved", ctypes.c_uint32),  # —: 0
     ]
 
@@ -294,6 +300,40 @@ class OccupancyGridHeader(ctypes.Structure):
         return "fastslam::OccupancyGridHeader"
 
 
+class TrajectoryHeader(ctypes.Structure):
+    """`fastslam::TrajectoryHeader` (32 bytes, alignment 8): header of a smoothed trajectory."""
+
+    _fields_ = [
+        ("header", Header),
+        ("count", ctypes.c_uint32),  # —: number of poses (= slice length)
+        ("solves", ctypes.c_uint32),  # —: solves run so far, this one included
+        ("chi2_per_dof", ctypes.c_double),  # —: χ² per degree of freedom at the solution (≈ 1 when the noise model and associations hold)
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::TrajectoryHeader"
+
+
+class TrajectoryPose(ctypes.Structure):
+    """`fastslam::TrajectoryPose` (32 bytes, alignment 8): one pose of a trajectory."""
+
+    _fields_ = [
+        ("stamp_ns", ctypes.c_uint64),  # ns: stamp of the pose
+        ("x", ctypes.c_double),  # m: position x, frame `map`
+        ("y", ctypes.c_double),  # m: position y
+        ("theta", ctypes.c_double),  # rad: heading
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::TrajectoryPose"
+
+
 # The layouts above must equal the Rust ones (checked on import).
 LAYOUTS = {
     GroundTruth: (64, 8, {"header": 0, "x": 16, "y": 24, "theta": 32, "v": 40, "omega": 48, "steering": 56}),
@@ -308,6 +348,8 @@ LAYOUTS = {
     EndOfStream: (24, 8, {"header": 0, "stream": 16, "reserved": 20}),
     LaserScanHeader: (48, 8, {"header": 0, "angle_min": 16, "angle_increment": 20, "time_increment": 24, "scan_time": 28, "range_min": 32, "range_max": 36, "ranges": 40, "intensities": 44}),
     OccupancyGridHeader: (56, 8, {"header": 0, "resolution": 16, "origin_x": 24, "origin_y": 32, "origin_theta": 40, "width": 48, "height": 52}),
+    TrajectoryHeader: (32, 8, {"header": 0, "count": 16, "solves": 20, "chi2_per_dof": 24}),
+    TrajectoryPose: (32, 8, {"stamp_ns": 0, "x": 8, "y": 16, "theta": 24}),
 }
 for _t, (_size, _align, _offsets) in LAYOUTS.items():
     assert ctypes.sizeof(_t) == _size, _t

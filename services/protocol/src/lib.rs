@@ -28,6 +28,7 @@ pub mod scan;
 pub mod status;
 pub mod stream;
 pub mod topics;
+pub mod trajectory;
 pub mod validate;
 
 pub use grid::OccupancyGridHeader;
@@ -38,3 +39,4 @@ pub use pose::{GroundTruth, PoseEstimate};
 pub use scan::LaserScanHeader;
 pub use status::ServiceStatus;
 pub use stream::{EndOfStream, StreamId};
+pub use trajectory::{TrajectoryHeader, TrajectoryPose};

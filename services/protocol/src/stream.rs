@@ -23,6 +23,10 @@ pub enum StreamId {
     Scan = 7,
     /// Occupancy grids on [`crate::topics::GRID`].
     Grid = 8,
+    /// Smoothed trajectories on [`crate::topics::SMOOTHED_TRAJECTORY`].
+    SmoothedTrajectory = 9,
+    /// Smoothed maps on [`crate::topics::SMOOTHED_MAP`].
+    SmoothedMap = 10,
 }
 
 impl StreamId {
@@ -37,6 +41,8 @@ impl StreamId {
             Self::Status,
             Self::Scan,
             Self::Grid,
+            Self::SmoothedTrajectory,
+            Self::SmoothedMap,
         ]
         .into_iter()
         .find(|s| *s as u32 == v)

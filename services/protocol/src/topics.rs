@@ -83,6 +83,23 @@ pub const GRID: Topic = Topic {
     history: 1,
     initial_slice_len: 1 << 16,
 };
+/// `TrajectoryHeader` + `[TrajectoryPose]`: the smoothing back-end's trajectory, from
+/// the service after each solve (loop closures, end of stream); the newest is kept in
+/// history for late joiners.
+pub const SMOOTHED_TRAJECTORY: Topic = Topic {
+    name: "smoothed/trajectory",
+    buffer: 2,
+    history: 1,
+    initial_slice_len: 1024,
+};
+/// `LandmarkMapHeader` + `[MapLandmark]`: the smoothing back-end's map (marginal
+/// covariances), published with each [`SMOOTHED_TRAJECTORY`].
+pub const SMOOTHED_MAP: Topic = Topic {
+    name: "smoothed/map",
+    buffer: 2,
+    history: 1,
+    initial_slice_len: 64,
+};
 /// [`crate::ServiceStatus`] from the FastSLAM service, after every observation step.
 pub const STATUS: Topic = Topic {
     name: "status",

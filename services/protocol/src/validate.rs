@@ -3,7 +3,7 @@
 
 use crate::{
     GroundTruth, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation, ObservationsHeader,
-    OccupancyGridHeader, Odometry,
+    OccupancyGridHeader, Odometry, TrajectoryHeader, TrajectoryPose,
 };
 
 /// Most observations one message may carry.
@@ -12,6 +12,8 @@ pub const MAX_OBSERVATIONS: usize = 4096;
 pub const MAX_MAP_LANDMARKS: usize = 1 << 20;
 /// Most beams one scan may carry.
 pub const MAX_SCAN_BEAMS: usize = 1 << 16;
+/// Most poses one trajectory message may carry (a day at 10 Hz).
+pub const MAX_TRAJECTORY_POSES: usize = 1 << 20;
 /// Most cells one occupancy grid may carry (a 1 km square at 0.25 m).
 pub const MAX_GRID_CELLS: usize = 1 << 24;
 
@@ -285,6 +287,24 @@ pub fn landmark_map(h: &LandmarkMapHeader, items: &[MapLandmark]) -> Result<(), 
         ] {
             finite(field, v)?;
         }
+    }
+    Ok(())
+}
+
+/// Checks a trajectory: the count matches the slice, every value is finite and the
+/// stamps do not go backwards.
+///
+/// # Errors
+/// The first problem found.
+pub fn trajectory(h: &TrajectoryHeader, items: &[TrajectoryPose]) -> Result<(), Rejection> {
+    count(h.count, items.len(), MAX_TRAJECTORY_POSES)?;
+    finite("chi2_per_dof", h.chi2_per_dof)?;
+    let mut order = StampOrder::default();
+    for p in items {
+        for (field, v) in [("x", p.x), ("y", p.y), ("theta", p.theta)] {
+            finite(field, v)?;
+        }
+        order.accept(p.stamp_ns)?;
     }
     Ok(())
 }

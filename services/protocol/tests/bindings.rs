@@ -31,6 +31,8 @@ fn rust_topics() -> Vec<Topic> {
         topics::POSE,
         topics::MAP,
         topics::GRID,
+        topics::SMOOTHED_TRAJECTORY,
+        topics::SMOOTHED_MAP,
         topics::STATUS,
         topics::END_OF_STREAM,
     ]

@@ -45,6 +45,8 @@ fn rust_layouts() -> Vec<Layout> {
             time_increment, scan_time, range_min, range_max, ranges, intensities),
         layout!(OccupancyGridHeader: header.stamp_ns, header.seq, resolution, origin_x, origin_y,
             origin_theta, width, height),
+        layout!(TrajectoryHeader: header.stamp_ns, header.seq, count, solves, chi2_per_dof),
+        layout!(TrajectoryPose: stamp_ns, x, y, theta),
     ]
 }
 
