@@ -27,7 +27,7 @@ use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::offline::{Message, OfflineRun};
 use fastslam_service::config::{Overrides, ServiceConfig};
 use fastslam_service::sequencer::{RawScan, Scan, Sequencer};
-use fastslam_service::slam::Slam;
+use fastslam_service::slam::{Slam, Smoothed};
 use std::time::{Duration, Instant};
 
 /// What one in-process run produced.
@@ -235,6 +235,7 @@ pub fn run_in_process(
 ) -> anyhow::Result<RunOutcome> {
     let cpu_start = process_cpu();
     let mut slam = Slam::new(config)?;
+    slam.start_smoother(config, Vec::new())?;
     let mut sequencer = Sequencer::default();
     let mut recording = Recording::default();
     let (mut odometry_order, mut scan_order) = (StampOrder::default(), StampOrder::default());
@@ -298,10 +299,16 @@ pub fn run_in_process(
     apply(&mut sequencer, &mut recording);
     let stamp_ns = last_pose.map_or(0, |h| h.stamp_ns);
     recording.map = slam.map(Header { stamp_ns, seq: 0 }).1;
+    if let Some(solution) = slam.finish_smoothing() {
+        let smoothed = Smoothed::of(&solution, Header { stamp_ns, seq: 0 });
+        recording.set_smoothed(&smoothed.trajectory.0, &smoothed.trajectory.1);
+        recording.smoothed_map = smoothed.map.1;
+    }
     let (align, score_at) = source.scoring();
     let alignment = fit_alignment(&scored_at(&recording, score_at), align);
     let mut recording = alignment.apply(&recording);
     let metrics = Metrics::compute(&recording, true, alignment, score_at)
+        .with_smoothed(&mut recording)
         .with_reference(&mut recording, &NoiseModel::of(&config.filter_config()));
     Ok(RunOutcome {
         metrics,
@@ -335,6 +342,11 @@ pub struct Row {
     pub reference: Summary,
     /// The estimate's ATE over the reference's, per run: "times the achievable error".
     pub over_reference: Summary,
+    /// The smoothing back-end's ATE RMSE per run (m), with `[smoother] enabled` (else
+    /// not a number).
+    pub smoothed: Summary,
+    /// Runs whose smoothed final position error is under 1 m.
+    pub smoothed_final_under_1m: usize,
     /// Landmark RMSE per run after optimal assignment (m).
     pub landmark: Summary,
     /// Mean pose NEES per run (3 when consistent).
@@ -436,6 +448,11 @@ fn summarise(method: String, particles: usize, runs: &[RunOutcome]) -> Row {
         dead_reckoning: column(&|r| r.metrics.dead_reckoning.ate_rmse_m),
         reference: column(&|r| r.metrics.reference_ate_m()),
         over_reference: column(&|r| r.metrics.estimate.ate_rmse_m / r.metrics.reference_ate_m()),
+        smoothed: column(&|r| r.metrics.smoothed_ate_m()),
+        smoothed_final_under_1m: (runs.iter())
+            .filter_map(|r| r.metrics.smoothed.as_ref())
+            .filter(|s| s.trajectory.final_error_m < 1.0)
+            .count(),
         landmark: column(&|r| r.metrics.map.rmse_m),
         nees: column(&|r| r.metrics.consistency.nees_mean),
         nees_within: column(&|r| r.metrics.consistency.nees_within_95),

@@ -4,6 +4,7 @@
 
 use crate::recording::StampedPose;
 use fastslam_estimation::wrap_angle;
+use fastslam_protocol::MapLandmark;
 use serde::{Deserialize, Serialize};
 
 /// A rigid motion of the plane: rotate by `theta`, then translate by `(x, y)`. Also a
@@ -89,6 +90,20 @@ impl Se2 {
             *v = m[(i / 3, i % 3)];
         }
         out
+    }
+
+    /// Maps a landmark: its position and covariance.
+    pub fn apply_landmark(&self, l: &MapLandmark) -> MapLandmark {
+        let (x, y) = self.apply(l.x, l.y);
+        let (cov_xx, cov_xy, cov_yy) = self.apply_point_covariance(l.cov_xx, l.cov_xy, l.cov_yy);
+        MapLandmark {
+            x,
+            y,
+            cov_xx,
+            cov_xy,
+            cov_yy,
+            ..*l
+        }
     }
 
     /// Maps a 2×2 covariance `(xx, xy, yy)` of a point.

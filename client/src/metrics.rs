@@ -81,6 +81,10 @@ pub struct Metrics {
     /// without the filter's noise model), see [`crate::reference`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference: Option<ReferenceMetrics>,
+    /// The smoothing back-end's last solution (absent when the service ran without
+    /// one), see [`Metrics::with_smoothed`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub smoothed: Option<SmoothedMetrics>,
     /// Consistency of the estimate's covariance.
     pub consistency: Consistency,
     /// The final landmark map against the true one.
@@ -111,6 +115,21 @@ pub struct TrajectoryMetrics {
     pub heading_rmse_rad: f64,
     /// Relative pose error over each distance of [`RPE_DELTAS_M`].
     pub rpe: Vec<Rpe>,
+}
+
+/// The smoothing back-end's trajectory and map against ground truth.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SmoothedMetrics {
+    /// Its trajectory (the poses at the scans with sightings), scored as the estimate.
+    #[serde(flatten)]
+    pub trajectory: TrajectoryMetrics,
+    /// χ² per degree of freedom of its solution.
+    #[serde(deserialize_with = "crate::metrics::number")]
+    pub chi2_per_dof: f64,
+    /// Solves the back-end ran.
+    pub solves: u32,
+    /// Its map against the true landmarks.
+    pub map: MapMetrics,
 }
 
 /// Normalised estimation error squared of the pose (x, y, θ).
@@ -235,6 +254,7 @@ impl Metrics {
             estimate: trajectory(&estimates, &rec.truth),
             dead_reckoning: trajectory(&dead_reckoning, &rec.truth),
             reference: None,
+            smoothed: None,
             consistency: consistency(rec),
             map: map(&rec.map, &rec.true_map, LANDMARK_CUTOFF_M),
             filter: filter_health(rec),
@@ -247,6 +267,37 @@ impl Metrics {
     /// The reference's ATE RMSE (m); not a number without a reference.
     pub fn reference_ate_m(&self) -> f64 {
         self.reference.map_or(f64::NAN, |r| r.ate_rmse_m)
+    }
+
+    /// Adds the smoothing back-end's last solution in `rec` (nothing without one),
+    /// scored as these metrics are; `rec.smoothed` and `rec.smoothed_map` are brought into
+    /// the truth's frame (by the smoothed trajectory's own fit when aligning).
+    pub fn with_smoothed(mut self, rec: &mut Recording) -> Self {
+        let Some((chi2_per_dof, solves)) = rec.smoothed_fit else {
+            return self;
+        };
+        let align = self.alignment.method;
+        let transform = match align {
+            AlignMode::None => Se2::IDENTITY,
+            _ => fit_se2(&rec.smoothed, &rec.truth),
+        };
+        let trajectory = reference::score(&rec.smoothed, &rec.truth, align, self.scored_at);
+        rec.smoothed = reference::aligned(&rec.smoothed, &rec.truth, align);
+        rec.smoothed_map = (rec.smoothed_map.iter())
+            .map(|l| transform.apply_landmark(l))
+            .collect();
+        self.smoothed = Some(SmoothedMetrics {
+            trajectory,
+            chi2_per_dof,
+            solves,
+            map: map(&rec.smoothed_map, &rec.true_map, LANDMARK_CUTOFF_M),
+        });
+        self
+    }
+
+    /// The smoothed trajectory's ATE RMSE (m); not a number without one.
+    pub fn smoothed_ate_m(&self) -> f64 {
+        (self.smoothed.as_ref()).map_or(f64::NAN, |s| s.trajectory.ate_rmse_m)
     }
 
     /// Adds the reference of `rec` solved under `model` (nothing when it has none),
@@ -330,10 +381,7 @@ impl Alignment {
             *p = self.dead_reckoning.apply_pose(p);
         }
         for l in &mut out.map {
-            (l.x, l.y) = self.estimate.apply(l.x, l.y);
-            (l.cov_xx, l.cov_xy, l.cov_yy) = self
-                .estimate
-                .apply_point_covariance(l.cov_xx, l.cov_xy, l.cov_yy);
+            *l = self.estimate.apply_landmark(l);
         }
         out
     }

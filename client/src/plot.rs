@@ -36,6 +36,8 @@ pub const DEAD_RECKONING: RGBColor = RGBColor(255, 127, 14);
 pub const LANDMARK: RGBColor = RGBColor(214, 39, 40);
 /// The achievable-accuracy reference: green.
 pub const REFERENCE: RGBColor = RGBColor(44, 160, 44);
+/// The smoothing back-end's trajectory: purple.
+pub const SMOOTHED: RGBColor = RGBColor(148, 103, 189);
 /// Further series (comparison plot), after the three above.
 const PALETTE: [RGBColor; 8] = [
     ESTIMATE,
@@ -227,6 +229,8 @@ pub struct TrajectoryPlot<'a> {
     pub dead_reckoning: &'a [StampedPose],
     /// The achievable-accuracy reference (empty without one).
     pub reference: &'a [StampedPose],
+    /// The smoothing back-end's trajectory (empty without one).
+    pub smoothed: &'a [StampedPose],
     /// The service's final map (means and covariances).
     pub map: &'a [MapLandmark],
     /// The true landmarks.
@@ -247,6 +251,7 @@ impl TrajectoryPlot<'_> {
             self.estimate,
             self.dead_reckoning,
             self.reference,
+            self.smoothed,
         ]
         .into_iter()
         .flatten()
@@ -297,6 +302,7 @@ impl TrajectoryPlot<'_> {
             (self.truth, TRUTH, "truth"),
             (self.reference, REFERENCE, "achievable (MAP)"),
             (self.estimate, ESTIMATE, "estimate"),
+            (self.smoothed, SMOOTHED, "smoothed"),
         ];
         for (track, colour, label) in tracks.into_iter().filter(|t| !t.0.is_empty()) {
             chart
@@ -543,6 +549,7 @@ mod tests {
             estimate: &estimate,
             dead_reckoning: &[],
             reference: &[],
+            smoothed: &[],
             map: &[],
             true_map: &[],
         };

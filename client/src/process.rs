@@ -13,8 +13,8 @@ use fastslam_protocol::ipc::{Ended, Flow, Ipc, Sub, WakeSource};
 use fastslam_protocol::stream::StreamEnd;
 use fastslam_protocol::{
     EndOfStream, GroundTruth, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation,
-    ObservationsHeader, OccupancyGridHeader, Odometry, PoseEstimate, ServiceStatus, StreamId, cli,
-    topics, validate,
+    ObservationsHeader, OccupancyGridHeader, Odometry, PoseEstimate, ServiceStatus, StreamId,
+    TrajectoryHeader, TrajectoryPose, cli, topics, validate,
 };
 use fastslam_service::config::ServiceConfig;
 use std::io::Write;
@@ -92,6 +92,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ipc.slice_subscriber::<LandmarkMapHeader, MapLandmark>(&topics::TRUE_LANDMARKS)?;
     let map = ipc.slice_subscriber::<LandmarkMapHeader, MapLandmark>(&topics::MAP)?;
     let grid = ipc.slice_subscriber::<OccupancyGridHeader, i8>(&topics::GRID)?;
+    let smoothed =
+        ipc.slice_subscriber::<TrajectoryHeader, TrajectoryPose>(&topics::SMOOTHED_TRAJECTORY)?;
+    let smoothed_map =
+        ipc.slice_subscriber::<LandmarkMapHeader, MapLandmark>(&topics::SMOOTHED_MAP)?;
     let status = ipc.subscriber::<ServiceStatus>(&topics::STATUS)?;
     let lidar = Lidar::open(&ipc)?;
     let truth = ipc.subscriber::<GroundTruth>(&topics::GROUND_TRUTH)?;
@@ -106,13 +110,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut live_ate = LiveAte::default();
     let mut last_sample = Instant::now();
     monitor.sample(&ipc);
-    let sources: [&dyn WakeSource; 9] = [
+    let sources: [&dyn WakeSource; 11] = [
         &truth,
         &odometry,
         lidar.source(),
         &status,
         &map,
         &grid,
+        &smoothed,
+        &smoothed_map,
         &pose,
         &true_map,
         &eos,
@@ -168,6 +174,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 || rec.grid = Some((*s.user_header(), s.payload().to_vec())),
             );
         })?;
+        smoothed.drain(|s| {
+            ends.saw(StreamId::SmoothedTrajectory, s.user_header().header.seq);
+            accept(
+                validate::trajectory(s.user_header(), s.payload()),
+                "smoothed trajectory",
+                || rec.set_smoothed(s.user_header(), s.payload()),
+            );
+        })?;
+        smoothed_map.drain(|s| {
+            ends.saw(StreamId::SmoothedMap, s.user_header().header.seq);
+            accept(
+                validate::landmark_map(s.user_header(), s.payload()),
+                "smoothed map",
+                || rec.smoothed_map = s.payload().to_vec(),
+            );
+        })?;
         true_map.drain(|s| {
             accept(
                 validate::landmark_map(s.user_header(), s.payload()),
@@ -205,7 +227,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     let alignment = fit_alignment(&scored_at(&rec, args.score_at), args.align);
     let mut rec = alignment.apply(&rec);
-    let mut metrics = Metrics::compute(&rec, ended == Ended::Done, alignment, args.score_at);
+    let mut metrics = Metrics::compute(&rec, ended == Ended::Done, alignment, args.score_at)
+        .with_smoothed(&mut rec);
     if let Some(noise) = &noise {
         metrics = metrics.with_reference(&mut rec, noise);
     }
@@ -234,7 +257,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 /// The streams the client records until they end, each with its end bookkeeping.
-struct Ends([(StreamId, StreamEnd); 7]);
+struct Ends([(StreamId, StreamEnd); 9]);
 
 impl Ends {
     /// The stack's streams, with `lidar` (scans or observations) as the lidar's.
@@ -247,6 +270,8 @@ impl Ends {
                 StreamId::Pose,
                 StreamId::Map,
                 StreamId::Grid,
+                StreamId::SmoothedTrajectory,
+                StreamId::SmoothedMap,
                 StreamId::Status,
             ]
             .map(|id| (id, StreamEnd::default())),

@@ -5,7 +5,7 @@ use fastslam_estimation::motion::Control;
 use fastslam_estimation::observation::Observation;
 use fastslam_protocol::{
     GroundTruth, MapLandmark, ObservationsHeader, OccupancyGridHeader, Odometry, PoseEstimate,
-    ServiceStatus, status,
+    ServiceStatus, TrajectoryHeader, TrajectoryPose, status,
 };
 
 /// A planar pose at a stamp.
@@ -63,6 +63,13 @@ pub struct Recording {
     /// The achievable-accuracy reference's trajectory in the truth's frame, once solved
     /// (see [`crate::reference`]); empty without one.
     pub reference: Vec<StampedPose>,
+    /// The smoothing back-end's newest trajectory (the service's frame; the truth's once
+    /// scored, see [`crate::metrics::Metrics::with_smoothed`]); empty without one.
+    pub smoothed: Vec<StampedPose>,
+    /// The χ² per degree of freedom and the solve count of that trajectory.
+    pub smoothed_fit: Option<(f64, u32)>,
+    /// The smoothing back-end's newest map.
+    pub smoothed_map: Vec<MapLandmark>,
     /// The service's estimates.
     pub estimates: Vec<Estimate>,
     /// The newest landmark map from the service.
@@ -102,6 +109,19 @@ pub struct StatusSample {
 }
 
 impl Recording {
+    /// Keeps a smoothed trajectory (replacing the previous one).
+    pub fn set_smoothed(&mut self, h: &TrajectoryHeader, poses: &[TrajectoryPose]) {
+        self.smoothed = (poses.iter())
+            .map(|p| StampedPose {
+                stamp_ns: p.stamp_ns,
+                x: p.x,
+                y: p.y,
+                theta: p.theta,
+            })
+            .collect();
+        self.smoothed_fit = Some((h.chi2_per_dof, h.solves));
+    }
+
     /// Adds a ground-truth sample.
     pub fn add_truth(&mut self, m: &GroundTruth) {
         self.truth.push(StampedPose {

@@ -14,7 +14,7 @@
 use crate::align::Se2;
 use crate::metrics::{AlignMode, ScoreAt, TrajectoryMetrics, fit_se2, interpolate, trajectory};
 use crate::recording::{Recording, StampedPose};
-use fastslam_estimation::graph::{Feed, KernelKind, SmootherConfig, SolveOptions, Smoother};
+use fastslam_estimation::graph::{Feed, KernelKind, Smoother, SmootherConfig, SolveOptions};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -102,34 +102,50 @@ pub fn solve(rec: &Recording, model: &NoiseModel) -> Option<Reference> {
     })
 }
 
+/// A solved trajectory (the reference's, the smoother's) in the truth's frame: as
+/// solved, or aligned onto `truth` (fitted to its own poses) when `align` asks — what is
+/// scored and drawn.
+pub fn aligned(poses: &[StampedPose], truth: &[StampedPose], align: AlignMode) -> Vec<StampedPose> {
+    let transform = match align {
+        AlignMode::None => Se2::IDENTITY,
+        _ => fit_se2(poses, truth),
+    };
+    poses.iter().map(|p| transform.apply_pose(p)).collect()
+}
+
+/// Scores a solved trajectory against `truth` as the estimate is scored: aligned onto
+/// the truth when `align` asks ([`aligned`]), at its poses or at the truth's stamps as
+/// `at` says.
+pub fn score(
+    poses: &[StampedPose],
+    truth: &[StampedPose],
+    align: AlignMode,
+    at: ScoreAt,
+) -> TrajectoryMetrics {
+    let aligned = aligned(poses, truth, align);
+    let scored = match at {
+        ScoreAt::Estimates => aligned,
+        ScoreAt::Truth => truth
+            .iter()
+            .filter_map(|t| interpolate(&aligned, t.stamp_ns))
+            .collect(),
+    };
+    trajectory(&scored, truth)
+}
+
 impl Reference {
-    /// The reference's poses in the truth's frame: as solved, or aligned onto `truth`
-    /// (fitted to its own poses) when `align` asks — what is scored and drawn.
+    /// The reference's poses in the truth's frame ([`aligned`]).
     pub fn aligned(&self, truth: &[StampedPose], align: AlignMode) -> Vec<StampedPose> {
-        let transform = match align {
-            AlignMode::None => Se2::IDENTITY,
-            _ => fit_se2(&self.poses, truth),
-        };
-        self.poses.iter().map(|p| transform.apply_pose(p)).collect()
+        aligned(&self.poses, truth, align)
     }
 
-    /// Scores the reference against `truth` as the estimate is scored: aligned onto
-    /// the truth when `align` asks ([`Reference::aligned`]), at its poses or at the
-    /// truth's stamps as `at` says.
+    /// Scores the reference against `truth` as the estimate is scored ([`score`]).
     pub fn score(&self, truth: &[StampedPose], align: AlignMode, at: ScoreAt) -> ReferenceMetrics {
-        let aligned = self.aligned(truth, align);
-        let scored = match at {
-            ScoreAt::Estimates => aligned,
-            ScoreAt::Truth => truth
-                .iter()
-                .filter_map(|t| interpolate(&aligned, t.stamp_ns))
-                .collect(),
-        };
         let TrajectoryMetrics {
             ate_rmse_m,
             final_error_m,
             ..
-        } = trajectory(&scored, truth);
+        } = score(&self.poses, truth, align, at);
         ReferenceMetrics {
             ate_rmse_m,
             final_error_m,
@@ -147,10 +163,10 @@ mod tests {
     use crate::recording::{Sightings, StampedControl};
     use fastslam_estimation::Pose2;
     use fastslam_estimation::motion::{Control, MotionModel, Unicycle};
-    use nalgebra::{Matrix2, Matrix3};
     use fastslam_estimation::observation::{Observation, measure};
     use fastslam_estimation::rng::seeded;
     use nalgebra::Vector2;
+    use nalgebra::{Matrix2, Matrix3};
     use rand::RngExt;
     use rand_distr::StandardNormal;
 

@@ -24,6 +24,10 @@ pub mod files {
     pub const DEAD_RECKONING_TUM: &str = "dead_reckoning.tum";
     /// The achievable-accuracy reference's trajectory (only when there is one).
     pub const REFERENCE_TUM: &str = "reference.tum";
+    /// The smoothing back-end's trajectory (only when the service ran one).
+    pub const SMOOTHED_TUM: &str = "smoothed.tum";
+    /// The smoothing back-end's map (only when the service ran one).
+    pub const SMOOTHED_MAP_CSV: &str = "smoothed_map.csv";
     /// The service's final landmark map.
     pub const MAP_CSV: &str = "map.csv";
     /// The true landmark map.
@@ -51,6 +55,10 @@ pub fn write(dir: &Path, rec: &Recording, metrics: &Metrics) -> std::io::Result<
     if !rec.reference.is_empty() {
         write_tum(&dir.join(files::REFERENCE_TUM), &rec.reference)?;
     }
+    if !rec.smoothed.is_empty() {
+        write_tum(&dir.join(files::SMOOTHED_TUM), &rec.smoothed)?;
+        write_map(&dir.join(files::SMOOTHED_MAP_CSV), &rec.smoothed_map)?;
+    }
     write_map(&dir.join(files::MAP_CSV), &rec.map)?;
     write_map(&dir.join(files::TRUE_MAP_CSV), &rec.true_map)?;
     if let Some((header, cells)) = &rec.grid {
@@ -63,6 +71,7 @@ pub fn write(dir: &Path, rec: &Recording, metrics: &Metrics) -> std::io::Result<
         estimate: &estimates,
         dead_reckoning: &rec.dead_reckoning,
         reference: &rec.reference,
+        smoothed: &rec.smoothed,
         map: &rec.map,
         true_map: &rec.true_map,
     };

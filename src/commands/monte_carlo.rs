@@ -50,7 +50,8 @@ pub struct MonteCarloArgs {
 
 /// The header of `monte-carlo --csv`; tools outside the project read these names.
 pub const CSV_HEADER: &str = "scenario,optimizer,correction,proposal,particles,seeds,\
-ate_mean_m,ate_std_m,nees_within_95,singular_fraction,cpu_s_per_run";
+ate_mean_m,ate_std_m,nees_within_95,singular_fraction,cpu_s_per_run,\
+smoothed_ate_mean_m,smoothed_ate_std_m";
 
 /// One line of `monte-carlo --csv`.
 fn csv_row(scenario: &str, row: &Row) -> String {
@@ -60,7 +61,7 @@ fn csv_row(scenario: &str, row: &Row) -> String {
         row.correction.name()
     };
     format!(
-        "{scenario},{},{correction},{},{},{},{},{},{},{},{}",
+        "{scenario},{},{correction},{},{},{},{},{},{},{},{},{},{}",
         row.optimizer,
         row.proposal,
         row.particles,
@@ -69,7 +70,9 @@ fn csv_row(scenario: &str, row: &Row) -> String {
         row.ate.std,
         row.nees_within.mean,
         row.singular.mean,
-        row.cpu.mean
+        row.cpu.mean,
+        row.smoothed.mean,
+        row.smoothed.std
     )
 }
 
@@ -147,6 +150,16 @@ fn cell(s: &Summary) -> String {
 
 /// One table row.
 fn print_row(row: &Row) {
+    let smoothed = if row.smoothed.n > 0 {
+        format!(
+            " · smoothed ATE {} (final < 1 m: {}/{})",
+            cell(&row.smoothed),
+            row.smoothed_final_under_1m,
+            row.smoothed.n + row.smoothed.non_finite
+        )
+    } else {
+        String::new()
+    };
     let moves = row.moves.map_or(String::new(), |m| {
         format!(
             " · {}/{} ({:.1} %)",
@@ -156,7 +169,7 @@ fn print_row(row: &Row) {
         )
     });
     println!(
-        "  {:<28} {:>5}  {:>30}  {:>30}  {:>30}  {:>10.3}  {:>8.3}  {:>7.2} ± {:<4.2}  {:>8.2}  {:.3} / {:.3}  {:.1} ± {:.1}{moves}",
+        "  {:<28} {:>5}  {:>30}  {:>30}  {:>30}  {:>10.3}  {:>8.3}  {:>7.2} ± {:<4.2}  {:>8.2}  {:.3} / {:.3}  {:.1} ± {:.1}{moves}{smoothed}",
         row.method,
         row.particles,
         cell(&row.ate),

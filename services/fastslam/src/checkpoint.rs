@@ -17,6 +17,7 @@
 
 use crate::per_input::{PerInput, Stream};
 use fastslam_estimation::fastslam::FilterState;
+use fastslam_estimation::graph::Feed;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -24,7 +25,7 @@ use std::path::{Path, PathBuf};
 /// The first bytes of every checkpoint file.
 pub const MAGIC: [u8; 8] = *b"FSLMCKPT";
 /// The payload layout written by this build; bumped whenever [`Checkpoint`] changes.
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 /// Bytes before the payload: magic, version, length, hash.
 const HEADER_LEN: usize = 28;
 
@@ -93,8 +94,12 @@ pub struct Checkpoint {
     pub steps: u64,
     /// Resamplings done.
     pub resamplings: u64,
-    /// Sequence numbers last published: pose, map, grid, status (so they continue).
-    pub last_seq: [Option<u64>; 4],
+    /// Sequence numbers last published: pose, map, grid, status, smoothed trajectory,
+    /// smoothed map (so they continue).
+    pub last_seq: [Option<u64>; 6],
+    /// What the smoothing back-end was fed (empty without one): a resumed service feeds
+    /// it again and so rebuilds the same graph.
+    pub smoother_feed: Vec<Feed>,
 }
 
 /// FNV-1a, 64 bits: a cheap hash that catches flipped or lost bytes.
@@ -291,7 +296,8 @@ mod tests {
             },
             steps: 1,
             resamplings: 0,
-            last_seq: [Some(0), Some(0), None, Some(0)],
+            last_seq: [Some(0), Some(0), None, Some(0), None, None],
+            smoother_feed: Vec::new(),
         }
     }
 

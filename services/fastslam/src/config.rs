@@ -25,6 +25,9 @@
 //! [output]
 //! map_every = 5
 //! grid_every = 50
+//! [smoother]          # fastslam_estimation::graph::SmootherConfig
+//! enabled = true
+//! loop_gap_s = 30.0
 //! ```
 //!
 //! IBA comes with its partial resampling (docs/ALGORITHMS.md §4.4): with `kind = "iba"`,
@@ -36,6 +39,7 @@
 use clap::builder::PossibleValuesParser;
 use fastslam_estimation::fastslam::{FastSlamConfig, Proposal, ResamplingScheme};
 use fastslam_estimation::features::ExtractorConfig;
+use fastslam_estimation::graph::SmootherConfig;
 use fastslam_estimation::grid::GridConfig;
 use fastslam_estimation::moves::{MoveConfig, MoveCorrection};
 use fastslam_estimation::optimise::{OptimiserConfig, OptimiserKind};
@@ -92,6 +96,8 @@ pub struct ServiceConfig {
     pub features: ExtractorConfig,
     /// The occupancy grid built from raw scans.
     pub grid: GridConfig,
+    /// The smoothing back-end beside the filter (docs/ALGORITHMS.md §8.3).
+    pub smoother: SmootherConfig,
 }
 
 /// Which lidar input the service takes, and how it judges its inputs.
@@ -356,6 +362,7 @@ impl ServiceConfig {
         self.optimizer.validate()?;
         self.moves.validate()?;
         self.input.validate()?;
+        self.smoother.validate()?;
         Ok(())
     }
 

@@ -25,3 +25,4 @@ pub mod process;
 pub mod sequencer;
 mod service;
 pub mod slam;
+pub mod smoothing;

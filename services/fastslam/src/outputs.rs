@@ -3,13 +3,14 @@
 //! resume).
 
 use crate::checkpoint::Checkpoint;
-use crate::slam::Slam;
+use crate::slam::{Slam, Smoothed};
+use fastslam_estimation::graph::Solution;
 use fastslam_protocol::ipc::{Ipc, Pub, SliceServer};
 use fastslam_protocol::status::ServiceStatus;
 use fastslam_protocol::validate;
 use fastslam_protocol::{
     EndOfStream, Header, LandmarkMapHeader, MapLandmark, MapRequest, OccupancyGridHeader,
-    PoseEstimate, StreamId, topics,
+    PoseEstimate, StreamId, TrajectoryHeader, TrajectoryPose, topics,
 };
 
 /// The service's output ports (and the `map/get` server) and the last header sent on each.
@@ -18,12 +19,15 @@ pub(crate) struct Outputs {
     map_get: SliceServer<MapRequest, LandmarkMapHeader, MapLandmark>,
     map: Pub<[MapLandmark], LandmarkMapHeader>,
     grid: Pub<[i8], OccupancyGridHeader>,
+    smoothed_trajectory: Pub<[TrajectoryPose], TrajectoryHeader>,
+    smoothed_map: Pub<[MapLandmark], LandmarkMapHeader>,
     status: Pub<ServiceStatus, ()>,
     eos: Pub<EndOfStream, ()>,
     last_pose: Option<Header>,
     last_map: Option<Header>,
     last_grid: Option<Header>,
     last_status: Option<Header>,
+    last_smoothed: Option<Header>,
 }
 
 /// Next header of a stream whose last header was `last`.
@@ -43,23 +47,27 @@ impl Outputs {
             map_get: ipc.slice_server(&topics::MAP_GET)?,
             map: ipc.slice_publisher(&topics::MAP)?,
             grid: ipc.slice_publisher(&topics::GRID)?,
+            smoothed_trajectory: ipc.slice_publisher(&topics::SMOOTHED_TRAJECTORY)?,
+            smoothed_map: ipc.slice_publisher(&topics::SMOOTHED_MAP)?,
             status: ipc.publisher(&topics::STATUS)?.coalescing(),
             eos: ipc.publisher(&topics::END_OF_STREAM)?,
             last_pose: None,
             last_map: None,
             last_grid: None,
             last_status: None,
+            last_smoothed: None,
         })
     }
 
     /// Continues the sequence numbers of the run a checkpoint was taken from.
     pub(crate) fn resume(&mut self, checkpoint: &Checkpoint) {
         let header = |seq: Option<u64>| seq.map(|seq| Header { stamp_ns: 0, seq });
-        let [pose, map, grid, status] = checkpoint.last_seq;
+        let [pose, map, grid, status, smoothed, _] = checkpoint.last_seq;
         self.last_pose = header(pose);
         self.last_map = header(map);
         self.last_grid = header(grid);
         self.last_status = header(status);
+        self.last_smoothed = header(smoothed);
     }
 
     /// Waits until the pose has `count` subscribers, so a client that starts late loses
@@ -69,13 +77,16 @@ impl Outputs {
         Ok(())
     }
 
-    /// Sequence numbers last published: pose, map, grid, status.
-    pub(crate) fn last_seq(&self) -> [Option<u64>; 4] {
+    /// Sequence numbers last published: pose, map, grid, status, smoothed trajectory,
+    /// smoothed map (the two smoothed streams share their numbers).
+    pub(crate) fn last_seq(&self) -> [Option<u64>; 6] {
         [
             self.last_pose,
             self.last_map,
             self.last_grid,
             self.last_status,
+            self.last_smoothed,
+            self.last_smoothed,
         ]
         .map(|h| h.map(|h| h.seq))
     }
@@ -129,6 +140,28 @@ impl Outputs {
         Ok(())
     }
 
+    /// Publishes a smoothing back-end's solution: its trajectory on
+    /// `smoothed/trajectory` and its map on `smoothed/map`, under one header (the stamp
+    /// of its newest pose).
+    pub(crate) fn smoothed(&mut self, solution: &Solution) -> anyhow::Result<()> {
+        let stamp_ns = solution.poses.last().map_or(0, |(stamp_ns, _)| *stamp_ns);
+        let header = next_header(self.last_smoothed, stamp_ns);
+        let Smoothed {
+            trajectory: (h, poses),
+            map: (map_header, map),
+        } = Smoothed::of(solution, header);
+        if let Err(reason) = validate::trajectory(&h, &poses)
+            .and_then(|()| validate::landmark_map(&map_header, &map))
+        {
+            tracing::warn!(%reason, "smoothed solution not published");
+            return Ok(());
+        }
+        self.smoothed_map.send(map_header, &map)?;
+        self.smoothed_trajectory.send(h, &poses)?;
+        self.last_smoothed = Some(header);
+        Ok(())
+    }
+
     /// Publishes a status, numbered after the last one.
     pub(crate) fn status(&mut self, mut status: ServiceStatus) -> anyhow::Result<()> {
         status.header = next_header(self.last_status, status.header.stamp_ns);
@@ -154,12 +187,16 @@ impl Outputs {
             (StreamId::Map, self.last_map),
             (StreamId::Grid, self.last_grid),
             (StreamId::Status, self.last_status),
+            (StreamId::SmoothedTrajectory, self.last_smoothed),
+            (StreamId::SmoothedMap, self.last_smoothed),
         ] {
             self.eos.send(EndOfStream::new(stream, last))?;
         }
         // The map and grid live in growable segments: stay until their readers have them.
         self.map.wait_until_unsubscribed(ipc)?;
         self.grid.wait_until_unsubscribed(ipc)?;
+        self.smoothed_trajectory.wait_until_unsubscribed(ipc)?;
+        self.smoothed_map.wait_until_unsubscribed(ipc)?;
         Ok(())
     }
 }

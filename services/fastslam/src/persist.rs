@@ -71,6 +71,8 @@ impl PersistArgs {
         if self.localise_only {
             slam.fix_map();
         }
+        let feed = checkpoint.as_ref().map(|c| c.smoother_feed.clone());
+        slam.start_smoother(config, feed.unwrap_or_default())?;
         Ok((slam, checkpoint))
     }
 

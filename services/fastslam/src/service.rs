@@ -1,7 +1,7 @@
 //! The service's wake loop as a type. [`Service`] holds everything that lives from one
 //! wake-up to the next; [`Service::wake`] runs the stages of a wake-up, in order: answer
 //! map requests, drain odometry, drain end-of-stream, take lidar messages, check
-//! deadlines, release the queue, flush. [`Service::finish`] ends the run. Underneath,
+//! deadlines, release the queue, publish the smoothing back-end's news, flush. [`Service::finish`] ends the run. Underneath,
 //! [`Core`] applies inputs to the filter and publishes what they produce.
 
 use crate::admit::Admission;
@@ -100,6 +100,9 @@ impl Service {
         self.check_deadlines(now)?;
         self.core.health.log.flush(now);
         self.core.release_queued()?;
+        if let Some(solution) = self.core.slam.smoothed() {
+            self.core.out.smoothed(&solution)?;
+        }
         self.core.out.flush()?;
         Ok(if self.finished(&inputs.lidar) {
             Flow::Stop
@@ -271,6 +274,9 @@ impl Service {
         let last_ns = core.out.last_pose_ns();
         core.out.map(&core.slam, last_ns)?;
         core.out.grid(&mut core.slam, last_ns)?;
+        if let Some(solution) = core.slam.finish_smoothing() {
+            core.out.smoothed(&solution)?;
+        }
         let status = core.health.final_status(&core.slam, &core.sequencer);
         core.out.status(status)?;
         core.out.finish(ipc)?;
@@ -338,6 +344,7 @@ impl Core {
             steps: self.health.steps(),
             resamplings: self.health.resamplings(),
             last_seq: self.out.last_seq(),
+            smoother_feed: self.slam.smoother_feed(),
         }
     }
 

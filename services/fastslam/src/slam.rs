@@ -4,11 +4,13 @@
 
 use crate::config::ServiceConfig;
 use crate::sequencer::Input;
+use crate::smoothing::Backend;
 use fastslam_estimation::Pose2;
 use fastslam_estimation::fastslam::{
     self, FastSlam, FilterState, OptimiserRefiner, PoseRefiner, Proposal, StepReport,
 };
 use fastslam_estimation::features::{ExtractorConfig, extract};
+use fastslam_estimation::graph::{Feed, NoiseModel, Solution};
 use fastslam_estimation::grid::GridMapper;
 use fastslam_estimation::motion::Control;
 use fastslam_estimation::moves::MoveStats;
@@ -16,7 +18,7 @@ use fastslam_estimation::observation::{Observation, Sensor};
 use fastslam_estimation::scan::RangeScan;
 use fastslam_protocol::{
     Header, LandmarkMapHeader, LaserScanHeader, MapLandmark, ObservationsHeader,
-    OccupancyGridHeader, PoseEstimate,
+    OccupancyGridHeader, PoseEstimate, TrajectoryHeader, TrajectoryPose,
 };
 use nalgebra::{Matrix2, Vector2};
 use std::f64::consts::TAU;
@@ -37,6 +39,8 @@ pub struct Slam {
     /// The current scan's observations in the filter's type, reused from scan to scan so
     /// a step allocates no buffer of its own.
     observations: Vec<Observation>,
+    /// The smoothing back-end, when `[smoother] enabled`.
+    backend: Option<Backend>,
 }
 
 /// Where an observation step sends its pose the moment the filter has it, before the
@@ -52,6 +56,59 @@ pub struct Step {
     pub report: StepReport,
     /// Observations the step used (extracted poles for a raw scan).
     pub observations: usize,
+}
+
+/// A smoothing back-end's solution as messages: the trajectory and the map.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Smoothed {
+    /// `smoothed/trajectory`'s header and poses.
+    pub trajectory: (TrajectoryHeader, Vec<TrajectoryPose>),
+    /// `smoothed/map`'s header and landmarks (marginal covariances).
+    pub map: (LandmarkMapHeader, Vec<MapLandmark>),
+}
+
+impl Smoothed {
+    /// `solution` as messages under `header`.
+    pub fn of(solution: &Solution, header: Header) -> Self {
+        let poses: Vec<TrajectoryPose> = (solution.poses.iter())
+            .map(|&(stamp_ns, p)| TrajectoryPose {
+                stamp_ns,
+                x: p.x,
+                y: p.y,
+                theta: p.theta,
+            })
+            .collect();
+        let map: Vec<MapLandmark> = (solution.landmarks.iter())
+            .map(|&(id, at, cov)| MapLandmark {
+                id,
+                x: at.x,
+                y: at.y,
+                cov_xx: cov[(0, 0)],
+                cov_xy: cov[(0, 1)],
+                cov_yy: cov[(1, 1)],
+                observations: 0,
+            })
+            .collect();
+        Self {
+            trajectory: (
+                TrajectoryHeader {
+                    header,
+                    count: u32::try_from(poses.len()).unwrap_or(u32::MAX),
+                    solves: solution.solves,
+                    chi2_per_dof: solution.chi2_per_dof,
+                },
+                poses,
+            ),
+            map: (
+                LandmarkMapHeader {
+                    header,
+                    count: u32::try_from(map.len()).unwrap_or(u32::MAX),
+                    reserved: 0,
+                },
+                map,
+            ),
+        }
+    }
 }
 
 impl Slam {
@@ -105,6 +162,43 @@ impl Slam {
         Ok(slam)
     }
 
+    /// Starts the smoothing back-end when the configuration asks for it, first fed with
+    /// `feed` (a resumed run's inputs so far, from its checkpoint).
+    ///
+    /// # Errors
+    /// When the back-end's configuration is invalid or its thread cannot start.
+    pub fn start_smoother(
+        &mut self,
+        config: &ServiceConfig,
+        feed: Vec<Feed>,
+    ) -> anyhow::Result<()> {
+        if config.smoother.enabled {
+            let noise = NoiseModel::of(&config.filter_config());
+            self.backend = Some(Backend::start(config.smoother.clone(), noise, feed)?);
+        }
+        Ok(())
+    }
+
+    /// The newest smoothed solution finished since the last call (`None` without a
+    /// back-end or when none is new).
+    pub fn smoothed(&mut self) -> Option<Solution> {
+        self.backend.as_mut().and_then(Backend::latest)
+    }
+
+    /// Ends the back-end's input and waits for its last solve: the newest solution not
+    /// yet taken.
+    pub fn finish_smoothing(&mut self) -> Option<Solution> {
+        self.backend.as_mut().and_then(Backend::finish)
+    }
+
+    /// What the back-end was fed so far, for a checkpoint (empty without one).
+    pub fn smoother_feed(&self) -> Vec<Feed> {
+        self.backend
+            .as_ref()
+            .map(|b| b.feed().to_vec())
+            .unwrap_or_default()
+    }
+
     fn around(config: &ServiceConfig, filter: FastSlam) -> fastslam_estimation::Result<Self> {
         config.features.validate()?;
         let refiner =
@@ -127,6 +221,7 @@ impl Slam {
             extractor: config.features.clone(),
             mapper: GridMapper::new(config.grid.clone())?,
             observations: Vec::new(),
+            backend: None,
         })
     }
 
@@ -238,6 +333,13 @@ impl Slam {
         let dt = to.saturating_sub(from) as f64 * 1e-9;
         if dt > 0.0 {
             self.filter.predict(control, dt)?;
+            if let Some(backend) = &mut self.backend {
+                backend.send(Feed::Control {
+                    from_ns: from,
+                    to_ns: to,
+                    control: *control,
+                });
+            }
         }
         Ok(dt > 0.0)
     }
@@ -306,6 +408,12 @@ impl Slam {
                 };
                 publish(pose);
             })?;
+        if let Some(backend) = &mut self.backend {
+            backend.send(Feed::Scan {
+                stamp_ns: header.stamp_ns,
+                sightings: self.filter.best_sightings(sensor),
+            });
+        }
         Ok(Step {
             pose,
             report,

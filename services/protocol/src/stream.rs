@@ -197,6 +197,8 @@ mod tests {
             StreamId::Status,
             StreamId::Scan,
             StreamId::Grid,
+            StreamId::SmoothedTrajectory,
+            StreamId::SmoothedMap,
         ] {
             assert_eq!(StreamId::from_u32(id as u32), Some(id));
         }

@@ -602,7 +602,10 @@ impl FastSlam {
                     Decision::New { id: Some(id) } => id,
                     Decision::New { id: None } | Decision::Ignore => return None,
                 };
-                Some(Observation { id: Some(id), ..*obs })
+                Some(Observation {
+                    id: Some(id),
+                    ..*obs
+                })
             })
             .collect()
     }

@@ -327,7 +327,12 @@ impl Smoother {
         self.solves += 1;
         let dof = (self.graph.residuals().saturating_sub(self.graph.unknowns())).max(1) as f64;
         Ok(Solution {
-            poses: self.stamps.iter().copied().zip(self.graph.poses.iter().copied()).collect(),
+            poses: self
+                .stamps
+                .iter()
+                .copied()
+                .zip(self.graph.poses.iter().copied())
+                .collect(),
             landmarks: (self.keys.iter().zip(&self.graph.landmarks).zip(covariances))
                 .map(|((&key, &at), cov)| (key, at, cov))
                 .collect(),
@@ -469,6 +474,9 @@ mod tests {
         let expected = g * model.sensor * g.transpose();
         assert_eq!(key, 7);
         // The start's prior (variance 1e-8) adds about r² · 1e-8 to it.
-        assert!((cov - expected).norm() < 1e-4 * expected.norm(), "{cov} vs {expected}");
+        assert!(
+            (cov - expected).norm() < 1e-4 * expected.norm(),
+            "{cov} vs {expected}"
+        );
     }
 }
