@@ -82,6 +82,8 @@ pub struct Replay {
     pub name: String,
     /// The messages.
     pub data: DataSet,
+    /// What the replay's observations carry: landmark ids or none.
+    pub association: Association,
     /// The service's settings (the profile's `[service]` table with the association).
     pub service: toml::Table,
     /// How the client aligns the estimate before scoring (the profile's client flags).
@@ -134,6 +136,7 @@ impl Source {
         Ok(Self::Replay(Replay {
             name,
             data,
+            association,
             service,
             align: scoring.align,
             score_at: scoring.score_at,
@@ -160,15 +163,19 @@ impl Source {
     ) -> anyhow::Result<ServiceConfig> {
         match (self, file) {
             (Self::Simulation(scenario), _) => settings::service_config(scenario, file, overrides),
-            (Self::Replay(_), Some(path)) => Ok(ServiceConfig::load(Some(path))?
-                .with_overrides(overrides)
-                .context("service settings")?),
-            (Self::Replay(r), None) => Ok(ServiceConfig::parse(
-                &format!("{} [service]", r.name),
-                &toml::to_string(&r.service)?,
-            )?
-            .with_overrides(overrides)
-            .context("service settings")?),
+            (Self::Replay(r), file) => {
+                let (origin, table) = match file {
+                    Some(path) => {
+                        let mut table = settings::read_table(path)?;
+                        settings::set_association_mode(&mut table, r.association)?;
+                        (path.display().to_string(), table)
+                    }
+                    None => (format!("{} [service]", r.name), r.service.clone()),
+                };
+                Ok(ServiceConfig::parse(&origin, &toml::to_string(&table)?)?
+                    .with_overrides(overrides)
+                    .context("service settings")?)
+            }
         }
     }
 

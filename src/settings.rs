@@ -42,15 +42,34 @@ pub fn replay_service_table(
     association: Association,
 ) -> anyhow::Result<toml::Table> {
     let mut table = match config {
-        Some(c) => {
-            let text = std::fs::read_to_string(c)
-                .with_context(|| format!("service config {}", c.display()))?;
-            toml::from_str::<toml::Table>(&text)
-                .with_context(|| format!("service config {}", c.display()))?
-        }
+        Some(c) => read_table(c)?,
         None => profile.service.clone().unwrap_or_default(),
     };
-    let mut section = &mut table;
+    set_association_mode(&mut table, association)?;
+    Ok(table)
+}
+
+/// The service config file `path` as a TOML table.
+///
+/// # Errors
+/// A file that cannot be read or is not TOML.
+pub fn read_table(path: &Path) -> anyhow::Result<toml::Table> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("service config {}", path.display()))?;
+    toml::from_str::<toml::Table>(&text)
+        .with_context(|| format!("service config {}", path.display()))
+}
+
+/// Sets `filter.association.mode` of the service table `table` to what a replay with
+/// `association` publishes.
+///
+/// # Errors
+/// A `filter` or `association` that is no table.
+pub fn set_association_mode(
+    table: &mut toml::Table,
+    association: Association,
+) -> anyhow::Result<()> {
+    let mut section = table;
     for key in ["filter", "association"] {
         let entry = section
             .entry(key)
@@ -61,5 +80,5 @@ pub fn replay_service_table(
         section = inner;
     }
     section.insert("mode".into(), association.service_mode().into());
-    Ok(table)
+    Ok(())
 }

@@ -252,3 +252,34 @@ fn health_and_cost_come_from_the_status_topic_and_proc() {
         assert!(num(p, "/peak_rss_mib") > 1.0, "{p}");
     }
 }
+
+#[test]
+fn the_smoothing_back_end_is_received_scored_and_written() {
+    let out = run_folder();
+    let m = metrics(out);
+    // bailey-short runs the back-end: at least the end-of-stream solve, over every scan
+    // with sightings (as the reference), with the same landmarks.
+    assert!(num(&m, "/smoothed/solves") >= 1.0, "{m}");
+    let poses = num(&m, "/smoothed/poses");
+    assert_eq!(poses, num(&m, "/reference/poses"), "{m}");
+    let tum = std::fs::read_to_string(out.join("smoothed.tum")).unwrap();
+    let rows = tum.lines().filter(|l| !l.starts_with('#')).count();
+    assert_eq!(rows as f64, poses);
+    let mapped = std::fs::read_to_string(out.join("smoothed_map.csv")).unwrap();
+    assert_eq!(
+        mapped.lines().count() as f64 - 1.0,
+        num(&m, "/smoothed/map/estimated")
+    );
+    assert_eq!(num(&m, "/smoothed/map/spurious"), 0.0, "{m}");
+    // With known association the back-end solves the reference's problem (with a robust
+    // kernel): it lands next to it, and its χ² fits the noise.
+    let (smoothed, reference) = (
+        num(&m, "/smoothed/ate_rmse_m"),
+        num(&m, "/reference/ate_rmse_m"),
+    );
+    assert!(smoothed < 1.3 * reference, "{smoothed} vs {reference}");
+    assert!(
+        (0.7..1.4).contains(&num(&m, "/smoothed/chi2_per_dof")),
+        "{m}"
+    );
+}

@@ -5,7 +5,7 @@
 //! ended and every expectation holds. `METRICS.md` documents the paths.
 
 use crate::Metrics;
-use crate::metrics::{Alignment, ScoreAt};
+use crate::metrics::{Alignment, ScoreAt, SmoothedMetrics};
 use crate::recording::Recording;
 use crate::reference::ReferenceMetrics;
 use anyhow::Context;
@@ -179,8 +179,8 @@ impl Expectation {
     }
 }
 
-/// metrics.json of an empty run, with the optional `reference` section: the shape every
-/// run's metrics have, numbers (or `null`) where a run has numbers.
+/// metrics.json of an empty run, with the optional `reference` and `smoothed` sections:
+/// the shape every run's metrics have, numbers (or `null`) where a run has numbers.
 static TEMPLATE: LazyLock<Value> = LazyLock::new(|| {
     let mut m = Metrics::compute(
         &Recording::default(),
@@ -189,6 +189,12 @@ static TEMPLATE: LazyLock<Value> = LazyLock::new(|| {
         ScoreAt::default(),
     );
     m.reference = Some(ReferenceMetrics::default());
+    m.smoothed = Some(SmoothedMetrics {
+        trajectory: m.estimate.clone(),
+        chi2_per_dof: f64::NAN,
+        solves: 0,
+        map: m.map.clone(),
+    });
     serde_json::to_value(&m).unwrap_or(Value::Null)
 });
 
@@ -208,7 +214,8 @@ pub enum Measured {
     Value(f64),
     /// `null` (NaN: nothing to measure) or not a number.
     NotANumber,
-    /// The section is absent from this run's metrics (`reference` without landmark ids).
+    /// The section is absent from this run's metrics (`reference` without landmark ids,
+    /// `smoothed` without the smoothing back-end).
     NotMeasured,
 }
 

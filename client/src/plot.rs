@@ -301,8 +301,8 @@ impl TrajectoryPlot<'_> {
             (self.dead_reckoning, DEAD_RECKONING, "dead reckoning"),
             (self.truth, TRUTH, "truth"),
             (self.reference, REFERENCE, "achievable (MAP)"),
-            (self.estimate, ESTIMATE, "estimate"),
             (self.smoothed, SMOOTHED, "smoothed"),
+            (self.estimate, ESTIMATE, "estimate"),
         ];
         for (track, colour, label) in tracks.into_iter().filter(|t| !t.0.is_empty()) {
             chart

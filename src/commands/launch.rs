@@ -175,6 +175,17 @@ pub(crate) fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
             r.ate_rmse_m, r.chi2_per_dof
         );
     }
+    if let Some(s) = &m.smoothed {
+        println!(
+            "  smoothed ATE   {:8.3} m   (smoothing back-end, {} solves; final error {:.3} m; \
+             landmark RMSE {:.3} m; χ²/dof {:.2})",
+            s.trajectory.ate_rmse_m,
+            s.solves,
+            s.trajectory.final_error_m,
+            s.map.rmse_m,
+            s.chi2_per_dof
+        );
+    }
     println!("  final error    {:8.3} m", m.estimate.final_error_m);
     println!(
         "  landmark RMSE  {:8.3} m   ({} of {} matched, {} spurious)",

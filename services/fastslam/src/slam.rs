@@ -605,6 +605,84 @@ mod tests {
         );
     }
 
+    /// Inputs `from..to` of a drive along x at 2 m/s past a row of landmarks (known ids),
+    /// odometry every 25 ms and a scan every 250 ms.
+    fn drive(slam: &mut Slam, steps: std::ops::Range<u64>) -> Option<Step> {
+        let mut last = None;
+        for k in steps {
+            let t_ns = k * 25_000_000;
+            slam.apply(&odometry(t_ns, 2.0), &mut |_| {}).unwrap();
+            if k % 10 == 0 {
+                let x = 2.0 * t_ns as f64 * 1e-9;
+                let observations: Vec<fastslam_protocol::Observation> = (0..40)
+                    .filter_map(|id| {
+                        let (dx, dy) = (
+                            f64::from(id) * 5.0 - x,
+                            if id % 2 == 0 { 4.0 } else { -4.0 },
+                        );
+                        let range = dx.hypot(dy);
+                        (range < 15.0).then_some(fastslam_protocol::Observation {
+                            range,
+                            bearing: dy.atan2(dx),
+                            diameter: 0.0,
+                            id: i64::from(id),
+                        })
+                    })
+                    .collect();
+                let header = ObservationsHeader {
+                    header: Header {
+                        stamp_ns: t_ns,
+                        seq: k / 10,
+                    },
+                    count: observations.len() as u32,
+                    max_range: 30.0,
+                    min_bearing: -PI,
+                    max_bearing: PI,
+                    ..Default::default()
+                };
+                let scan = Input::Scan(Scan {
+                    header,
+                    observations,
+                });
+                last = slam.apply(&scan, &mut |_| {}).unwrap();
+            }
+        }
+        last
+    }
+
+    #[test]
+    fn a_resumed_smoother_rebuilds_the_same_graph_from_its_feed() {
+        let mut config = ServiceConfig::default();
+        config.filter.particles = 10;
+        config.filter.association.mode = fastslam_estimation::fastslam::AssociationMode::Known;
+        config.smoother.enabled = true;
+        config.smoother.loop_gap_s = 1.0;
+        config.smoother.min_poses_between_solves = 5;
+        let mut whole = Slam::new(&config).unwrap();
+        whole.start_smoother(&config, Vec::new()).unwrap();
+        drive(&mut whole, 0..800);
+        let expected = whole.finish_smoothing().expect("a solution");
+
+        let mut first = Slam::new(&config).unwrap();
+        first.start_smoother(&config, Vec::new()).unwrap();
+        drive(&mut first, 0..400);
+        let (state, feed) = (first.state(), first.smoother_feed());
+        assert!(!feed.is_empty());
+        let mut resumed = Slam::resume(&config, &state, first.last_odometry_ns()).unwrap();
+        resumed.start_smoother(&config, feed).unwrap();
+        drive(&mut resumed, 400..800);
+        let solution = resumed.finish_smoothing().expect("a solution");
+        assert_eq!(solution.poses, expected.poses);
+        assert_eq!(solution.landmarks, expected.landmarks);
+        assert!(expected.poses.len() > 70 && expected.landmarks.len() > 10);
+        let worst = expected
+            .poses
+            .iter()
+            .map(|(t, p)| (p.x - 2.0 * *t as f64 * 1e-9).hypot(p.y))
+            .fold(0.0, f64::max);
+        assert!(worst < 0.5, "smoothed drive off by {worst} m");
+    }
+
     #[test]
     fn a_raw_scan_becomes_pole_observations_and_a_grid() {
         let mut config = ServiceConfig::default();
