@@ -96,7 +96,7 @@ pub struct ServiceConfig {
     pub features: ExtractorConfig,
     /// The occupancy grid built from raw scans.
     pub grid: GridConfig,
-    /// The smoothing back-end beside the filter (docs/ALGORITHMS.md §8.3).
+    /// The smoothing back-end beside the filter (docs/ALGORITHMS.md §8.1).
     pub smoother: SmootherConfig,
 }
 

@@ -1,4 +1,4 @@
-//! The smoothing back-end on a thread of its own (docs/ALGORITHMS.md §8.3). The filter's
+//! The smoothing back-end on a thread of its own (docs/ALGORITHMS.md §8.1). The filter's
 //! thread hands it every control and every scan's keyed sightings through a channel and
 //! never waits for it; the back-end grows its graph ([`Smoother`]), solves when a loop
 //! closes, and hands the solutions back through another channel, which the service

@@ -1,5 +1,5 @@
 //! A full-SLAM graph that grows as the data arrives, solved when a loop closes
-//! (docs/ALGORITHMS.md §8.3): the service's smoothing back-end, and — fed with the true
+//! (docs/ALGORITHMS.md §8.1): the service's smoothing back-end, and — fed with the true
 //! landmark ids and solved once — the client's achievable-accuracy reference.
 //!
 //! The graph has a pose at every scan with sightings (the first pose, where the data
