@@ -38,6 +38,26 @@ impl Pose2 {
         }
     }
 
+    /// `self ∘ other`: pose `other`, given in `self`'s frame, in the world.
+    pub fn compose(&self, other: &Pose2) -> Pose2 {
+        let (s, c) = self.theta.sin_cos();
+        Pose2::new(
+            self.x + c * other.x - s * other.y,
+            self.y + s * other.x + c * other.y,
+            self.theta + other.theta,
+        )
+    }
+
+    /// `self⁻¹`: the world seen from this pose, so that `self⁻¹ ∘ self` is the identity.
+    pub fn inverse(&self) -> Pose2 {
+        let (s, c) = self.theta.sin_cos();
+        Pose2::new(
+            -c * self.x - s * self.y,
+            s * self.x - c * self.y,
+            -self.theta,
+        )
+    }
+
     /// True when every component is finite.
     pub fn is_finite(&self) -> bool {
         self.x.is_finite() && self.y.is_finite() && self.theta.is_finite()
@@ -47,6 +67,19 @@ impl Pose2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn composing_with_the_inverse_gives_the_identity() {
+        let a = Pose2::new(3.0, -2.0, 2.5);
+        let b = Pose2::new(-1.0, 4.0, -0.7);
+        let back = a.inverse().compose(&a.compose(&b));
+        assert!((back.x - b.x).abs() < 1e-12 && (back.y - b.y).abs() < 1e-12);
+        assert!(wrap_angle(back.theta - b.theta).abs() < 1e-12);
+        // A point 1 m ahead of a pose facing +y lies 1 m above it.
+        let ahead =
+            Pose2::new(2.0, 0.0, std::f64::consts::FRAC_PI_2).compose(&Pose2::new(1.0, 0.0, 0.0));
+        assert!((ahead.x - 2.0).abs() < 1e-12 && (ahead.y - 1.0).abs() < 1e-12);
+    }
 
     #[test]
     fn wrap_angle_skips_the_remainder_only_where_it_changes_nothing() {

@@ -28,6 +28,7 @@
 //! [smoother]          # fastslam_estimation::graph::SmootherConfig
 //! enabled = true
 //! loop_gap_s = 30.0
+//! reanchor = false
 //! ```
 //!
 //! IBA comes with its partial resampling (docs/ALGORITHMS.md §4.4): with `kind = "iba"`,

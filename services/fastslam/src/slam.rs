@@ -21,6 +21,7 @@ use fastslam_protocol::{
     OccupancyGridHeader, PoseEstimate, TrajectoryHeader, TrajectoryPose,
 };
 use nalgebra::{Matrix2, Vector2};
+use std::collections::VecDeque;
 use std::f64::consts::TAU;
 
 /// The filter, its optimiser, and the service's bookkeeping around them.
@@ -41,6 +42,9 @@ pub struct Slam {
     observations: Vec<Observation>,
     /// The smoothing back-end, when `[smoother] enabled`.
     backend: Option<Backend>,
+    /// With re-anchoring: the delay (scans) and the estimates of the last scans (stamp,
+    /// mean), to compare a solution's last pose with what the filter said then.
+    reanchor: Option<(u64, VecDeque<(u64, Pose2)>)>,
 }
 
 /// Where an observation step sends its pose the moment the filter has it, before the
@@ -175,6 +179,8 @@ impl Slam {
         if config.smoother.enabled {
             let noise = NoiseModel::of(&config.filter_config());
             self.backend = Some(Backend::start(config.smoother.clone(), noise, feed)?);
+            let delay = config.smoother.reanchor_delay_scans;
+            self.reanchor = config.smoother.reanchor.then(|| (delay, VecDeque::new()));
         }
         Ok(())
     }
@@ -222,6 +228,7 @@ impl Slam {
             mapper: GridMapper::new(config.grid.clone())?,
             observations: Vec::new(),
             backend: None,
+            reanchor: None,
         })
     }
 
@@ -413,12 +420,50 @@ impl Slam {
                 stamp_ns: header.stamp_ns,
                 sightings: self.filter.best_sightings(sensor),
             });
+            let mean = Pose2::new(pose.x, pose.y, pose.theta);
+            self.reanchor_if_due(header.stamp_ns, mean);
         }
         Ok(Step {
             pose,
             report,
             observations: observations.len(),
         })
+    }
+
+    /// With re-anchoring, after the scan stamped `stamp_ns` whose estimate was `mean`:
+    /// moves the particles onto the solution triggered `delay` scans ago, if that scan
+    /// closed a loop. The correction is the rigid motion taking the filter's estimate at
+    /// the solution's last pose onto that pose.
+    fn reanchor_if_due(&mut self, stamp_ns: u64, mean: Pose2) {
+        let (Some(backend), Some((delay, recent))) = (&mut self.backend, &mut self.reanchor) else {
+            return;
+        };
+        recent.push_back((stamp_ns, mean));
+        while recent.len() as u64 > *delay + 1 {
+            recent.pop_front();
+        }
+        let Some(solution) = backend.due(*delay) else {
+            return;
+        };
+        let Some(&(last_ns, smoothed)) = solution.poses.last() else {
+            return;
+        };
+        let Some(&(_, then)) = recent.iter().find(|(t, _)| *t == last_ns) else {
+            tracing::warn!(
+                last_ns,
+                "re-anchoring skipped: no estimate at the solution's last pose"
+            );
+            return;
+        };
+        let correction = smoothed.compose(&then.inverse());
+        tracing::info!(
+            dx_m = correction.x,
+            dy_m = correction.y,
+            dtheta_rad = correction.theta,
+            solve = solution.solves,
+            "particles re-anchored on the smoothed solution"
+        );
+        self.filter.reanchor(&correction, &solution.landmarks);
     }
 
     /// A scan's sensor: noise from the configuration, range and field of view from the

@@ -1,24 +1,43 @@
 //! The smoothing back-end on a thread of its own (docs/ALGORITHMS.md §8.1). The filter's
 //! thread hands it every control and every scan's keyed sightings through a channel and
 //! never waits for it; the back-end grows its graph ([`Smoother`]), solves when a loop
-//! closes, and hands the solutions back through another channel, which the service
-//! drains between inputs and publishes.
+//! closes, and reports after every scan — with the solution when that scan closed a
+//! loop — through another channel, which the service drains between inputs.
+//!
+//! Re-anchoring needs a solution at a point the data fixes: the one triggered at scan
+//! `t` is applied after scan `t + delay` ([`Backend::due`]); only if the back-end has not
+//! reported scan `t` by then does the filter wait for it.
 //!
 //! Every input it was given is also kept (the feed), so that a checkpoint can carry it
 //! and a resumed service rebuilds the same graph by feeding it again.
 
 use fastslam_estimation::graph::{Feed, NoiseModel, Smoother, SmootherConfig, Solution};
+use std::collections::VecDeque;
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::thread::JoinHandle;
 
-/// The back-end thread and the two channels to it.
+/// What the back-end reports after each scan it was fed (numbered from 1).
+#[derive(Debug)]
+struct Report {
+    scan: u64,
+    solution: Option<Solution>,
+}
+
+/// The back-end thread, the two channels to it and what it reported.
 #[derive(Debug)]
 pub struct Backend {
     to_worker: Option<Sender<Feed>>,
-    from_worker: Receiver<Solution>,
+    from_worker: Receiver<Report>,
     worker: Option<JoinHandle<()>>,
     /// Everything fed so far, in order (for checkpoints).
     feed: Vec<Feed>,
+    /// Scans fed, and scans the back-end has reported.
+    scans_fed: u64,
+    scans_reported: u64,
+    /// The newest solution not yet taken for publishing.
+    unpublished: Option<Solution>,
+    /// Solutions kept for re-anchoring, with the scan that triggered them.
+    pending: Option<VecDeque<(u64, Solution)>>,
 }
 
 impl Backend {
@@ -32,20 +51,28 @@ impl Backend {
         noise: NoiseModel,
         feed: Vec<Feed>,
     ) -> anyhow::Result<Self> {
+        let reanchor = config.reanchor;
         let mut smoother = Smoother::new(config, noise)?;
         let (to_worker, inbox) = channel::<Feed>();
-        let (outbox, from_worker) = channel::<Solution>();
+        let (outbox, from_worker) = channel::<Report>();
         let worker = std::thread::Builder::new()
             .name("smoother".into())
             .spawn(move || {
+                let mut scan = 0;
                 for feed in inbox {
-                    if smoother.feed(&feed) && !solve_and_send(&mut smoother, &outbox) {
-                        return;
+                    let due = smoother.feed(&feed);
+                    if matches!(feed, Feed::Scan { .. }) {
+                        scan += 1;
+                        let solution = if due { solve(&mut smoother) } else { None };
+                        if outbox.send(Report { scan, solution }).is_err() {
+                            return;
+                        }
                     }
                 }
                 // The filter's side hung up: the stream ended. A last solve over the rest.
                 if smoother.has_news() {
-                    solve_and_send(&mut smoother, &outbox);
+                    let solution = solve(&mut smoother);
+                    let _ = outbox.send(Report { scan, solution });
                 }
             })?;
         let mut backend = Self {
@@ -53,6 +80,10 @@ impl Backend {
             from_worker,
             worker: Some(worker),
             feed: Vec::new(),
+            scans_fed: 0,
+            scans_reported: 0,
+            unpublished: None,
+            pending: reanchor.then(VecDeque::new),
         };
         for f in feed {
             backend.send(f);
@@ -62,6 +93,7 @@ impl Backend {
 
     /// Hands `feed` to the back-end (never waits).
     pub fn send(&mut self, feed: Feed) {
+        self.scans_fed += u64::from(matches!(feed, Feed::Scan { .. }));
         if let Some(to) = &self.to_worker
             && to.send(feed.clone()).is_err()
         {
@@ -71,9 +103,47 @@ impl Backend {
         self.feed.push(feed);
     }
 
+    /// Takes one report in.
+    fn take(&mut self, report: Report) {
+        self.scans_reported = self.scans_reported.max(report.scan);
+        if let Some(solution) = report.solution {
+            if let Some(pending) = &mut self.pending {
+                pending.push_back((report.scan, solution.clone()));
+            }
+            self.unpublished = Some(solution);
+        }
+    }
+
     /// The newest solution the back-end finished since the last call, if any.
     pub fn latest(&mut self) -> Option<Solution> {
-        self.from_worker.try_iter().last()
+        while let Ok(report) = self.from_worker.try_recv() {
+            self.take(report);
+        }
+        self.unpublished.take()
+    }
+
+    /// With re-anchoring, the solution to apply now, after `scans_fed` scans: the one
+    /// triggered `delay` scans ago, waiting for the back-end to report that scan if it
+    /// has not yet. `None` without re-anchoring or when that scan closed no loop.
+    pub fn due(&mut self, delay: u64) -> Option<Solution> {
+        self.pending.as_ref()?;
+        let target = self.scans_fed.checked_sub(delay)?;
+        while self.scans_reported < target {
+            match self.from_worker.recv() {
+                Ok(report) => self.take(report),
+                Err(_) => return None,
+            }
+        }
+        let pending = self.pending.as_mut()?;
+        while let Some((scan, _)) = pending.front()
+            && *scan < target
+        {
+            pending.pop_front();
+        }
+        match pending.front() {
+            Some((scan, _)) if *scan == target => pending.pop_front().map(|(_, s)| s),
+            _ => None,
+        }
     }
 
     /// Everything fed so far, for a checkpoint.
@@ -94,8 +164,8 @@ impl Backend {
     }
 }
 
-/// One solve, logged; its solution sent. False when nobody listens any more.
-fn solve_and_send(smoother: &mut Smoother, outbox: &Sender<Solution>) -> bool {
+/// One solve, logged.
+fn solve(smoother: &mut Smoother) -> Option<Solution> {
     match smoother.solve() {
         Ok(solution) => {
             let r = &solution.report;
@@ -109,11 +179,11 @@ fn solve_and_send(smoother: &mut Smoother, outbox: &Sender<Solution>) -> bool {
                 seconds = r.seconds,
                 "smoother solved"
             );
-            outbox.send(solution).is_ok()
+            Some(solution)
         }
         Err(e) => {
             tracing::warn!("smoother: {e}");
-            true
+            None
         }
     }
 }

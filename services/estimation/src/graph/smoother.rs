@@ -82,6 +82,12 @@ pub struct SmootherConfig {
     pub kernel_scale: f64,
     /// Most Levenberg–Marquardt iterations per solve.
     pub max_iterations: usize,
+    /// Move the filter's particles onto each loop-closure solution (re-anchoring).
+    pub reanchor: bool,
+    /// Scans between a loop-closure solve's trigger and its re-anchoring: the back-end
+    /// solves meanwhile, and the filter waits for it only if it is not done by then, so
+    /// the point where particles move is fixed by the data (same run, same numbers).
+    pub reanchor_delay_scans: u64,
 }
 
 impl Default for SmootherConfig {
@@ -93,6 +99,8 @@ impl Default for SmootherConfig {
             kernel: KernelKind::Cauchy,
             kernel_scale: 3.0,
             max_iterations: 50,
+            reanchor: false,
+            reanchor_delay_scans: 25,
         }
     }
 }
@@ -262,7 +270,7 @@ impl Smoother {
             let Some(between) = self.odometry.take(from, from + 1) else {
                 return false;
             };
-            let initial = compose(&self.graph.poses[from], &between.delta);
+            let initial = self.graph.poses[from].compose(&between.delta);
             let to = self.graph.add_pose(initial);
             self.graph.betweens.push(between);
             self.stamps.push(stamp_ns);
@@ -341,16 +349,6 @@ impl Smoother {
             solves: self.solves,
         })
     }
-}
-
-/// `a ∘ b`: pose `b`, given in `a`'s frame, in the world.
-fn compose(a: &Pose2, b: &Pose2) -> Pose2 {
-    let (s, c) = a.theta.sin_cos();
-    Pose2::new(
-        a.x + c * b.x - s * b.y,
-        a.y + s * b.x + c * b.y,
-        a.theta + b.theta,
-    )
 }
 
 #[cfg(test)]
