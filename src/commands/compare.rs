@@ -7,7 +7,9 @@
 //! under a prefix of its own, so its numbers are by construction those of an individual
 //! run with the same flags; `--jobs` runs several stacks side by side. Optimiser names
 //! are passed through to the service untouched: a name the service rejects fails that
-//! configuration with the service's reason and the others still run.
+//! configuration with the service's reason and the others still run. `--shard I/N` runs
+//! one slice of the configurations and `--merge` joins slices' folders into the tables the
+//! whole sweep writes ([`slices`]).
 
 use crate::commands::launch::short;
 use crate::supervisor::stop_flag;
