@@ -32,6 +32,11 @@ impl Default for Shard {
 }
 
 impl Shard {
+    /// Whether it is a slice: 1 ≤ index ≤ count.
+    fn is_valid(self) -> bool {
+        (1..=self.count).contains(&self.index)
+    }
+
     /// Whether run `k` (0-based, in the full list) belongs to this slice.
     pub fn holds(self, k: usize) -> bool {
         k % self.count == self.index - 1
@@ -68,10 +73,12 @@ impl FromStr for Shard {
             i.trim().parse().map_err(|_| wrong())?,
             n.trim().parse().map_err(|_| wrong())?,
         );
-        if index == 0 || index > count {
-            return Err(wrong());
+        let shard = Self { index, count };
+        if shard.is_valid() {
+            Ok(shard)
+        } else {
+            Err(wrong())
         }
-        Ok(Self { index, count })
     }
 }
 
@@ -189,6 +196,13 @@ pub fn merge(dirs: &[PathBuf]) -> anyhow::Result<Merged> {
         })?;
         let record: Record =
             serde_json::from_str(&text).with_context(|| format!("reading {}", path.display()))?;
+        if !record.shard.is_valid() {
+            bail!(
+                "{} names slice {}, which no sweep has",
+                path.display(),
+                record.shard
+            );
+        }
         slices.push((dir, record));
     }
     let (first_dir, first) = &slices[0];
@@ -233,13 +247,13 @@ pub fn merge(dirs: &[PathBuf]) -> anyhow::Result<Merged> {
     if !missing.is_empty() {
         bail!("missing slice(s) {} of the sweep", missing.join(", "));
     }
+    // Every slice is there: slice i at i − 1.
+    let by_slice: Vec<&(&PathBuf, Record)> = by_slice.into_iter().flatten().collect();
 
     let configs = first.sweep.configs();
     let mut results = Vec::with_capacity(configs.len());
     for (index, config) in configs.into_iter().enumerate() {
-        let Some((dir, record)) = by_slice[index % count] else {
-            unreachable!("every slice is present")
-        };
+        let (dir, record) = by_slice[index % count];
         results.push(result(dir, record, index, config)?);
     }
     Ok(Merged {
