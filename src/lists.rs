@@ -4,8 +4,9 @@
 use std::ops::AddAssign;
 use std::str::FromStr;
 
-/// A non-empty list of numbers, written `a,b,c` or `a..b` (inclusive).
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// A non-empty list of numbers, written `a,b,c` or `a..b` (inclusive); in JSON, an array.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(transparent)]
 pub struct List<T>(pub Vec<T>);
 
 impl<T> FromStr for List<T>

@@ -298,3 +298,145 @@ fn compare_runs_each_optimiser_in_each_correction_mode() {
     assert_ne!(reproducible(&papers), reproducible(&in_compare));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `compare` with `flags` into `out`; its output.
+fn compare(out: &Path, flags: &[&str]) -> std::process::Output {
+    Command::new(LAUNCHER)
+        .arg("compare")
+        .args(flags)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+/// `compare --merge` of `slices` into `out`; its output.
+fn merge(out: &Path, slices: &[&PathBuf]) -> std::process::Output {
+    Command::new(LAUNCHER)
+        .args(["compare", "--merge"])
+        .args(slices)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+/// The error output of a command that must fail.
+fn refusal(output: &std::process::Output) -> String {
+    assert!(!output.status.success(), "{output:?}");
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+/// A CSV file without the columns that measure time on the machine.
+fn without_timings(
+    path: &Path,
+    timings: &[&str],
+) -> Vec<std::collections::BTreeMap<String, String>> {
+    let mut rows = csv(path);
+    for row in &mut rows {
+        for column in timings {
+            assert!(
+                row.remove(*column).is_some(),
+                "{column} in {}",
+                path.display()
+            );
+        }
+    }
+    rows
+}
+
+/// `--shard 1/2` + `--shard 2/2` + `--merge` gives the unsliced sweep's tables: equal
+/// but for the columns that measure time (CPU and wall times, latencies) and where the run
+/// folders are; merging the unsliced folder itself gives its tables byte for byte. Slices
+/// of another sweep, or cut differently, and a missing or repeated slice are refused.
+#[test]
+fn sharded_compare_merges_into_the_unsliced_tables() {
+    let prefix = prefix("compare_shards");
+    let dir = folder(&prefix);
+    let scenario = short_scenario(&dir);
+    let scenario = scenario.to_str().unwrap();
+    let sweep = [
+        "--scenario",
+        scenario,
+        "--particles",
+        "10",
+        "--seeds",
+        "1,2",
+        "--timeout-s",
+        "300",
+    ];
+    let with = |more: &[&'static str]| [&sweep[..], more].concat();
+    let whole = dir.join("whole");
+    let (one, two) = (dir.join("one"), dir.join("two"));
+    assert_success(&compare(&whole, &sweep));
+    assert_success(&compare(&one, &with(&["--shard", "1/2"])));
+    assert_success(&compare(&two, &with(&["--shard", "2/2"])));
+    for (slice, seed) in [(&one, 1), (&two, 2)] {
+        let runs = csv(&slice.join("runs.csv"));
+        assert_eq!(runs.len(), 1, "{}", slice.display());
+        assert_eq!(runs[0]["seed"], seed.to_string());
+    }
+
+    let merged = dir.join("merged");
+    assert_success(&merge(&merged, &[&two, &one]));
+    let summary_timings = ["service_cpu_s_mean", "service_cpu_s_std", "wall_s_mean"];
+    assert_eq!(
+        without_timings(&merged.join("summary.csv"), &summary_timings),
+        without_timings(&whole.join("summary.csv"), &summary_timings)
+    );
+    let run_timings = [
+        "wall_s",
+        "service_cpu_s",
+        "stack_cpu_s",
+        "latency_median_ms",
+        "latency_p99_ms",
+        "run_folder",
+    ];
+    assert_eq!(
+        without_timings(&merged.join("runs.csv"), &run_timings),
+        without_timings(&whole.join("runs.csv"), &run_timings)
+    );
+    for run in csv(&merged.join("runs.csv")) {
+        assert!(
+            Path::new(&run["run_folder"]).join("metrics.json").is_file(),
+            "{run:?}"
+        );
+    }
+    assert!(merged.join("rmse_vs_cpu.png").is_file());
+
+    // The merge is the tables of the unsliced sweep: byte for byte on the same runs.
+    let again = dir.join("again");
+    assert_success(&merge(&again, &[&whole]));
+    for file in ["runs.csv", "summary.csv", "summary.md"] {
+        assert_eq!(
+            std::fs::read_to_string(again.join(file)).unwrap(),
+            std::fs::read_to_string(whole.join(file)).unwrap(),
+            "{file}"
+        );
+    }
+
+    // Refusals, each in one line. Slices with no runs are cheap: a 2-run sweep in 3.
+    let other = dir.join("other");
+    let other_flags = [&sweep[..6], &["--timeout-s", "200", "--shard", "3/3"]].concat();
+    assert_success(&compare(&other, &other_flags));
+    let third = dir.join("third");
+    assert_success(&compare(&third, &with(&["--shard", "3/3"])));
+    let no = dir.join("refused");
+    let cases: [(&[&PathBuf], &str); 4] = [
+        (&[&one], "missing slice(s) 2/2"),
+        (&[&one, &two, &one], "slice 1/2 is given twice"),
+        (&[&one, &other], "slices of different sweeps"),
+        (&[&one, &third], "cut into 2 and into 3 slices"),
+    ];
+    for (slices, reason) in cases {
+        let stderr = refusal(&merge(&no, slices));
+        assert!(stderr.contains(reason), "{reason}: {stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    }
+    assert!(
+        refusal(&compare(&no, &with(&["--shard", "3/2"]))).contains("1 ≤ I ≤ N"),
+        "a slice past the last is refused"
+    );
+    assert!(!no.exists(), "a refused merge wrote nothing");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -131,6 +131,13 @@ fn the_structured_world_runs_end_to_end_with_raw_scans() {
     println!("structured-100m grid: precision {precision:.3}, recall {recall:.3}");
     assert!(precision > 0.9, "grid precision {precision:.3}");
     assert!(out.join("map.png").is_file());
+    let mcap = read_mcap(&out.join("run.mcap"));
+    assert_eq!(
+        mcap["counts"]["/scan"].as_u64(),
+        Some(scans_published(&out.join("logs").join("lidar-sim.log"))),
+        "run.mcap holds every scan: {mcap}"
+    );
+    assert_eq!(mcap["schemas"]["/scan"], "foxglove.LaserScan/protobuf");
     assert_no_leftovers_and_remove(&prefix, &dir);
 }
 

@@ -1,6 +1,7 @@
 //! The run folder of a real run through the whole stack: `evo` reads our trajectories and
-//! agrees with our ATE, the pictures show the run, `metrics.json` and `metrics.csv`
-//! match their documentation (`client/METRICS.md`).
+//! agrees with our ATE, the Python `mcap` reader reads `run.mcap` with a message for every
+//! pose, truth and odometry sample the client saw, the pictures show the run,
+//! `metrics.json` and `metrics.csv` match their documentation (`client/METRICS.md`).
 //!
 //! One run of the short scenario serves every test of this file.
 
@@ -77,6 +78,55 @@ fn evo_ape_agrees_with_our_ate() {
     assert!(
         (evo_rmse - ours).abs() < 1e-6,
         "evo_ape RMSE {evo_rmse} vs our ATE {ours}"
+    );
+}
+
+/// Data lines of a text file (lines not starting with `#`), less `header` lines.
+fn rows(path: &Path, header: usize) -> u64 {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    (text.lines().filter(|l| !l.starts_with('#')).count() - header) as u64
+}
+
+#[test]
+fn run_mcap_holds_what_the_client_saw_in_foxglove_schemas() {
+    let out = run_folder();
+    let mcap = read_mcap(&out.join("run.mcap"));
+    let topics: BTreeSet<String> = mcap["counts"]
+        .as_object()
+        .unwrap()
+        .keys()
+        .cloned()
+        .collect();
+    let mut expected = documented("`run.mcap`");
+    assert!(expected.remove("/scan"), "/scan: raw-scan runs only");
+    assert_eq!(topics, expected, "run.mcap vs METRICS.md");
+    let count = |topic: &str| mcap["counts"][topic].as_u64().unwrap();
+    let poses = rows(&out.join("metrics.csv"), 1);
+    assert!(poses > 100, "{poses} poses");
+    assert_eq!(count("/pose"), poses, "{mcap}");
+    assert_eq!(count("/tf"), poses);
+    assert_eq!(count("/truth"), rows(&out.join("truth.tum"), 0));
+    assert_eq!(
+        count("/dead_reckoning"),
+        rows(&out.join("dead_reckoning.tum"), 0)
+    );
+    assert!(count("/map") >= 1 && count("/true_map") >= 1, "{mcap}");
+    assert!(count("/observations") >= 1, "{mcap}");
+    assert_eq!(count("/metrics"), 1);
+    let schema = |topic: &str| mcap["schemas"][topic].as_str().unwrap_or("").to_string();
+    assert_eq!(schema("/pose"), "foxglove.Odometry/protobuf");
+    assert_eq!(schema("/tf"), "foxglove.FrameTransforms/protobuf");
+    for topic in ["/truth", "/dead_reckoning"] {
+        assert_eq!(schema(topic), "foxglove.PoseInFrame/protobuf");
+    }
+    for topic in ["/map", "/true_map", "/observations"] {
+        assert_eq!(schema(topic), "foxglove.SceneUpdate/protobuf");
+    }
+    assert_eq!(mcap["encodings"]["/metrics"], "json");
+    assert_eq!(
+        mcap["metrics"],
+        metrics(out),
+        "the last message is metrics.json"
     );
 }
 

@@ -8,6 +8,7 @@
 pub mod align;
 pub mod expect;
 pub mod latency;
+pub mod mcap;
 pub mod metrics;
 pub mod occupancy;
 pub mod plot;

@@ -349,16 +349,22 @@ impl Picture for TrajectoryPlot<'_> {
     }
 }
 
-/// The closed outline of a landmark's 2σ ellipse (Mahalanobis distance 2 from the mean).
-pub fn ellipse_2sigma(l: &MapLandmark) -> Vec<(f64, f64)> {
+/// A landmark's covariance ellipse: the standard deviations along its major and minor
+/// axes (m) and the major axis' direction (rad).
+pub fn ellipse_axes(l: &MapLandmark) -> (f64, f64, f64) {
     let (a, b, c) = (l.cov_xx, l.cov_xy, l.cov_yy);
     let mid = (a + c) / 2.0;
     let radius = (((a - c) / 2.0).powi(2) + b * b).sqrt();
-    let (major, minor) = (
+    (
         (mid + radius).max(0.0).sqrt(),
         (mid - radius).max(0.0).sqrt(),
-    );
-    let angle = 0.5 * (2.0 * b).atan2(a - c);
+        0.5 * (2.0 * b).atan2(a - c),
+    )
+}
+
+/// The closed outline of a landmark's 2σ ellipse (Mahalanobis distance 2 from the mean).
+pub fn ellipse_2sigma(l: &MapLandmark) -> Vec<(f64, f64)> {
+    let (major, minor, angle) = ellipse_axes(l);
     let (s, co) = angle.sin_cos();
     (0..=48)
         .map(|k| {

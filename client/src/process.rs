@@ -4,6 +4,7 @@
 
 use crate::expect::JudgeArgs;
 use crate::latency::LatencyMatcher;
+use crate::mcap::RunMcap;
 use crate::metrics::{AlignMode, ScoreAt, fit_alignment, interpolate, scored_at};
 use crate::progress::{LiveAte, Progress};
 use crate::reference::NoiseModel;
@@ -103,6 +104,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let pose = ipc.subscriber::<PoseEstimate>(&topics::POSE)?;
     tracing::info!(lidar = ?lidar.stream(), "recording");
 
+    std::fs::create_dir_all(&args.out)?;
+    let mut mcap = RunMcap::create(&args.out.join(report::files::MCAP))?;
     let mut rec = Recording::default();
     let mut ends = Ends::new(lidar.stream());
     let mut latency = LatencyMatcher::default();
@@ -129,20 +132,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         truth.drain(|s| {
             ends.saw(StreamId::GroundTruth, s.header.seq);
             accept(validate::ground_truth(s.payload()), "ground truth", || {
-                rec.add_truth(s.payload())
+                rec.add_truth(s.payload());
+                mcap.truth(s.payload());
             });
         })?;
         odometry.drain(|s| {
             ends.saw(StreamId::Odometry, s.header.seq);
             accept(validate::odometry(s.payload()), "odometry", || {
-                rec.add_odometry(s.payload())
+                rec.add_odometry(s.payload());
+                mcap.dead_reckoning(s.payload());
             });
         })?;
-        lidar.drain(|header, observations| {
+        lidar.drain(|header, message| {
             ends.saw(lidar.stream(), header.seq);
             latency.observation(header.stamp_ns, Instant::now());
-            if let Some((h, o)) = observations {
-                rec.add_observations(h, o);
+            match message {
+                LidarMessage::Observations(h, o) => {
+                    rec.add_observations(h, o);
+                    mcap.observations(h, o);
+                }
+                LidarMessage::Scan(h, data) => mcap.scan(h, data),
+                LidarMessage::Invalid => {}
             }
         })?;
         pose.drain(|s| {
@@ -150,6 +160,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             latency.pose(stamp_ns, Instant::now());
             ends.saw(StreamId::Pose, s.header.seq);
             rec.add_estimate(s.payload());
+            mcap.pose(s.payload());
             if let Some(t) = interpolate(&rec.truth, stamp_ns) {
                 live_ate.add((s.x - t.x).hypot(s.y - t.y));
             }
@@ -163,7 +174,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             accept(
                 validate::landmark_map(s.user_header(), s.payload()),
                 "map",
-                || rec.map = s.payload().to_vec(),
+                || {
+                    rec.map = s.payload().to_vec();
+                    mcap.map(s.user_header(), s.payload());
+                },
             );
         })?;
         grid.drain(|s| {
@@ -194,7 +208,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             accept(
                 validate::landmark_map(s.user_header(), s.payload()),
                 "true map",
-                || rec.true_map = s.payload().to_vec(),
+                || {
+                    rec.true_map = s.payload().to_vec();
+                    mcap.true_map(s.user_header(), s.payload());
+                },
             );
         })?;
         let mut announced = false;
@@ -233,6 +250,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         metrics = metrics.with_reference(&mut rec, noise);
     }
     report::write(&args.out, &rec, &metrics)?;
+    mcap.finish(&metrics)?;
     tracing::info!(
         folder = %args.out.display(), complete = metrics.complete,
         ate_m = metrics.estimate.ate_rmse_m, landmark_rmse_m = metrics.map.rmse_m,
@@ -353,24 +371,43 @@ impl Lidar {
         }
     }
 
-    /// Calls `each` with the header of every pending message, and for landmark
-    /// observations the message itself.
+    /// Calls `each` with the header of every pending message and the message.
     ///
     /// # Errors
     /// IPC failures.
     fn drain(
         &self,
-        mut each: impl FnMut(fastslam_protocol::Header, Option<(&ObservationsHeader, &[Observation])>),
+        mut each: impl FnMut(fastslam_protocol::Header, LidarMessage<'_>),
     ) -> anyhow::Result<usize> {
         Ok(match self {
             Self::Observations(s) => s.drain(|m| {
                 let header = m.user_header();
-                let valid = validate::observations(header, m.payload()).is_ok();
-                each(header.header, valid.then(|| (header, m.payload())))
+                let message = match validate::observations(header, m.payload()) {
+                    Ok(()) => LidarMessage::Observations(header, m.payload()),
+                    Err(_) => LidarMessage::Invalid,
+                };
+                each(header.header, message)
             })?,
-            Self::Scans(s) => s.drain(|m| each(m.user_header().header, None))?,
+            Self::Scans(s) => s.drain(|m| {
+                let header = m.user_header();
+                let message = match validate::laser_scan(header, m.payload()) {
+                    Ok(()) => LidarMessage::Scan(header, m.payload()),
+                    Err(_) => LidarMessage::Invalid,
+                };
+                each(header.header, message)
+            })?,
         })
     }
+}
+
+/// One message of the lidar, as [`Lidar::drain`] hands it on.
+enum LidarMessage<'a> {
+    /// Landmark observations.
+    Observations(&'a ObservationsHeader, &'a [Observation]),
+    /// A raw scan: its header and its ranges (then intensities).
+    Scan(&'a LaserScanHeader, &'a [f32]),
+    /// A message that failed validation: only its stamp counts (latency, stream end).
+    Invalid,
 }
 
 /// Runs `keep` for a valid message; logs and skips an invalid one.

@@ -38,6 +38,8 @@ pub mod files {
     pub const TRAJECTORY_PICTURE: &str = "trajectory";
     /// Errors and NEES over time (`.svg` and `.png`).
     pub const ERRORS_PICTURE: &str = "errors";
+    /// Every message the client received and the metrics, MCAP (see [`crate::mcap`]).
+    pub const MCAP: &str = "run.mcap";
 }
 
 /// Writes the run folder `dir` (created if needed).

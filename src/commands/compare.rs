@@ -7,7 +7,9 @@
 //! under a prefix of its own, so its numbers are by construction those of an individual
 //! run with the same flags; `--jobs` runs several stacks side by side. Optimiser names
 //! are passed through to the service untouched: a name the service rejects fails that
-//! configuration with the service's reason and the others still run.
+//! configuration with the service's reason and the others still run. `--shard I/N` runs
+//! one slice of the configurations and `--merge` joins slices' folders into the tables the
+//! whole sweep writes ([`slices`]).
 
 use crate::commands::launch::short;
 use crate::supervisor::stop_flag;
@@ -20,6 +22,8 @@ use fastslam_estimation::moves::MoveCorrection;
 use fastslam_sensors_sim::scenario::DEFAULT_SCENARIO;
 use fastslam_stack::lists::List;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use serde::{Deserialize, Serialize};
+use slices::Shard;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -27,9 +31,46 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Instant;
 
+mod slices;
+
 /// Flags of `compare`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct CompareArgs {
+    /// What the sweep runs.
+    #[command(flatten)]
+    pub sweep: Sweep,
+    /// Stacks to run at the same time (each under its own prefix). More than the cores
+    /// the machine has slows every run; CPU times stay comparable, wall times do not.
+    #[arg(long, default_value_t = 1)]
+    pub jobs: usize,
+    /// Output folder (default: <runs-dir>/compare_<scenario name>, with
+    /// `_shard<I>of<N>` for a slice).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Where output folders go by default.
+    #[arg(long, default_value = "runs")]
+    pub runs_dir: PathBuf,
+    /// Run only the I-th of N slices of the sweep (`I/N`, 1 ≤ I ≤ N): run k of the full
+    /// list goes to slice k mod N + 1. Join the slices' folders with `--merge`.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<Shard>,
+    /// Join the folders of a sweep's slices (every one of its N slices, once) into the
+    /// tables and plot the unsliced sweep writes; runs nothing.
+    #[arg(
+        long,
+        value_name = "DIR",
+        num_args = 1..,
+        conflicts_with_all = [
+            "scenario", "optimizers", "proposals", "move_corrections", "particles", "seeds",
+            "timeout_s", "jobs", "shard",
+        ]
+    )]
+    pub merge: Vec<PathBuf>,
+}
+
+/// A sweep's definition: the flags that decide its runs and their results.
+#[derive(Debug, Clone, clap::Args, Serialize, Deserialize)]
+pub struct Sweep {
     /// Scenario: a built-in name (see `scenarios`) or a scenario TOML file.
     #[arg(long, default_value = DEFAULT_SCENARIO)]
     pub scenario: String,
@@ -52,19 +93,29 @@ pub struct CompareArgs {
     /// Seeds: `a,b,c` or `a..b`; each configuration runs once per seed.
     #[arg(long, default_value = "1,2,3")]
     pub seeds: List<u64>,
-    /// Stacks to run at the same time (each under its own prefix). More than the cores
-    /// the machine has slows every run; CPU times stay comparable, wall times do not.
-    #[arg(long, default_value_t = 1)]
-    pub jobs: usize,
-    /// Output folder (default: <runs-dir>/compare_<scenario name>).
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Where output folders go by default.
-    #[arg(long, default_value = "runs")]
-    pub runs_dir: PathBuf,
     /// Stop a run after this many seconds (default: no limit).
     #[arg(long)]
     pub timeout_s: Option<f64>,
+}
+
+impl Sweep {
+    /// Every configuration, in the order of the flags: methods, then particle counts,
+    /// then seeds.
+    fn configs(&self) -> Vec<Config> {
+        let mut configs = Vec::new();
+        for method in Method::all(self) {
+            for &particles in &self.particles {
+                for &seed in &self.seeds {
+                    configs.push(Config {
+                        method: method.clone(),
+                        particles,
+                        seed,
+                    });
+                }
+            }
+        }
+        configs
+    }
 }
 
 /// One configuration of the comparison.
@@ -103,7 +154,7 @@ fn or_config<T: Copy>(given: &[T]) -> Vec<Option<T>> {
 impl Method {
     /// Every optimiser with every proposal and correction, in the order of the flags; the
     /// optimiser `none` has nothing to correct and comes once per proposal.
-    fn all(args: &CompareArgs) -> Vec<Method> {
+    fn all(args: &Sweep) -> Vec<Method> {
         let proposals = or_config(&args.proposals);
         let corrections = or_config(&args.move_corrections);
         let mut out = Vec::new();
@@ -155,6 +206,8 @@ impl std::fmt::Display for Method {
 /// What one run gave.
 #[derive(Debug, Clone)]
 struct RunResult {
+    /// The run's place in the sweep's full list of configurations.
+    index: usize,
     config: Config,
     folder: PathBuf,
     wall_s: f64,
@@ -198,45 +251,62 @@ const RUN_COLUMNS: [(&str, Field); 15] = [
     ("latency_p99_ms", |m| m.cost.latency_ms.p99),
 ];
 
-/// Runs the comparison; returns the exit code (0 all runs finished, 1 some failed, 130
+/// Runs the comparison, or the slice of it `--shard` names, or joins slices
+/// (`--merge`); returns the exit code (0 all runs finished, 1 some failed, 130
 /// interrupted).
 ///
 /// # Errors
-/// When the output folder cannot be written or the launcher cannot find itself.
+/// When the output folder cannot be written, the launcher cannot find itself, or the
+/// folders to merge are not every slice of one sweep.
 pub fn compare(args: CompareArgs) -> anyhow::Result<u8> {
-    let scenario = fastslam_sensors_sim::Scenario::load(&args.scenario)?;
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| args.runs_dir.join(format!("compare_{}", scenario.name)));
+    if !args.merge.is_empty() {
+        let merged = slices::merge(&args.merge)?;
+        let out = args.out.clone().unwrap_or_else(|| {
+            args.runs_dir
+                .join(format!("compare_{}", merged.scenario_name))
+        });
+        std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+        eprintln!(
+            "merged {} slices: {} runs",
+            args.merge.len(),
+            merged.results.len()
+        );
+        return finish(&out, &merged.sweep, &merged.results, false);
+    }
+    let sweep = &args.sweep;
+    let scenario = fastslam_sensors_sim::Scenario::load(&sweep.scenario)?;
+    let shard = args.shard.unwrap_or_default();
+    let out = args.out.clone().unwrap_or_else(|| {
+        args.runs_dir
+            .join(format!("compare_{}{}", scenario.name, shard.suffix()))
+    });
     std::fs::create_dir_all(out.join("runs"))
         .with_context(|| format!("creating {}", out.display()))?;
-    let methods = Method::all(&args);
-    let mut configs = Vec::new();
-    for method in &methods {
-        for &particles in &args.particles {
-            for &seed in &args.seeds {
-                configs.push(Config {
-                    method: method.clone(),
-                    particles,
-                    seed,
-                });
-            }
-        }
-    }
+    let all = sweep.configs();
     anyhow::ensure!(
-        !configs.is_empty(),
+        !all.is_empty(),
         "nothing to compare: give optimizers, proposals, particles and seeds"
     );
+    let fingerprint = slices::fingerprint(sweep)?;
+    let configs: Vec<(usize, &Config)> = all
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| shard.holds(*k))
+        .collect();
     let exe = std::env::current_exe().context("locating the launcher's own executable")?;
     let stop = stop_flag()?;
+    let slice = if shard.is_whole() {
+        String::new()
+    } else {
+        format!(", slice {shard}: {} of them", configs.len())
+    };
     eprintln!(
-        "compare on {}: {} runs ({} methods × {} particle counts × {} seeds), {} at a time",
+        "compare on {}: {} runs ({} methods × {} particle counts × {} seeds){slice}, {} at a time",
         scenario.name,
-        configs.len(),
-        methods.len(),
-        args.particles.len(),
-        args.seeds.len(),
+        all.len(),
+        Method::all(sweep).len(),
+        sweep.particles.len(),
+        sweep.seeds.len(),
         args.jobs.max(1)
     );
 
@@ -254,8 +324,10 @@ pub fn compare(args: CompareArgs) -> anyhow::Result<u8> {
             scope.spawn(|| {
                 while !stop.load(Ordering::SeqCst) {
                     let i = next.fetch_add(1, Ordering::SeqCst);
-                    let Some(config) = configs.get(i) else { break };
-                    let result = run_one(&exe, &args, &out, config, i, &stop);
+                    let Some(&(index, config)) = configs.get(i) else {
+                        break;
+                    };
+                    let result = run_one(&exe, sweep, &out, config, index, &stop);
                     bar.inc(1);
                     bar.set_message(summary_line(&result));
                     if let Ok(mut r) = results.lock() {
@@ -268,13 +340,27 @@ pub fn compare(args: CompareArgs) -> anyhow::Result<u8> {
     bar.finish_and_clear();
     let mut results = results.into_inner().unwrap_or_else(|e| e.into_inner());
     // Table order is the order of the flags, whatever order the runs finished in.
-    results.sort_by_key(|r| configs.iter().position(|c| *c == r.config));
+    results.sort_by_key(|r| r.index);
+    slices::write_record(&out, &scenario.name, sweep, shard, &fingerprint, &results)?;
+    finish(&out, sweep, &results, stop.load(Ordering::SeqCst))
+}
 
-    let markdown = write_tables(&out, &args, &methods, &results)?;
-    plot::save(&cost_plot(&args, &methods, &results), &out, "rmse_vs_cpu")?;
+/// Writes the tables and the plot of `results` into `out` and prints the Markdown;
+/// returns the exit code.
+///
+/// # Errors
+/// When a file cannot be written.
+fn finish(
+    out: &Path,
+    sweep: &Sweep,
+    results: &[RunResult],
+    interrupted: bool,
+) -> anyhow::Result<u8> {
+    let methods = Method::all(sweep);
+    let markdown = write_tables(out, sweep, &methods, results)?;
+    plot::save(&cost_plot(sweep, &methods, results), out, "rmse_vs_cpu")?;
     println!("comparison folder: {}", out.display());
     print!("{markdown}");
-    let interrupted = stop.load(Ordering::SeqCst);
     Ok(if interrupted {
         130
     } else if results.iter().all(|r| r.metrics.is_ok()) {
@@ -287,7 +373,7 @@ pub fn compare(args: CompareArgs) -> anyhow::Result<u8> {
 /// Runs one configuration as `fastslam-stack run` under its own prefix.
 fn run_one(
     exe: &Path,
-    args: &CompareArgs,
+    args: &Sweep,
     out: &Path,
     config: &Config,
     index: usize,
@@ -335,6 +421,7 @@ fn run_one(
         )),
     };
     RunResult {
+        index,
         config: config.clone(),
         folder,
         wall_s,
@@ -392,7 +479,7 @@ fn mean_std(xs: &[f64], digits: usize) -> String {
 /// Writes `runs.csv`, `summary.csv` and `summary.md`; returns the Markdown.
 fn write_tables(
     out: &Path,
-    args: &CompareArgs,
+    args: &Sweep,
     methods: &[Method],
     results: &[RunResult],
 ) -> std::io::Result<String> {
@@ -550,7 +637,7 @@ fn cell(v: f64) -> String {
 }
 
 /// RMSE against service CPU time: every run, and the per-particle-count means joined.
-fn cost_plot(args: &CompareArgs, methods: &[Method], results: &[RunResult]) -> CostPlot {
+fn cost_plot(args: &Sweep, methods: &[Method], results: &[RunResult]) -> CostPlot {
     let point = |r: &RunResult| (r.num(SERVICE_CPU), r.num(ATE));
     let series = methods
         .iter()

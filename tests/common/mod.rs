@@ -132,6 +132,46 @@ pub const ICEORYX2_WHEEL: &str = "iceoryx2>=0.10,<0.11";
 /// The evo release the run-folder test checks our ATE against.
 pub const EVO: &str = "evo==1.38.1";
 
+/// The MCAP reader release the run-folder tests read `run.mcap` with.
+pub const MCAP: &str = "mcap==1.6.0";
+
+/// What the Python `mcap` package (see [`python_venv`]) reads in the MCAP file `path`:
+/// per channel of its summary, the messages counted on it, its schema (`name/encoding`,
+/// empty for none) and its message encoding (`{"counts": {…}, "schemas": {…},
+/// "encodings": {…}}`), and the JSON message on `/metrics`, parsed (`"metrics"`).
+pub fn read_mcap(path: &Path) -> serde_json::Value {
+    const READER: &str = "import json, sys
+from mcap.reader import make_reader
+counts, schemas, encodings, metrics = {}, {}, {}, None
+with open(sys.argv[1], 'rb') as f:
+    reader = make_reader(f)
+    summary = reader.get_summary()
+    for channel in summary.channels.values():
+        schema = summary.schemas.get(channel.schema_id)
+        counts[channel.topic] = 0
+        schemas[channel.topic] = f'{schema.name}/{schema.encoding}' if schema else ''
+        encodings[channel.topic] = channel.message_encoding
+    for _, channel, message in reader.iter_messages():
+        counts[channel.topic] += 1
+        if channel.topic == '/metrics':
+            metrics = json.loads(message.data)
+print(json.dumps({'counts': counts, 'schemas': schemas, 'encodings': encodings, 'metrics': metrics}))
+";
+    let python = python_venv("mcap-1.6.0", MCAP).join("bin").join("python3");
+    let out = Command::new(python)
+        .args(["-c", READER])
+        .arg(path)
+        .output()
+        .expect("running the mcap reader");
+    assert!(
+        out.status.success(),
+        "the mcap reader failed on {}: {}",
+        path.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("the reader prints JSON")
+}
+
 /// A Python interpreter with the iceoryx2 wheel (see [`python_venv`]).
 pub fn python_with_iceoryx2() -> PathBuf {
     python_venv("iceoryx2-0.10", ICEORYX2_WHEEL)
