@@ -119,9 +119,15 @@ fn run_mcap_holds_what_the_client_saw_in_foxglove_schemas() {
     for topic in ["/truth", "/dead_reckoning"] {
         assert_eq!(schema(topic), "foxglove.PoseInFrame/protobuf");
     }
-    for topic in ["/map", "/true_map", "/observations"] {
+    for topic in ["/map", "/true_map", "/observations", "/smoothed_map"] {
         assert_eq!(schema(topic), "foxglove.SceneUpdate/protobuf");
     }
+    // A message per solution the service published: at most one per solve (a solve
+    // overtaken by the next before the service looked is not sent).
+    assert_eq!(schema("/smoothed"), "foxglove.PosesInFrame/protobuf");
+    let solves = num(&metrics(out), "/smoothed/solves") as u64;
+    assert!((1..=solves).contains(&count("/smoothed")), "{mcap}");
+    assert_eq!(count("/smoothed_map"), count("/smoothed"));
     assert_eq!(mcap["encodings"]["/metrics"], "json");
     assert_eq!(
         mcap["metrics"],

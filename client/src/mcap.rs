@@ -10,6 +10,8 @@
 //! | `/dead_reckoning` | `foxglove.PoseInFrame` | odometry message (its dead-reckoned pose) |
 //! | `/map` | `foxglove.SceneUpdate` | landmark map, each landmark its 2σ ellipse |
 //! | `/true_map` | `foxglove.SceneUpdate` | true landmark map |
+//! | `/smoothed` | `foxglove.PosesInFrame` | smoothing back-end's solution: its trajectory |
+//! | `/smoothed_map` | `foxglove.SceneUpdate` | smoothing back-end's solution: its map |
 //! | `/scan` | `foxglove.LaserScan` | raw scan (frame `base_link`) |
 //! | `/observations` | `foxglove.SceneUpdate` | landmark observation message (frame `base_link`) |
 //! | `/metrics` | JSON, no schema | the run: `metrics.json`'s content, once, last |
@@ -17,11 +19,11 @@
 use crate::Metrics;
 use fastslam_protocol::{
     GroundTruth, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation, ObservationsHeader,
-    PoseEstimate,
+    PoseEstimate, TrajectoryHeader, TrajectoryPose,
 };
 use foxglove::messages::{
-    Color, FrameTransform, FrameTransforms, LaserScan, Odometry, Pose, PoseInFrame, Quaternion,
-    SceneEntity, SceneUpdate, SpherePrimitive, Timestamp, Vector3,
+    Color, FrameTransform, FrameTransforms, LaserScan, Odometry, Pose, PoseInFrame, PosesInFrame,
+    Quaternion, SceneEntity, SceneUpdate, SpherePrimitive, Timestamp, Vector3,
 };
 use foxglove::{Channel, Context, McapWriterHandle, PartialMetadata, RawChannel};
 use std::fs::File;
@@ -45,6 +47,8 @@ pub struct RunMcap {
     dead_reckoning: Channel<PoseInFrame>,
     map: Channel<SceneUpdate>,
     true_map: Channel<SceneUpdate>,
+    smoothed: Channel<PosesInFrame>,
+    smoothed_map: Channel<SceneUpdate>,
     scan: Channel<LaserScan>,
     observations: Channel<SceneUpdate>,
     metrics: Arc<RawChannel>,
@@ -72,6 +76,8 @@ impl RunMcap {
             dead_reckoning: channel("/dead_reckoning").build(),
             map: channel("/map").build(),
             true_map: channel("/true_map").build(),
+            smoothed: channel("/smoothed").build(),
+            smoothed_map: channel("/smoothed_map").build(),
             scan: channel("/scan").build(),
             observations: channel("/observations").build(),
             metrics: channel("/metrics").message_encoding("json").build_raw()?,
@@ -152,6 +158,24 @@ impl RunMcap {
         self.log(|s| &s.true_map, &update, stamp_ns);
     }
 
+    /// The smoothing back-end's trajectory: `/smoothed`.
+    pub fn smoothed(&mut self, header: &TrajectoryHeader, poses: &[TrajectoryPose]) {
+        let stamp_ns = header.header.stamp_ns;
+        let trajectory = PosesInFrame {
+            timestamp: Some(timestamp(stamp_ns)),
+            frame_id: MAP_FRAME.into(),
+            poses: poses.iter().map(|p| planar(p.x, p.y, p.theta)).collect(),
+        };
+        self.log(|s| &s.smoothed, &trajectory, stamp_ns);
+    }
+
+    /// The smoothing back-end's map: `/smoothed_map`.
+    pub fn smoothed_map(&mut self, header: &LandmarkMapHeader, landmarks: &[MapLandmark]) {
+        let stamp_ns = header.header.stamp_ns;
+        let update = landmark_scene(stamp_ns, "smoothed_landmarks", landmarks, PURPLE);
+        self.log(|s| &s.smoothed_map, &update, stamp_ns);
+    }
+
     /// A raw scan (validated): `/scan`.
     pub fn scan(&mut self, header: &LaserScanHeader, data: &[f32]) {
         let stamp_ns = header.header.stamp_ns;
@@ -218,6 +242,13 @@ const RED: Color = Color {
     r: 0.85,
     g: 0.1,
     b: 0.1,
+    a: 0.6,
+};
+/// The smoothing back-end's landmarks.
+const PURPLE: Color = Color {
+    r: 0.58,
+    g: 0.4,
+    b: 0.74,
     a: 0.6,
 };
 /// True landmarks.

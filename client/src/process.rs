@@ -193,7 +193,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             accept(
                 validate::trajectory(s.user_header(), s.payload()),
                 "smoothed trajectory",
-                || rec.set_smoothed(s.user_header(), s.payload()),
+                || {
+                    mcap.smoothed(s.user_header(), s.payload());
+                    rec.set_smoothed(s.user_header(), s.payload());
+                },
             );
         })?;
         smoothed_map.drain(|s| {
@@ -201,7 +204,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             accept(
                 validate::landmark_map(s.user_header(), s.payload()),
                 "smoothed map",
-                || rec.smoothed_map = s.payload().to_vec(),
+                || {
+                    mcap.smoothed_map(s.user_header(), s.payload());
+                    rec.smoothed_map = s.payload().to_vec();
+                },
             );
         })?;
         true_map.drain(|s| {
