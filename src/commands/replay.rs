@@ -171,7 +171,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         .clone()
         .unwrap_or_else(|| plan.default_profile.to_string());
     let profile = Profile::load(&profile_arg)?;
-    let place = Place::of(args.prefix.as_deref(), args.iox_root.as_deref());
+    let place = Place::claim(args.prefix.as_deref(), args.iox_root.as_deref())?;
     let (prefix, root) = (place.prefix.clone(), place.root.clone());
     // The service's settings, checked here so a bad value fails before anything starts.
     let table = settings::replay_service_table(args.config.as_deref(), &profile, plan.association)?;

@@ -81,7 +81,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     let expectations = args.judge.expectations()?;
     let scenario = Scenario::load(&args.scenario)?;
     let seed = args.seed.unwrap_or(scenario.seed);
-    let place = Place::of(args.prefix.as_deref(), args.iox_root.as_deref());
+    let place = Place::claim(args.prefix.as_deref(), args.iox_root.as_deref())?;
     let (prefix, root) = (place.prefix.clone(), place.root.clone());
     // The service's settings, checked here so a bad value fails before anything starts.
     let overrides = Overrides {
