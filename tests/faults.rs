@@ -125,6 +125,17 @@ fn a_garbage_publisher_is_counted_and_the_run_still_finishes() {
     let m = metrics(&out);
     assert_eq!(m["complete"], true);
     assert!(num(&m, "/estimate/poses") > 40.0, "{m}");
+    // Never silent: metrics.json counts the rejections by reason, the summary warns.
+    assert!(num(&m, "/inputs/rejected/non_finite") > 0.0, "{m}");
+    assert_eq!(
+        num(&m, "/inputs/rejected_total") as u64,
+        newest.rejections.iter().sum::<u64>(),
+        "the service's final count"
+    );
+    let summary = String::from_utf8_lossy(&output.stdout);
+    let warnings: Vec<&str> = summary.lines().filter(|l| l.contains("warning:")).collect();
+    assert_eq!(warnings.len(), 1, "one warning line: {summary}");
+    assert!(warnings[0].contains("non_finite"), "{summary}");
     assert!(
         num(&m, "/estimate/ate_rmse_m") < num(&m, "/dead_reckoning/ate_rmse_m").max(5.0),
         "garbage spoilt the estimate: {m}"

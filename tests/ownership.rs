@@ -76,6 +76,11 @@ fn a_stack_dies_with_its_sigkilled_launcher_and_the_next_run_leaves_nothing() {
     );
     assert_success(&next);
     assert_eq!(metrics(&out)["complete"], true);
+    let summary = String::from_utf8_lossy(&next.stdout);
+    assert!(
+        !summary.contains("warning"),
+        "nothing was rejected: {summary}"
+    );
     assert!(!fastslam_stack::stack_root(&prefix).exists(), "root left");
     assert!(!fastslam_stack::stack_lock(&prefix).exists(), "lock left");
     assert_no_leftovers_and_remove(&prefix, &dir);
@@ -109,7 +114,13 @@ fn a_second_stack_on_a_prefix_in_use_is_refused_before_it_starts_anything() {
         6,
         "the first launcher and its five processes, and nothing else"
     );
-    stop_service_and_wait(&prefix, first);
+    kill(Pid::from_raw(first.id() as i32), Signal::SIGINT).unwrap();
+    let first = first.wait_with_output().unwrap();
+    assert_eq!(
+        first.status.code(),
+        Some(130),
+        "the first stack, interrupted"
+    );
     assert!(!fastslam_stack::stack_lock(&prefix).exists(), "lock left");
     assert_no_leftovers_and_remove(&prefix, &dir);
 }

@@ -62,8 +62,8 @@ pub struct CompareArgs {
     /// Where output folders go by default.
     #[arg(long, default_value = "runs")]
     pub runs_dir: PathBuf,
-    /// Stop a run after this many seconds (default: no limit).
-    #[arg(long)]
+    /// Stop a run after this many seconds, more than 0 (default: no limit).
+    #[arg(long, value_parser = crate::commands::launch::timeout_s)]
     pub timeout_s: Option<f64>,
 }
 

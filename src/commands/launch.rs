@@ -182,6 +182,9 @@ pub(crate) fn conclude(
         logs,
         wall,
     } = ended;
+    if outcome == Outcome::Finished {
+        no_pose_fails(out)?;
+    }
     let judged = judge.on()
         && out.join("metrics.json").is_file()
         && matches!(
@@ -221,6 +224,32 @@ pub(crate) fn conclude(
             eprintln!("timed out; processes stopped. Logs: {}", logs.display());
             Ok(1)
         }
+    }
+}
+
+/// A run whose every stream ended without a single pose estimate (a route that never
+/// moves, no scan reaching the filter) is a failure, not a success with no metrics.
+fn no_pose_fails(out: &Path) -> anyhow::Result<()> {
+    let m = Metrics::read(&out.join("metrics.json"))?;
+    if m.estimate.poses == 0 {
+        bail!(
+            "the run ended without a pose estimate: every stream ended before a scan \
+             reached the filter ({} inputs rejected); run folder {}",
+            m.inputs.rejected_total,
+            out.display()
+        );
+    }
+    Ok(())
+}
+
+/// A `--timeout-s` value: a positive number of seconds.
+///
+/// # Errors
+/// When `text` is not a number greater than 0.
+pub(crate) fn timeout_s(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(s) if s > 0.0 && s.is_finite() => Ok(s),
+        _ => Err(format!("`{text}` is not a positive number of seconds")),
     }
 }
 
@@ -277,5 +306,13 @@ pub(crate) fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
         c.singular
     );
     println!("  wall time      {:8.2} s", wall.as_secs_f64());
+    if m.inputs.rejected_total > 0 {
+        println!(
+            "  warning: the service dropped or rejected {} inputs ({}): see /inputs in \
+             metrics.json and logs/service.log",
+            m.inputs.rejected_total,
+            m.inputs.nonzero()
+        );
+    }
     Ok(())
 }

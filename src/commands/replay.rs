@@ -79,8 +79,8 @@ pub struct ReplayRunArgs {
     /// Speed-up factor of `--realtime`.
     #[arg(long, default_value_t = 1.0)]
     pub rate: f64,
-    /// Stop everything after this many seconds (default: no limit).
-    #[arg(long)]
+    /// Stop everything after this many seconds, more than 0 (default: no limit).
+    #[arg(long, value_parser = crate::commands::launch::timeout_s)]
     pub timeout_s: Option<f64>,
     /// Stack prefix (default: a fresh one per run, removed with its shared memory).
     #[arg(long)]

@@ -42,8 +42,8 @@ pub struct RunArgs {
     /// Pace the simulation in real time instead of as fast as the stack can go.
     #[arg(long)]
     pub realtime: bool,
-    /// Stop everything after this many seconds (default: no limit).
-    #[arg(long)]
+    /// Stop everything after this many seconds, more than 0 (default: no limit).
+    #[arg(long, value_parser = crate::commands::launch::timeout_s)]
     pub timeout_s: Option<f64>,
     /// Stack prefix, to let your own processes join (default: a fresh one per run,
     /// removed with its shared-memory files at the end).
