@@ -375,6 +375,9 @@ impl SimStack {
             "odometry-sim" | "lidar-sim" => args.extend(sim("2")),
             "service" => {
                 args.extend(["--seed", "1", "--wait-subscribers", "1"].map(String::from));
+                if !self.realtime {
+                    args.push("--as-fast-as-possible".into());
+                }
                 args.extend(self.service_flags.iter().cloned());
             }
             "client" => args.extend(["--out".into(), self.out().display().to_string()]),

@@ -202,6 +202,9 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
     let mut service_flags = stack_flags.clone();
     service_flags.extend(overrides.flags());
     service_flags.extend(["--config".into(), config.display().to_string()]);
+    if !args.realtime {
+        service_flags.push("--as-fast-as-possible".into());
+    }
     let mut client = stack_flags.clone();
     client.extend(["--out".into(), out.display().to_string()]);
     client.extend(["--service-config".into(), config.display().to_string()]);

@@ -122,6 +122,9 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     if let Some(c) = &service_config {
         service.extend(["--config".into(), c.display().to_string()]);
     }
+    if !args.realtime {
+        service.push("--as-fast-as-possible".into());
+    }
     service.extend(args.service_flags.iter().cloned());
     let mut client = stack_flags.clone();
     client.extend(["--out".into(), out.display().to_string()]);

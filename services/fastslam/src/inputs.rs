@@ -50,6 +50,17 @@ impl Inputs {
         ]
     }
 
+    /// True when samples of `stream` wait in its subscriber (or a scan is held).
+    ///
+    /// # Errors
+    /// IPC errors.
+    pub(crate) fn pending(&self, stream: Stream) -> anyhow::Result<bool> {
+        Ok(match stream {
+            Stream::Odometry => self.odometry.pending()?,
+            Stream::Lidar => self.lidar.pending()?,
+        })
+    }
+
     /// The input that an end-of-stream of the wire's `stream` closes, if any.
     pub(crate) fn closed_by(&self, stream: u32) -> Option<Stream> {
         match StreamId::from_u32(stream) {
@@ -113,6 +124,14 @@ impl Lidar {
             Self::Observations(sub) => sub.holds(),
             Self::Scans(sub) => sub.holds(),
         }
+    }
+
+    /// True while a scan is held or scans wait in the subscriber.
+    fn pending(&self) -> anyhow::Result<bool> {
+        Ok(match self {
+            Self::Observations(sub) => sub.pending()?,
+            Self::Scans(sub) => sub.pending()?,
+        })
     }
 
     /// The subscriber, for the wake loop.
