@@ -152,11 +152,12 @@ pub(crate) trait LidarMessage {
     /// Its stamp and sequence number.
     fn header(&self) -> Header;
 
-    /// The content check (`fastslam_protocol::validate`).
+    /// The content check (`fastslam_protocol::validate`); with `known_ids`, landmark ids
+    /// must be usable under known association.
     ///
     /// # Errors
     /// Why the message is unusable.
-    fn check(&self) -> Result<(), Rejection>;
+    fn check(&self, known_ids: bool) -> Result<(), Rejection>;
 
     /// One filter step on the message where it lies (no copy).
     ///
@@ -175,8 +176,12 @@ impl LidarMessage for Received<[Observation], ObservationsHeader> {
         self.user_header().header
     }
 
-    fn check(&self) -> Result<(), Rejection> {
-        validate::observations(self.user_header(), self.payload())
+    fn check(&self, known_ids: bool) -> Result<(), Rejection> {
+        validate::observations(self.user_header(), self.payload())?;
+        if known_ids {
+            validate::known_ids(self.payload())?;
+        }
+        Ok(())
     }
 
     fn apply(&self, slam: &mut Slam, publish: PoseSink<'_>) -> fastslam_estimation::Result<Step> {
@@ -199,7 +204,8 @@ impl LidarMessage for Received<[f32], LaserScanHeader> {
         self.user_header().header
     }
 
-    fn check(&self) -> Result<(), Rejection> {
+    fn check(&self, _known_ids: bool) -> Result<(), Rejection> {
+        // Raw scans carry no landmark ids.
         validate::laser_scan(self.user_header(), self.payload())
     }
 

@@ -21,6 +21,7 @@ use crate::per_input::{PerInput, Stream};
 use crate::persist::PersistArgs;
 use crate::sequencer::{Input, Pushed, ScanPlace, Sequencer};
 use crate::slam::{PoseSink, Slam, Step};
+use fastslam_estimation::fastslam::AssociationMode;
 use fastslam_protocol::ipc::{Flow, Ipc, Sub, Taken};
 use fastslam_protocol::status::RejectionKind;
 use fastslam_protocol::stream::StreamEnd;
@@ -72,6 +73,8 @@ pub(crate) struct Service {
     pace: Pace,
     /// The streams whose taking stopped at their full queue during this wake-up.
     stopped: PerInput<bool>,
+    /// Observations must carry landmark ids (known association).
+    known_ids: bool,
 }
 
 impl Service {
@@ -100,6 +103,7 @@ impl Service {
             hold_limit: deadline / HOLD_SHARE_OF_DEADLINE,
             pace,
             stopped: PerInput::default(),
+            known_ids: config.filter.association.mode == AssociationMode::Known,
             core: Core::new(config, persist, slam, resumed, out),
         }
     }
@@ -233,9 +237,11 @@ impl Service {
         held_since: Option<Instant>,
         now: Instant,
     ) -> Taken {
-        let h = m.header();
+        let (h, known_ids) = (m.header(), self.known_ids);
         if held_since.is_none()
-            && !self.admit(Stream::Lidar, h, M::WHAT, now, |a| a.lidar(m.check(), h))
+            && !self.admit(Stream::Lidar, h, M::WHAT, now, |a| {
+                a.lidar(m.check(known_ids), h)
+            })
         {
             return Taken::Done;
         }
