@@ -16,6 +16,14 @@ pub fn fresh_prefix() -> String {
     format!("fs{}x", std::process::id())
 }
 
+/// The lock file a launcher holds (an exclusive `flock`) while its stack on `prefix`
+/// runs, whatever the stack's iceoryx2 root: one stack per prefix.
+pub fn stack_lock(prefix: &str) -> std::path::PathBuf {
+    std::env::temp_dir()
+        .join("fsl")
+        .join(format!("{prefix}.lock"))
+}
+
 /// The iceoryx2 root directory the launcher gives the stack `prefix`: its own, so it
 /// goes with the stack, and short, since it holds Unix sockets.
 pub fn stack_root(prefix: &str) -> std::path::PathBuf {

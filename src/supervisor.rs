@@ -3,6 +3,11 @@
 //! own process group, so a Ctrl-C in the terminal reaches only the launcher, which then
 //! stops the children in order. Ctrl-Z, too, reaches only the launcher: it suspends the
 //! children, then itself, and resumes them when `fg` resumes it.
+//!
+//! The children die with the launcher, however it dies (even SIGKILL): each asks the
+//! kernel for SIGKILL when its parent ends (`PR_SET_PDEATHSIG`). The kernel sends it when
+//! the *thread* that started the child ends, so a supervisor lives on the thread that
+//! made it.
 
 use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
@@ -98,13 +103,18 @@ impl Supervisor {
         stdout: Stdio,
         stderr: File,
     ) -> std::io::Result<&mut Child> {
-        let child = Command::new(exe)
+        let launcher = nix::unistd::getpid();
+        let mut command = Command::new(exe);
+        command
             .args(args)
             .stdin(Stdio::null())
             .stdout(stdout)
             .stderr(stderr)
-            .process_group(0)
-            .spawn()?;
+            .process_group(0);
+        // SAFETY: `die_with` makes two system calls and allocates nothing, as a function
+        // run between fork and exec must.
+        unsafe { command.pre_exec(move || die_with(launcher)) };
+        let child = command.spawn()?;
         tracing::debug!(name, pid = child.id(), "started");
         self.processes.push(Process {
             name,
@@ -241,6 +251,17 @@ impl Drop for Supervisor {
     fn drop(&mut self) {
         self.stop_all();
     }
+}
+
+/// In a child between fork and exec: SIGKILL when the `launcher` ends. A launcher that
+/// ended before the request took effect (the child was then re-parented) fails the
+/// start instead, so no child outlives it.
+fn die_with(launcher: Pid) -> std::io::Result<()> {
+    nix::sys::prctl::set_pdeathsig(Signal::SIGKILL)?;
+    if nix::unistd::getppid() != launcher {
+        return Err(std::io::Error::other("the launcher has ended"));
+    }
+    Ok(())
 }
 
 /// Creates (or empties) a log and opens it for appending.

@@ -125,6 +125,17 @@ fn a_garbage_publisher_is_counted_and_the_run_still_finishes() {
     let m = metrics(&out);
     assert_eq!(m["complete"], true);
     assert!(num(&m, "/estimate/poses") > 40.0, "{m}");
+    // Never silent: metrics.json counts the rejections by reason, the summary warns.
+    assert!(num(&m, "/inputs/rejected/non_finite") > 0.0, "{m}");
+    assert_eq!(
+        num(&m, "/inputs/rejected_total") as u64,
+        newest.rejections.iter().sum::<u64>(),
+        "the service's final count"
+    );
+    let summary = String::from_utf8_lossy(&output.stdout);
+    let warnings: Vec<&str> = summary.lines().filter(|l| l.contains("warning:")).collect();
+    assert_eq!(warnings.len(), 1, "one warning line: {summary}");
+    assert!(warnings[0].contains("non_finite"), "{summary}");
     assert!(
         num(&m, "/estimate/ate_rmse_m") < num(&m, "/dead_reckoning/ate_rmse_m").max(5.0),
         "garbage spoilt the estimate: {m}"
@@ -364,6 +375,9 @@ impl SimStack {
             "odometry-sim" | "lidar-sim" => args.extend(sim("2")),
             "service" => {
                 args.extend(["--seed", "1", "--wait-subscribers", "1"].map(String::from));
+                if !self.realtime {
+                    args.push("--as-fast-as-possible".into());
+                }
                 args.extend(self.service_flags.iter().cloned());
             }
             "client" => args.extend(["--out".into(), self.out().display().to_string()]),
@@ -739,6 +753,121 @@ fn scans_sent_far_ahead_of_their_odometry_by_one_thread_do_not_stall_the_service
     assert!(
         direct < scans,
         "every scan from shared memory: the service never gave up holding ({direct})"
+    );
+    let prefix = sim.stack.prefix.clone();
+    drop(sim);
+    assert_no_leftovers(&prefix);
+}
+
+/// Under known association an observation's id must name a landmark: a message with a
+/// negative id or one beyond the map's limit is refused as out of range and counted,
+/// and the good messages around it each still give a pose.
+#[test]
+fn observations_with_unusable_ids_under_known_association_are_refused_and_counted() {
+    let mut sim = SimStack::new("badids");
+    let config = sim.dir.join("service.toml");
+    std::fs::write(&config, "[filter.association]\nmode = \"known\"\n").unwrap();
+    sim.service_flags = [
+        "--lidar",
+        "observations",
+        "--as-fast-as-possible",
+        "--config",
+    ]
+    .map(String::from)
+    .into_iter()
+    .chain([config.display().to_string()])
+    .collect();
+    let bad_ids = [-7, 1 << 62, -7, 1 << 62];
+    let scans = 3 * bad_ids.len() as u64;
+    let (period_ns, v) = (25_000_000u64, 1.0);
+    let header = move |k: u64| Header {
+        stamp_ns: k * period_ns,
+        seq: k,
+    };
+    let config = stack(&sim.stack.prefix);
+    let publisher = std::thread::spawn(move || {
+        let ipc = Ipc::open(&config, "badids", Duration::from_secs(30)).unwrap();
+        let odometry = ipc.publisher::<Odometry>(&topics::ODOMETRY).unwrap();
+        let lidar = ipc
+            .slice_publisher::<ObservationsHeader, Observation>(&topics::OBSERVATIONS)
+            .unwrap();
+        let eos = ipc
+            .publisher::<EndOfStream>(&topics::END_OF_STREAM)
+            .unwrap();
+        lidar.wait_for_subscribers(&ipc, 1).unwrap();
+        for k in 0..=scans {
+            odometry
+                .send(Odometry {
+                    header: header(k),
+                    v,
+                    x: v * (k * period_ns) as f64 * 1e-9,
+                    ..Default::default()
+                })
+                .unwrap();
+            if k == 0 {
+                continue;
+            }
+            // Every third scan carries an unusable id next to a good one.
+            let id = match k % 3 {
+                0 => bad_ids[(k / 3 - 1) as usize],
+                _ => 1,
+            };
+            let seen = [0, id].map(|id| Observation {
+                range: 5.0,
+                id,
+                ..Default::default()
+            });
+            let h = ObservationsHeader {
+                header: header(k),
+                count: 2,
+                max_range: 30.0,
+                min_bearing: -1.5,
+                max_bearing: 1.5,
+                ..Default::default()
+            };
+            lidar.send(h, &seen).unwrap();
+        }
+        for stream in [StreamId::Odometry, StreamId::Observations] {
+            eos.send(EndOfStream::new(stream, Some(header(scans))))
+                .unwrap();
+        }
+        lidar.wait_until_unsubscribed(&ipc).unwrap();
+    });
+    sim.start("service");
+    let ipc = sim.ipc();
+    let pose = ipc.subscriber::<PoseEstimate>(&topics::POSE).unwrap();
+    let started = Instant::now();
+    let mut poses = 0;
+    while sim.stack.child("service").try_wait().unwrap().is_none() {
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "the service hangs"
+        );
+        poses += pose.drain(|_| {}).unwrap();
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    poses += pose.drain(|_| {}).unwrap();
+    publisher.join().expect("the publisher failed");
+    sim.wait_all(Duration::from_secs(1));
+    drop((pose, ipc));
+    let bad = bad_ids.len() as u64;
+    assert_eq!(poses as u64, scans - bad, "a pose per good scan");
+    let log = std::fs::read_to_string(sim.stack.dir.join("service.0.log")).unwrap();
+    let counts: Vec<u64> = log
+        .rsplit("rejections=[")
+        .next()
+        .and_then(|r| r.split(']').next())
+        .map(|r| r.split(", ").filter_map(|n| n.parse().ok()).collect())
+        .unwrap_or_default();
+    assert_eq!(
+        counts.get(RejectionKind::OutOfRange as usize),
+        Some(&bad),
+        "every unusable id counted as out of range: {log}"
+    );
+    assert_eq!(
+        counts.iter().sum::<u64>(),
+        bad,
+        "nothing else refused: {log}"
     );
     let prefix = sim.stack.prefix.clone();
     drop(sim);

@@ -11,8 +11,10 @@ use crate::rpe::{RPE_DELTAS_M, Rpe, rpe};
 use crate::stats::{Spread, mean};
 use fastslam_estimation::wrap_angle;
 use fastslam_protocol::MapLandmark;
+use fastslam_protocol::status::RejectionKind;
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// Estimated landmarks farther than this from every true one count as spurious (m).
 pub const LANDMARK_CUTOFF_M: f64 = 5.0;
@@ -67,7 +69,9 @@ impl Default for Alignment {
 /// Everything the client measured, as written to `metrics.json`.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Metrics {
-    /// False when the run was interrupted before every stream ended.
+    /// Every stream ended: true when the client received the end of every stream it
+    /// waits for; false when the run was interrupted before. It says nothing of what the
+    /// streams carried (see [`Metrics::inputs`] and the pose count).
     pub complete: bool,
     /// How the estimate was aligned with the truth before scoring.
     pub alignment: Alignment,
@@ -91,6 +95,9 @@ pub struct Metrics {
     pub map: MapMetrics,
     /// Filter health from the service's status topic.
     pub filter: FilterHealth,
+    /// Inputs the service dropped or rejected, from its status topic.
+    #[serde(default)]
+    pub inputs: InputAccount,
     /// What the run cost: time and memory. Not reproducible bit for bit (wall clock).
     pub cost: Cost,
 }
@@ -203,6 +210,41 @@ pub struct FilterHealth {
     pub distinct_min: f64,
 }
 
+/// Inputs the service dropped or rejected, by reason ([`RejectionKind::name`]), as its
+/// newest status counted them.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct InputAccount {
+    /// Every reason with its count, zeros included.
+    pub rejected: BTreeMap<String, u64>,
+    /// All reasons together.
+    pub rejected_total: u64,
+}
+
+impl InputAccount {
+    /// The counts of `rec`.
+    pub fn of(rec: &Recording) -> Self {
+        let rejected: BTreeMap<String, u64> = RejectionKind::ALL
+            .iter()
+            .map(|&kind| (kind.name().to_string(), rec.rejections[kind as usize]))
+            .collect();
+        Self {
+            rejected_total: rejected.values().sum(),
+            rejected,
+        }
+    }
+
+    /// The reasons with a count, as `name count` joined by `, ` (empty when none).
+    pub fn nonzero(&self) -> String {
+        let parts: Vec<String> = self
+            .rejected
+            .iter()
+            .filter(|(_, n)| **n > 0)
+            .map(|(name, n)| format!("{name} {n}"))
+            .collect();
+        parts.join(", ")
+    }
+}
+
 /// Time and memory the run took.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Cost {
@@ -258,6 +300,7 @@ impl Metrics {
             consistency: consistency(rec),
             map: map(&rec.map, &rec.true_map, LANDMARK_CUTOFF_M),
             filter: filter_health(rec),
+            inputs: InputAccount::of(rec),
             cost: cost(rec),
         }
     }

@@ -87,6 +87,9 @@ pub struct Recording {
     pub streamed_s: Option<f64>,
     /// CPU time and peak memory of the stack's processes, see [`crate::resources`].
     pub processes: Vec<ProcessUsage>,
+    /// The service's count of inputs it dropped or rejected, by
+    /// [`status::RejectionKind`] index, as of its newest status.
+    pub rejections: [u64; status::REJECTION_KINDS],
 }
 
 /// The filter-health part of one [`ServiceStatus`].
@@ -190,8 +193,13 @@ impl Recording {
     }
 
     /// Adds the status message of an observation step; the service's final status (sent
-    /// at shutdown, not a step) is only logged.
+    /// at shutdown, not a step) is only logged. Either brings the rejection counts up to
+    /// date.
     pub fn add_status(&mut self, m: &ServiceStatus) {
+        // The counts only grow: the newest status has them all.
+        for (count, &now) in self.rejections.iter_mut().zip(&m.rejections) {
+            *count = (*count).max(now);
+        }
         if m.flags & status::flags::FINAL != 0 {
             tracing::info!(
                 steps = m.steps,

@@ -296,7 +296,20 @@ impl Scenario {
                     reason: e.reason,
                 }
             })?;
-        Self::parse(name_or_path, &text)
+        let scenario = Self::parse(name_or_path, &text)?;
+        // A file named as a built-in would share its run folder, and overwrite it.
+        let impostor = BUILT_IN
+            .iter()
+            .any(|(name, built_in)| *name == scenario.name && *built_in != text);
+        if impostor {
+            return Err(ScenarioError::Invalid {
+                name: scenario.name,
+                field: "name",
+                reason: "is a built-in scenario's: a scenario file of other content needs a \
+                         name of its own (run folders are named after it)",
+            });
+        }
+        Ok(scenario)
     }
 
     /// Parses and validates scenario text; `origin` names it in errors.
@@ -441,6 +454,22 @@ mod tests {
             assert!(s.world.point_landmarks().len() >= expected, "{name}");
             assert_eq!(s.lidar.is_some(), !s.world.poles.is_empty(), "{name}");
         }
+    }
+
+    #[test]
+    fn a_scenario_file_may_not_take_a_built_in_name_unless_it_is_that_scenario() {
+        let (name, text) = BUILT_IN[0];
+        let dir = std::env::temp_dir().join(format!("scenario-name-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let copy = dir.join("copy.toml");
+        std::fs::write(&copy, text).unwrap();
+        let loaded = Scenario::load(&copy.display().to_string()).unwrap();
+        assert_eq!(loaded.name, name, "an unchanged copy is that scenario");
+        let edited = dir.join("edited.toml");
+        std::fs::write(&edited, text.replacen("seed = 1", "seed = 2", 1)).unwrap();
+        let err = Scenario::load(&edited.display().to_string()).unwrap_err();
+        assert!(err.to_string().contains("built-in"), "{err}");
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]

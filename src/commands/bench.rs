@@ -561,10 +561,16 @@ fn memory(args: &BenchArgs) -> anyhow::Result<()> {
         args.stack_particles
     );
     std::fs::create_dir_all(&args.out)?;
+    let base = (doc.get("name").and_then(toml::Value::as_str))
+        .unwrap_or("scenario")
+        .to_string();
     for &loops in &args.memory_loops {
         if let Some(route) = doc.get_mut("route").and_then(toml::Value::as_table_mut) {
             route.insert("loops".into(), toml::Value::Integer(loops.into()));
         }
+        // A name of its own: a scenario file may not take a built-in's.
+        let renamed = toml::Value::String(format!("{base}-{loops}loops"));
+        doc.insert("name".into(), renamed);
         let file = args.out.join(format!("{name}-{loops}loops.toml"));
         std::fs::write(&file, toml::to_string(&doc)?)?;
         let (m, wall) = stack_run(

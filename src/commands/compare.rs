@@ -93,8 +93,8 @@ pub struct Sweep {
     /// Seeds: `a,b,c` or `a..b`; each configuration runs once per seed.
     #[arg(long, default_value = "1,2,3")]
     pub seeds: List<u64>,
-    /// Stop a run after this many seconds (default: no limit).
-    #[arg(long)]
+    /// Stop a run after this many seconds, more than 0 (default: no limit).
+    #[arg(long, value_parser = crate::commands::launch::timeout_s)]
     pub timeout_s: Option<f64>,
 }
 

@@ -3,14 +3,18 @@
 //! expectations' verdict, or what went wrong.
 
 use crate::supervisor::Outcome;
-use anyhow::Context;
+use anyhow::{Context, bail};
 use fastslam_client::Metrics;
 use fastslam_client::expect::{Expectations, JudgeArgs};
-use fastslam_protocol::ipc;
+use fastslam_protocol::ipc::{self, StackConfig};
+use std::fs::{File, OpenOptions, TryLockError};
+use std::io::{Read, Write};
+use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-/// Where a launcher's stack lives: its prefix and iceoryx2 root.
+/// Where a launcher's stack lives: its prefix and iceoryx2 root, owned by this launcher
+/// for as long as the value lives.
 pub(crate) struct Place {
     /// The stack prefix.
     pub prefix: String,
@@ -18,17 +22,42 @@ pub(crate) struct Place {
     pub root: PathBuf,
     /// True when the launcher chose the root (so it removes it at the end).
     own_root: bool,
+    /// The launcher's hold on the prefix.
+    _lock: PrefixLock,
 }
 
 impl Place {
-    /// The prefix and root given, else a fresh prefix and a root of its own.
-    pub fn of(prefix: Option<&str>, root: Option<&Path>) -> Self {
+    /// The prefix and root given, else a fresh prefix and a root of its own; checked,
+    /// owned (a second launcher on the prefix is refused) and cleaned of what the nodes of
+    /// a stack that died there left behind. Call it before starting any process.
+    ///
+    /// # Errors
+    /// When the prefix or root cannot name an iceoryx2 stack, another launcher's stack
+    /// runs on the prefix, or the lock file cannot be made.
+    pub fn claim(prefix: Option<&str>, root: Option<&Path>) -> anyhow::Result<Self> {
         let prefix = prefix.map_or_else(fastslam_stack::fresh_prefix, str::to_string);
-        Self {
-            root: root.map_or_else(|| fastslam_stack::stack_root(&prefix), Path::to_path_buf),
-            own_root: root.is_none(),
+        let own_root = root.is_none();
+        let root = root.map_or_else(|| fastslam_stack::stack_root(&prefix), Path::to_path_buf);
+        let stack = StackConfig {
+            prefix: prefix.clone(),
+            root: Some(root.display().to_string()),
+        };
+        stack.iceoryx_config().context("--prefix/--iox-root")?;
+        let place = Self {
+            _lock: PrefixLock::take(&prefix)?,
             prefix,
+            root,
+            own_root,
+        };
+        let dead = ipc::remove_dead_nodes(&stack).context("cleaning up the stack's prefix")?;
+        if dead > 0 {
+            tracing::info!(
+                dead,
+                prefix = place.prefix,
+                "removed what the nodes of a dead stack left"
+            );
         }
+        Ok(place)
     }
 
     /// Prints how a process of yours joins the stack.
@@ -43,6 +72,65 @@ impl Place {
     /// Removes the stack's shared memory, and its root when the launcher chose it.
     pub fn remove(&self) {
         ipc::remove_stack_files(&self.prefix, self.own_root.then_some(self.root.as_path()));
+    }
+}
+
+/// An exclusive `flock` on the prefix's lock file ([`fastslam_stack::stack_lock`]),
+/// which holds the owner's process id. The kernel releases it when the launcher dies,
+/// however it dies; a launcher that ends removes the file first.
+struct PrefixLock {
+    /// Held open (and so locked) until dropped.
+    _file: File,
+    path: PathBuf,
+}
+
+impl PrefixLock {
+    /// Takes the lock of `prefix` (a valid prefix: see `StackConfig`), or refuses naming
+    /// the prefix and its owner.
+    fn take(prefix: &str) -> anyhow::Result<Self> {
+        let path = fastslam_stack::stack_lock(prefix);
+        let context = || format!("locking stack prefix {prefix} ({})", path.display());
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).with_context(context)?;
+        }
+        loop {
+            let mut file = OpenOptions::new()
+                .create(true)
+                .truncate(false)
+                .read(true)
+                .write(true)
+                .open(&path)
+                .with_context(context)?;
+            match file.try_lock() {
+                Ok(()) => {}
+                Err(TryLockError::WouldBlock) => {
+                    let mut owner = String::new();
+                    let _ = file.read_to_string(&mut owner);
+                    bail!(
+                        "stack prefix {prefix} is in use by another launcher (process {}); \
+                         pick another --prefix or end that run",
+                        owner.trim()
+                    );
+                }
+                Err(TryLockError::Error(e)) => return Err(e).with_context(context),
+            }
+            // The previous owner may have removed the file between our open and our lock:
+            // then the lock is on a file nobody else can find, and we try again.
+            let locked = file.metadata().with_context(context)?;
+            if std::fs::metadata(&path).is_ok_and(|m| m.ino() == locked.ino()) {
+                file.set_len(0).with_context(context)?;
+                writeln!(file, "{}", std::process::id()).with_context(context)?;
+                return Ok(Self { _file: file, path });
+            }
+        }
+    }
+}
+
+impl Drop for PrefixLock {
+    fn drop(&mut self) {
+        // Removed while still locked, so the next owner never locks a removed file
+        // (see `take`); closing the file then releases the lock.
+        let _ = std::fs::remove_file(&self.path);
     }
 }
 
@@ -94,6 +182,9 @@ pub(crate) fn conclude(
         logs,
         wall,
     } = ended;
+    if outcome == Outcome::Finished {
+        no_pose_fails(out)?;
+    }
     let judged = judge.on()
         && out.join("metrics.json").is_file()
         && matches!(
@@ -133,6 +224,32 @@ pub(crate) fn conclude(
             eprintln!("timed out; processes stopped. Logs: {}", logs.display());
             Ok(1)
         }
+    }
+}
+
+/// A run whose every stream ended without a single pose estimate (a route that never
+/// moves, no scan reaching the filter) is a failure, not a success with no metrics.
+fn no_pose_fails(out: &Path) -> anyhow::Result<()> {
+    let m = Metrics::read(&out.join("metrics.json"))?;
+    if m.estimate.poses == 0 {
+        bail!(
+            "the run ended without a pose estimate: every stream ended before a scan \
+             reached the filter ({} inputs rejected); run folder {}",
+            m.inputs.rejected_total,
+            out.display()
+        );
+    }
+    Ok(())
+}
+
+/// A `--timeout-s` value: a positive number of seconds.
+///
+/// # Errors
+/// When `text` is not a number greater than 0.
+pub(crate) fn timeout_s(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(s) if s > 0.0 && s.is_finite() => Ok(s),
+        _ => Err(format!("`{text}` is not a positive number of seconds")),
     }
 }
 
@@ -200,5 +317,13 @@ pub(crate) fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
         c.singular
     );
     println!("  wall time      {:8.2} s", wall.as_secs_f64());
+    if m.inputs.rejected_total > 0 {
+        println!(
+            "  warning: the service dropped or rejected {} inputs ({}): see /inputs in \
+             metrics.json and logs/service.log",
+            m.inputs.rejected_total,
+            m.inputs.nonzero()
+        );
+    }
     Ok(())
 }

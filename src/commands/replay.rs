@@ -79,8 +79,8 @@ pub struct ReplayRunArgs {
     /// Speed-up factor of `--realtime`.
     #[arg(long, default_value_t = 1.0)]
     pub rate: f64,
-    /// Stop everything after this many seconds (default: no limit).
-    #[arg(long)]
+    /// Stop everything after this many seconds, more than 0 (default: no limit).
+    #[arg(long, value_parser = crate::commands::launch::timeout_s)]
     pub timeout_s: Option<f64>,
     /// Stack prefix (default: a fresh one per run, removed with its shared memory).
     #[arg(long)]
@@ -171,7 +171,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         .clone()
         .unwrap_or_else(|| plan.default_profile.to_string());
     let profile = Profile::load(&profile_arg)?;
-    let place = Place::of(args.prefix.as_deref(), args.iox_root.as_deref());
+    let place = Place::claim(args.prefix.as_deref(), args.iox_root.as_deref())?;
     let (prefix, root) = (place.prefix.clone(), place.root.clone());
     // The service's settings, checked here so a bad value fails before anything starts.
     let table = settings::replay_service_table(args.config.as_deref(), &profile, plan.association)?;
@@ -202,6 +202,9 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
     let mut service_flags = stack_flags.clone();
     service_flags.extend(overrides.flags());
     service_flags.extend(["--config".into(), config.display().to_string()]);
+    if !args.realtime {
+        service_flags.push("--as-fast-as-possible".into());
+    }
     let mut client = stack_flags.clone();
     client.extend(["--out".into(), out.display().to_string()]);
     client.extend(["--service-config".into(), config.display().to_string()]);

@@ -42,8 +42,8 @@ pub struct RunArgs {
     /// Pace the simulation in real time instead of as fast as the stack can go.
     #[arg(long)]
     pub realtime: bool,
-    /// Stop everything after this many seconds (default: no limit).
-    #[arg(long)]
+    /// Stop everything after this many seconds, more than 0 (default: no limit).
+    #[arg(long, value_parser = crate::commands::launch::timeout_s)]
     pub timeout_s: Option<f64>,
     /// Stack prefix, to let your own processes join (default: a fresh one per run,
     /// removed with its shared-memory files at the end).
@@ -81,7 +81,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     let expectations = args.judge.expectations()?;
     let scenario = Scenario::load(&args.scenario)?;
     let seed = args.seed.unwrap_or(scenario.seed);
-    let place = Place::of(args.prefix.as_deref(), args.iox_root.as_deref());
+    let place = Place::claim(args.prefix.as_deref(), args.iox_root.as_deref())?;
     let (prefix, root) = (place.prefix.clone(), place.root.clone());
     // The service's settings, checked here so a bad value fails before anything starts.
     let overrides = Overrides {
@@ -121,6 +121,9 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     service.extend(overrides.flags());
     if let Some(c) = &service_config {
         service.extend(["--config".into(), c.display().to_string()]);
+    }
+    if !args.realtime {
+        service.push("--as-fast-as-possible".into());
     }
     service.extend(args.service_flags.iter().cloned());
     let mut client = stack_flags.clone();

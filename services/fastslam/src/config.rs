@@ -110,7 +110,8 @@ pub struct InputConfig {
     pub lidar: LidarInput,
     /// A stream that delivered nothing for this long (wall time, s) is *quiet*: the
     /// service marks itself degraded and stops waiting for it (odometry keeps
-    /// predicting without the lidar; scans are processed without odometry).
+    /// predicting without the lidar; scans are processed without odometry). Real-time
+    /// sensors only: as fast as possible no deadline applies.
     pub deadline_s: f64,
     /// Largest step between consecutive stamps of a stream (s); a bigger jump ahead is
     /// rejected (unless the stream was quiet). Default one hour: it catches garbage and
@@ -123,8 +124,9 @@ pub struct InputConfig {
     pub max_yaw_rate_rad_s: f64,
     /// Slack on the dead-reckoned position step beyond `max_speed_mps · dt` (m).
     pub pose_slack_m: f64,
-    /// Most inputs waiting per stream; beyond it the oldest is dropped and counted as
-    /// overflow, so a flooding publisher cannot grow the service's memory.
+    /// Most inputs waiting per stream, so a flooding publisher cannot grow the service's
+    /// memory. In real time, beyond it the oldest is dropped and counted as overflow; as
+    /// fast as possible, a full stream is not taken from until the queue has room.
     pub max_queue: usize,
     /// Rejections of one kind are logged once per this interval (s), then summarised.
     pub log_interval_s: f64,

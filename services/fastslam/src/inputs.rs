@@ -50,6 +50,17 @@ impl Inputs {
         ]
     }
 
+    /// True when samples of `stream` wait in its subscriber (or a scan is held).
+    ///
+    /// # Errors
+    /// IPC errors.
+    pub(crate) fn pending(&self, stream: Stream) -> anyhow::Result<bool> {
+        Ok(match stream {
+            Stream::Odometry => self.odometry.pending()?,
+            Stream::Lidar => self.lidar.pending()?,
+        })
+    }
+
     /// The input that an end-of-stream of the wire's `stream` closes, if any.
     pub(crate) fn closed_by(&self, stream: u32) -> Option<Stream> {
         match StreamId::from_u32(stream) {
@@ -115,6 +126,14 @@ impl Lidar {
         }
     }
 
+    /// True while a scan is held or scans wait in the subscriber.
+    fn pending(&self) -> anyhow::Result<bool> {
+        Ok(match self {
+            Self::Observations(sub) => sub.pending()?,
+            Self::Scans(sub) => sub.pending()?,
+        })
+    }
+
     /// The subscriber, for the wake loop.
     fn wake_source(&self) -> &dyn WakeSource {
         match self {
@@ -133,11 +152,12 @@ pub(crate) trait LidarMessage {
     /// Its stamp and sequence number.
     fn header(&self) -> Header;
 
-    /// The content check (`fastslam_protocol::validate`).
+    /// The content check (`fastslam_protocol::validate`); with `known_ids`, landmark ids
+    /// must be usable under known association.
     ///
     /// # Errors
     /// Why the message is unusable.
-    fn check(&self) -> Result<(), Rejection>;
+    fn check(&self, known_ids: bool) -> Result<(), Rejection>;
 
     /// One filter step on the message where it lies (no copy).
     ///
@@ -156,8 +176,12 @@ impl LidarMessage for Received<[Observation], ObservationsHeader> {
         self.user_header().header
     }
 
-    fn check(&self) -> Result<(), Rejection> {
-        validate::observations(self.user_header(), self.payload())
+    fn check(&self, known_ids: bool) -> Result<(), Rejection> {
+        validate::observations(self.user_header(), self.payload())?;
+        if known_ids {
+            validate::known_ids(self.payload())?;
+        }
+        Ok(())
     }
 
     fn apply(&self, slam: &mut Slam, publish: PoseSink<'_>) -> fastslam_estimation::Result<Step> {
@@ -180,7 +204,8 @@ impl LidarMessage for Received<[f32], LaserScanHeader> {
         self.user_header().header
     }
 
-    fn check(&self) -> Result<(), Rejection> {
+    fn check(&self, _known_ids: bool) -> Result<(), Rejection> {
+        // Raw scans carry no landmark ids.
         validate::laser_scan(self.user_header(), self.payload())
     }
 

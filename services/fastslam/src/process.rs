@@ -6,7 +6,7 @@ use crate::config::{EstimatorChoice, LidarInput, Overrides, ServiceConfig};
 use crate::inputs::Inputs;
 use crate::outputs::Outputs;
 use crate::persist::PersistArgs;
-use crate::service::Service;
+use crate::service::{Pace, Service};
 use fastslam_protocol::cli;
 use fastslam_protocol::ipc::Ipc;
 use std::path::PathBuf;
@@ -49,6 +49,12 @@ pub struct Args {
     /// seconds.
     #[arg(long, default_value_t = 60.0)]
     pub wait_timeout_s: f64,
+    /// The sensors publish as fast as the stack takes their samples (a launcher's run
+    /// without `--realtime`): a full input queue stops the service taking that stream
+    /// instead of dropping its oldest input, and no sensor deadline applies. Default:
+    /// real-time sensors.
+    #[arg(long)]
+    pub as_fast_as_possible: bool,
     /// How to wait for the inputs.
     #[command(flatten)]
     pub wait: cli::WaitArgs,
@@ -106,7 +112,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         lidar = ?inputs.lidar.stream(), "running"
     );
 
-    let mut service = Service::new(config, args.persist, slam, resumed.as_ref(), out);
+    let pace = if args.as_fast_as_possible {
+        Pace::AsFastAsPossible
+    } else {
+        Pace::RealTime
+    };
+    let mut service = Service::new(pace, config, args.persist, slam, resumed.as_ref(), out);
     // The tick: a held scan's limit is checked in time even with no input waking the loop.
     let tick = Some(service.hold_limit());
     ipc.wake_loop::<anyhow::Error>(&inputs.wake_sources(), tick, || service.wake(&inputs))?;

@@ -10,7 +10,9 @@
 //! A stream marked *quiet* (its sensor missed its deadline) is not waited for; an input
 //! that then arrives older than what was already released is refused as late. Queues are
 //! bounded: beyond the limit the oldest input is dropped. With healthy sensors neither
-//! happens, and the order is the deterministic one above.
+//! happens, and the order is the deterministic one above. (As fast as possible, the
+//! service never pushes into a full queue: it stops taking that stream instead, see
+//! [`Sequencer::full`] and [`Sequencer::vouch`].)
 
 use crate::per_input::{PerInput, Stream};
 use fastslam_protocol::{LaserScanHeader, Observation, ObservationsHeader, Odometry};
@@ -189,6 +191,22 @@ impl Sequencer {
         self.lanes[stream].push(stamp, input, released, self.max_queue)
     }
 
+    /// True when `stream`'s queue holds its limit of inputs: the next push drops its
+    /// oldest.
+    pub fn full(&self, stream: Stream) -> bool {
+        self.lanes[stream].queue.len() >= self.max_queue
+    }
+
+    /// Takes the other stream as having passed `stream`'s newest stamp, so `stream`'s
+    /// queue can be released: what a publisher that sends both streams in stamp order
+    /// (one thread) guarantees once the other stream has nothing waiting. An input of the
+    /// other stream older than that which arrives after all is refused as late.
+    pub fn vouch(&mut self, stream: Stream) {
+        if let Some(stamp) = self.lanes[stream].watermark {
+            self.lanes[stream.other()].saw(stamp);
+        }
+    }
+
     /// Marks `stream` quiet (its sensor missed its deadline: the other stream stops
     /// waiting for it) or back.
     pub fn set_quiet(&mut self, stream: Stream, quiet: bool) {
@@ -360,6 +378,22 @@ mod tests {
 
     fn stamps(seq: &mut Sequencer) -> Vec<(char, u64)> {
         std::iter::from_fn(|| seq.release()).map(stamp).collect()
+    }
+
+    #[test]
+    fn a_full_queue_vouched_for_releases_in_stamp_order_and_a_tie_is_not_late() {
+        let mut seq = Sequencer::new(3);
+        for t in [10, 20, 30] {
+            assert_eq!(seq.push_odometry(odo(t)), Pushed::Queued);
+        }
+        assert!(seq.full(Stream::Odometry));
+        assert_eq!(stamps(&mut seq), [], "the lidar may still bring 15");
+        seq.vouch(Stream::Odometry);
+        assert_eq!(stamps(&mut seq), [('o', 10), ('o', 20), ('o', 30)]);
+        assert!(!seq.full(Stream::Odometry));
+        // A scan stamped as the newest odometry was sent after it (odometry first).
+        assert_eq!(seq.push_scan(scan(30)), Pushed::Queued);
+        assert_eq!(seq.push_scan(scan(25)), Pushed::Late);
     }
 
     #[test]

@@ -3,6 +3,12 @@
 //! map requests, drain odometry, drain end-of-stream, take lidar messages, check
 //! deadlines, release the queue, publish the smoothing back-end's news, flush. [`Service::finish`] ends the run. Underneath,
 //! [`Core`] applies inputs to the filter and publishes what they produce.
+//!
+//! The sensors' [`Pace`] decides what a full queue and a silent sensor mean. In real time
+//! a full queue drops its oldest input and a sensor silent beyond its deadline is not
+//! waited for. As fast as possible neither depends on the wall clock: a stream whose
+//! queue is full is not taken from (its samples wait in shared memory, its publisher
+//! waits), and no deadline applies.
 
 use crate::admit::Admission;
 use crate::checkpoint::{Checkpoint, ResumeFloor};
@@ -15,6 +21,7 @@ use crate::per_input::{PerInput, Stream};
 use crate::persist::PersistArgs;
 use crate::sequencer::{Input, Pushed, ScanPlace, Sequencer};
 use crate::slam::{PoseSink, Slam, Step};
+use fastslam_estimation::fastslam::AssociationMode;
 use fastslam_protocol::ipc::{Flow, Ipc, Sub, Taken};
 use fastslam_protocol::status::RejectionKind;
 use fastslam_protocol::stream::StreamEnd;
@@ -28,6 +35,17 @@ use std::time::{Duration, Instant};
 /// held scan needs still unsent. Well inside the deadline, so that holding never makes
 /// the lidar look quiet.
 const HOLD_SHARE_OF_DEADLINE: u32 = 4;
+
+/// How the sensors deliver: what a full queue and a silent sensor mean.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pace {
+    /// At their own rate: a full queue drops its oldest input, deadlines apply.
+    RealTime,
+    /// As fast as the stack takes their samples: a full queue stops the service taking
+    /// that stream, no deadline applies. Nothing is dropped, and the run's result does
+    /// not depend on the wall clock.
+    AsFastAsPossible,
+}
 
 /// The service between wake-ups: the [`Core`], and around it the state of the inputs —
 /// their checks, the resume floor, deadlines and stream ends.
@@ -51,12 +69,19 @@ pub(crate) struct Service {
     deadline: Duration,
     /// The longest a scan is held in shared memory ([`HOLD_SHARE_OF_DEADLINE`]).
     hold_limit: Duration,
+    /// How the sensors deliver.
+    pace: Pace,
+    /// The streams whose taking stopped at their full queue during this wake-up.
+    stopped: PerInput<bool>,
+    /// Observations must carry landmark ids (known association).
+    known_ids: bool,
 }
 
 impl Service {
-    /// The service about to take its first input: `slam` and `out` continue `resumed`,
-    /// if given.
+    /// The service about to take its first input from sensors delivering at `pace`:
+    /// `slam` and `out` continue `resumed`, if given.
     pub(crate) fn new(
+        pace: Pace,
         config: ServiceConfig,
         persist: PersistArgs,
         slam: Slam,
@@ -76,6 +101,9 @@ impl Service {
             failed: None,
             deadline,
             hold_limit: deadline / HOLD_SHARE_OF_DEADLINE,
+            pace,
+            stopped: PerInput::default(),
+            known_ids: config.filter.association.mode == AssociationMode::Known,
             core: Core::new(config, persist, slam, resumed, out),
         }
     }
@@ -93,13 +121,23 @@ impl Service {
     pub(crate) fn wake(&mut self, inputs: &Inputs) -> anyhow::Result<Flow> {
         let now = Instant::now();
         self.answer_map_requests()?;
-        self.drain_odometry(&inputs.odometry, now)?;
-        // Before the lidar: a scan held for odometry goes once the odometry has ended.
-        self.drain_end_of_stream(inputs)?;
-        self.take_lidar_messages(&inputs.lidar, now)?;
-        self.check_deadlines(now)?;
+        loop {
+            self.stopped = PerInput::default();
+            self.drain_odometry(&inputs.odometry, now)?;
+            // Before the lidar: a scan held for odometry goes once the odometry has ended.
+            self.drain_end_of_stream(inputs)?;
+            self.take_lidar_messages(&inputs.lidar, now)?;
+            self.vouch(inputs)?;
+            self.check_deadlines(now)?;
+            self.core.release_queued()?;
+            // A stream stopped at its full queue, which the release emptied, is taken
+            // from again now: its publisher may be waiting, and send nothing to wake us.
+            let seq = &self.core.sequencer;
+            if !Stream::ALL.iter().any(|&s| self.stopped[s] && !seq.full(s)) {
+                break;
+            }
+        }
         self.core.health.log.flush(now);
-        self.core.release_queued()?;
         if let Some(solution) = self.core.slam.smoothed() {
             self.core.out.smoothed(&solution)?;
         }
@@ -116,9 +154,37 @@ impl Service {
         self.core.out.answer_map_requests(&self.core.slam)
     }
 
-    /// Takes every odometry message received ([`Service::take_odometry`]).
+    /// Takes the odometry messages received ([`Service::take_odometry`]); as fast as
+    /// possible, only until the odometry queue is full.
     fn drain_odometry(&mut self, odometry: &Sub<Odometry, ()>, now: Instant) -> anyhow::Result<()> {
-        odometry.drain(|s| self.take_odometry(*s.payload(), now))?;
+        if !self.stops_at_full(Stream::Odometry) {
+            odometry.drain_while(|s| {
+                self.take_odometry(*s.payload(), now);
+                !self.stops_at_full(Stream::Odometry)
+            })?;
+        }
+        Ok(())
+    }
+
+    /// True when the service takes nothing more of `stream` now, as fast as possible with
+    /// its queue full; the stream is then marked stopped.
+    fn stops_at_full(&mut self, stream: Stream) -> bool {
+        let stop = self.pace == Pace::AsFastAsPossible && self.core.sequencer.full(stream);
+        self.stopped[stream] |= stop;
+        stop
+    }
+
+    /// As fast as possible: a stream stopped at its full queue while the other stream has
+    /// nothing waiting would wait for ever on a publisher that sends both streams in
+    /// stamp order from one thread (it waits to send the stopped stream's next sample).
+    /// Such a publisher has sent the other stream up to the stopped one's newest stamp:
+    /// the sequencer takes it as passed ([`crate::sequencer::Sequencer::vouch`]).
+    fn vouch(&mut self, inputs: &Inputs) -> anyhow::Result<()> {
+        for stream in Stream::ALL {
+            if self.stopped[stream] && !inputs.pending(stream.other())? {
+                self.core.sequencer.vouch(stream);
+            }
+        }
         Ok(())
     }
 
@@ -174,9 +240,11 @@ impl Service {
         held_since: Option<Instant>,
         now: Instant,
     ) -> Taken {
-        let h = m.header();
+        let (h, known_ids) = (m.header(), self.known_ids);
         if held_since.is_none()
-            && !self.admit(Stream::Lidar, h, M::WHAT, now, |a| a.lidar(m.check(), h))
+            && !self.admit(Stream::Lidar, h, M::WHAT, now, |a| {
+                a.lidar(m.check(known_ids), h)
+            })
         {
             return Taken::Done;
         }
@@ -188,7 +256,15 @@ impl Service {
                     .direct(h.stamp_ns, |slam, publish| m.apply(slam, publish));
                 self.failed = self.failed.take().or(applied.err());
             }
-            ScanPlace::AwaitOdometry if held_for < self.hold_limit => return Taken::Hold,
+            // A full odometry queue waits for this scan's stamp: queue it.
+            ScanPlace::AwaitOdometry
+                if held_for < self.hold_limit && !self.stopped[Stream::Odometry] =>
+            {
+                return Taken::Hold;
+            }
+            ScanPlace::AwaitOdometry | ScanPlace::Queue if self.stops_at_full(Stream::Lidar) => {
+                return Taken::Hold;
+            }
             ScanPlace::AwaitOdometry | ScanPlace::Queue => {
                 let pushed = m.queue(&mut self.core.sequencer);
                 self.core.count_pushed(now, M::WHAT, h.seq, pushed);
@@ -220,11 +296,14 @@ impl Service {
         true
     }
 
-    /// Sensor deadlines: a stream quiet beyond its deadline is not waited for; its return
-    /// ends that.
+    /// Sensor deadlines, in real time only: a stream quiet beyond its deadline is not
+    /// waited for; its return ends that.
     fn check_deadlines(&mut self, now: Instant) -> anyhow::Result<()> {
         let heard = std::mem::take(&mut self.heard);
-        let changes = PerInput::from_fn(|s| heard[s].or_else(|| self.watchdogs[s].check(now)));
+        let realtime = self.pace == Pace::RealTime;
+        let changes = PerInput::from_fn(|s| {
+            heard[s].or_else(|| realtime.then(|| self.watchdogs[s].check(now)).flatten())
+        });
         for (stream, change) in changes.iter() {
             if let Some(change) = *change {
                 self.changed(stream, change)?;

@@ -47,6 +47,28 @@ pub enum Rejection {
         /// The limit for this message type.
         limit: usize,
     },
+    /// A count in the header is outside what the message type allows (a scan of no
+    /// beams, or of more than [`MAX_SCAN_BEAMS`]).
+    #[error("header `{field}` = {count}: must be {min} to {max}")]
+    CountOutOfRange {
+        /// The count's field.
+        field: &'static str,
+        /// The count the header claims.
+        count: u64,
+        /// The fewest allowed.
+        min: usize,
+        /// The most allowed.
+        max: usize,
+    },
+    /// An observation's landmark id cannot be one under known association: negative
+    /// (−1 means "unknown") or beyond [`MAX_MAP_LANDMARKS`].
+    #[error("landmark id {id}: known association needs ids 0 to {max}")]
+    BadLandmarkId {
+        /// The rejected id.
+        id: i64,
+        /// The largest id allowed.
+        max: usize,
+    },
     /// The stamp is older than the stream's previous message.
     #[error("stamp {stamp_ns} ns goes back before {previous_ns} ns")]
     StampBackwards {
@@ -94,7 +116,8 @@ impl Rejection {
         match self {
             Self::NonFinite { .. } => K::NonFinite,
             Self::OutOfRange { .. } => K::OutOfRange,
-            Self::BadCount { .. } => K::BadCount,
+            Self::BadCount { .. } | Self::CountOutOfRange { .. } => K::BadCount,
+            Self::BadLandmarkId { .. } => K::OutOfRange,
             Self::StampBackwards { .. } => K::StampBackwards,
             Self::Duplicate { .. } => K::Duplicate,
             Self::StampJump { .. } => K::StampJump,
@@ -189,10 +212,21 @@ pub fn observations(h: &ObservationsHeader, items: &[Observation]) -> Result<(),
     Ok(())
 }
 
+/// Checks that every observation carries a landmark id usable under known association:
+/// 0 to [`MAX_MAP_LANDMARKS`] − 1.
+pub fn known_ids(items: &[Observation]) -> Result<(), Rejection> {
+    let max = MAX_MAP_LANDMARKS - 1;
+    let usable = |id: i64| usize::try_from(id).is_ok_and(|id| id <= max);
+    match items.iter().find(|o| !usable(o.id)) {
+        Some(o) => Err(Rejection::BadLandmarkId { id: o.id, max }),
+        None => Ok(()),
+    }
+}
+
 /// Checks a raw scan's header against its slice: counts (1 ≤ ranges ≤
 /// [`MAX_SCAN_BEAMS`], intensities 0 or one per range, slice length = ranges +
-/// intensities), finite angles, times and limits, a positive increment, a sweep of at
-/// most one turn, and `0 ≤ range_min < range_max`.
+/// intensities), finite angles, times and limits, times not negative, a positive
+/// increment, a sweep of at most one turn, and `0 ≤ range_min < range_max`.
 ///
 /// Individual ranges are not judged here: REP-117 makes `+∞` (no return), `−∞` (too
 /// close), NaN (invalid) and values outside `[range_min, range_max]` legitimate beam
@@ -201,9 +235,17 @@ pub fn observations(h: &ObservationsHeader, items: &[Observation]) -> Result<(),
 /// Intensities are carried, not used, and not checked.
 pub fn laser_scan(h: &LaserScanHeader, data: &[f32]) -> Result<(), Rejection> {
     let ranges = h.ranges as usize;
+    if !(1..=MAX_SCAN_BEAMS).contains(&ranges) {
+        return Err(Rejection::CountOutOfRange {
+            field: "ranges",
+            count: ranges as u64,
+            min: 1,
+            max: MAX_SCAN_BEAMS,
+        });
+    }
     let expected = ranges + h.intensities as usize;
     let intensities_ok = h.intensities == 0 || h.intensities == h.ranges;
-    if ranges == 0 || !intensities_ok || expected != data.len() || ranges > MAX_SCAN_BEAMS {
+    if !intensities_ok || expected != data.len() {
         return Err(Rejection::BadCount {
             count: expected as u64,
             len: data.len(),
@@ -219,6 +261,18 @@ pub fn laser_scan(h: &LaserScanHeader, data: &[f32]) -> Result<(), Rejection> {
         ("range_max", h.range_max),
     ] {
         finite(field, v.into())?;
+    }
+    for (field, v) in [
+        ("time_increment", h.time_increment),
+        ("scan_time", h.scan_time),
+    ] {
+        if v < 0.0 {
+            return Err(Rejection::OutOfRange {
+                field,
+                value: v.into(),
+                reason: "must be ≥ 0",
+            });
+        }
     }
     let sweep = f64::from(h.angle_increment) * (ranges - 1) as f64;
     if h.angle_increment <= 0.0 || sweep > std::f64::consts::TAU + 1e-4 {
@@ -592,8 +646,64 @@ mod tests {
                 "{increment} {range_min} {range_max}"
             );
         }
+        for field in ["time_increment", "scan_time"] {
+            let (mut h, data) = laser(&[1.0, 2.0], 0);
+            *(if field == "scan_time" {
+                &mut h.scan_time
+            } else {
+                &mut h.time_increment
+            }) = -0.001;
+            assert!(
+                matches!(laser_scan(&h, &data), Err(Rejection::OutOfRange { field: f, .. }) if f == field),
+                "negative {field}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_scan_of_no_beams_or_too_many_names_the_real_limit() {
         let (h, _) = laser(&[], 0);
-        assert!(laser_scan(&h, &[]).is_err(), "a scan needs a beam");
+        let none = laser_scan(&h, &[]).unwrap_err();
+        assert_eq!(none.to_string(), "header `ranges` = 0: must be 1 to 65536");
+        let beams = vec![1.0; 100_000];
+        let (mut h, data) = laser(&beams, 0);
+        h.angle_increment = 1e-5;
+        let many = laser_scan(&h, &data).unwrap_err();
+        assert_eq!(
+            many.to_string(),
+            "header `ranges` = 100000: must be 1 to 65536"
+        );
+        assert_eq!(many.kind(), crate::status::RejectionKind::BadCount);
+        let (h, data) = laser(&vec![1.0; MAX_SCAN_BEAMS], 0);
+        let (h, data) = (
+            LaserScanHeader {
+                angle_increment: 1e-5,
+                ..h
+            },
+            data,
+        );
+        assert_eq!(laser_scan(&h, &data), Ok(()), "the limit itself");
+    }
+
+    #[test]
+    fn known_association_needs_ids_from_0_to_the_map_limit() {
+        let with = |id: i64| Observation {
+            id,
+            ..Default::default()
+        };
+        let max = MAX_MAP_LANDMARKS as i64 - 1;
+        assert_eq!(known_ids(&[with(0), with(7), with(max)]), Ok(()));
+        for id in [-1, -7, max + 1, 1 << 62] {
+            let e = known_ids(&[with(3), with(id)]).unwrap_err();
+            assert_eq!(
+                e,
+                Rejection::BadLandmarkId {
+                    id,
+                    max: max as usize
+                }
+            );
+            assert_eq!(e.kind(), crate::status::RejectionKind::OutOfRange);
+        }
     }
 
     #[test]

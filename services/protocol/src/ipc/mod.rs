@@ -34,7 +34,7 @@ pub use error::{IpcError, Result};
 pub use node::Ipc;
 pub use publisher::{COALESCING_PERIOD, Pub};
 pub use request_response::SliceServer;
-pub use stack::{StackConfig, remove_stack_files, shared_memory_files};
+pub use stack::{StackConfig, remove_dead_nodes, remove_stack_files, shared_memory_files};
 pub use subscriber::{HoldingSub, Received, Sub, Taken};
 pub use wake::{Ended, Flow, LOST_WAKEUP_GUARD, WakeSource};
 pub use wire::{Service, Wire};

@@ -2,7 +2,7 @@
 //! wait timeout bounds and a signal cuts short, and the opening of the services behind
 //! every topic.
 
-use super::{IpcError, Result, Service, StackConfig, Wire, iox_err, shutdown};
+use super::{IpcError, Result, Service, StackConfig, Wire, iox_err, shutdown, stack};
 use crate::topics::{self, Topic};
 use iceoryx2::node::NodeWaitFailure;
 use iceoryx2::prelude::*;
@@ -22,6 +22,7 @@ pub struct Ipc {
 impl Ipc {
     /// Joins the stack as node `name`. `wait_timeout` bounds every wait for peers
     /// (publishers of a topic this process subscribes to, subscribers it waits for).
+    /// The stack's files in `/dev/shm` are its user's alone (0600).
     ///
     /// # Errors
     /// [`IpcError::InvalidLocation`] for a bad prefix/root, [`IpcError::Iceoryx`] when
@@ -37,6 +38,7 @@ impl Ipc {
             .config(&config)
             .create::<Service>()
             .map_err(iox_err(format!("create node {name}")))?;
+        stack::make_management_file_private(&stack.prefix);
         Ok(Self {
             node,
             prefix: stack.prefix.clone(),

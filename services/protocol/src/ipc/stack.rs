@@ -2,8 +2,9 @@
 //! them into an iceoryx2 configuration), and the files a stack leaves behind in
 //! `/dev/shm` and in its root.
 
-use super::{IpcError, Result};
+use super::{IpcError, Result, Service, iox_err};
 use iceoryx2::prelude::*;
+use std::os::unix::fs::PermissionsExt;
 
 /// The files in `/dev/shm` of the stack with `prefix` (its iceoryx2 file prefix): a stack
 /// with a live node always has some.
@@ -27,6 +28,42 @@ pub fn remove_stack_files(prefix: &str, root: Option<&std::path::Path>) {
     }
     if let Some(root) = root {
         let _ = std::fs::remove_dir_all(root);
+    }
+}
+
+/// Removes what the nodes of `stack` whose processes died (SIGKILL, a crash) left
+/// behind: their node entries and the ports they held, so services the dead nodes
+/// created are gone once no live node uses them. Live nodes are untouched. Returns how
+/// many dead nodes were cleaned.
+///
+/// # Errors
+/// [`IpcError::InvalidLocation`] for a bad prefix/root, [`IpcError::Iceoryx`] when the
+/// nodes cannot be listed.
+pub fn remove_dead_nodes(stack: &StackConfig) -> Result<usize> {
+    let config = stack.iceoryx_config()?;
+    let mut removed = 0;
+    Node::<Service>::list(&config, |state| {
+        if let NodeState::Dead(view) = state {
+            match view.try_remove_stale_resources() {
+                Ok(()) => removed += 1,
+                Err(e) => tracing::warn!(error = ?e, "cannot clean up a dead node"),
+            }
+        }
+        CallbackProgression::Continue
+    })
+    .map_err(iox_err(format!("list the nodes of stack {}", stack.prefix)))?;
+    Ok(removed)
+}
+
+/// Makes the stack's node-management file in `/dev/shm`, which iceoryx2 creates
+/// readable and writable by everyone, the owner's alone (0600), as every other file of a
+/// stack is. Best effort: a file of another user's stays as it is.
+pub(super) fn make_management_file_private(prefix: &str) {
+    for file in shared_memory_files(prefix) {
+        let shared = std::fs::metadata(&file).is_ok_and(|m| m.permissions().mode() & 0o077 != 0);
+        if shared && file.to_string_lossy().ends_with(".global_mgmt") {
+            let _ = std::fs::set_permissions(&file, std::fs::Permissions::from_mode(0o600));
+        }
     }
 }
 
@@ -63,5 +100,35 @@ impl StackConfig {
             config.global.set_root_path(&path);
         }
         Ok(config)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::testing::{TestStack, eos_ports, on_thread};
+    use super::*;
+
+    #[test]
+    fn no_file_of_a_stack_in_dev_shm_is_shared_with_other_users() {
+        let stack = TestStack::new("perm");
+        let prefix = stack.config().prefix;
+        let modes = on_thread(stack.config(), "opening ports hangs", move |ipc| {
+            let _ports = eos_ports(ipc)?;
+            Ok(shared_memory_files(&prefix)
+                .into_iter()
+                .map(|f| (std::fs::metadata(&f).map(|m| m.permissions().mode()), f))
+                .collect::<Vec<_>>())
+        })
+        .unwrap();
+        assert!(
+            modes
+                .iter()
+                .any(|(_, f)| f.to_string_lossy().ends_with(".global_mgmt")),
+            "the stack's node-management file is among {modes:?}"
+        );
+        for (mode, file) in &modes {
+            let mode = mode.as_ref().expect("a file of the stack");
+            assert_eq!(mode & 0o077, 0, "{} is mode {mode:o}", file.display());
+        }
     }
 }

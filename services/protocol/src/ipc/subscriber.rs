@@ -13,6 +13,7 @@ use iceoryx2::prelude::*;
 use iceoryx2::sample::Sample;
 use std::cell::RefCell;
 use std::fmt::Debug;
+use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
@@ -125,11 +126,37 @@ where
     /// # Errors
     /// [`IpcError::Iceoryx`] when clearing the listener or receiving fails.
     pub fn drain(&self, mut each: impl FnMut(Received<P, H>)) -> Result<usize> {
-        self.take(|sample| {
+        self.drain_while(|sample| {
             each(sample);
-            None
+            true
+        })
+    }
+
+    /// As [`Sub::drain`], but stops after a sample for which `each` returns false: the
+    /// samples after it wait in the subscriber's buffer (their publisher waits once that
+    /// is full) for the next drain. Returns the number taken.
+    ///
+    /// # Errors
+    /// As [`Sub::drain`].
+    pub fn drain_while(&self, mut each: impl FnMut(Received<P, H>) -> bool) -> Result<usize> {
+        self.take(|sample| {
+            if each(sample) {
+                ControlFlow::Continue(())
+            } else {
+                ControlFlow::Break(None)
+            }
         })
         .map(|(n, _)| n)
+    }
+
+    /// True when samples wait in the subscriber's buffer.
+    ///
+    /// # Errors
+    /// [`IpcError::Iceoryx`] when the subscriber cannot be queried.
+    pub fn pending(&self) -> Result<bool> {
+        self.subscriber
+            .has_samples()
+            .map_err(iox_err(format!("look for samples on {}", self.topic)))
     }
 
     /// This subscriber, able to hold samples back ([`HoldingSub`]).
@@ -149,18 +176,14 @@ where
             .map_err(iox_err(format!("clear the wake-ups on {}", self.topic)))
     }
 
-    /// Receives until `each` hands a sample back (returned, with the count received).
+    /// Receives until `each` breaks, perhaps handing a sample back (returned, with the
+    /// count received).
     fn take(
         &self,
-        mut each: impl FnMut(Received<P, H>) -> Option<Received<P, H>>,
+        mut each: impl FnMut(Received<P, H>) -> ControlFlow<Option<Received<P, H>>>,
     ) -> Result<(usize, Option<Received<P, H>>)> {
         let fired = self.fired.swap(false, Ordering::Relaxed);
-        if !fired
-            && !self
-                .subscriber
-                .has_samples()
-                .map_err(iox_err(format!("look for samples on {}", self.topic)))?
-        {
+        if !fired && !self.pending()? {
             return Ok((0, None));
         }
         self.clear_wakeups()?;
@@ -170,8 +193,8 @@ where
         {
             n += 1;
             RECEIVED.fetch_add(1, Ordering::Relaxed);
-            if let Some(held) = each(sample) {
-                return Ok((n, Some(held)));
+            if let ControlFlow::Break(held) = each(sample) {
+                return Ok((n, held));
             }
         }
         Ok((n, None))
@@ -226,8 +249,8 @@ where
             return Ok(());
         }
         let (_, held) = self.sub.take(|sample| match each(&sample, None) {
-            Taken::Done => None,
-            Taken::Hold => Some(sample),
+            Taken::Done => ControlFlow::Continue(()),
+            Taken::Hold => ControlFlow::Break(Some(sample)),
         })?;
         self.held
             .replace(held.map(|sample| (sample, Instant::now())));
@@ -237,6 +260,14 @@ where
     /// True while a sample is held back.
     pub fn holds(&self) -> bool {
         self.held.borrow().is_some()
+    }
+
+    /// True while a sample is held back or samples wait in the subscriber's buffer.
+    ///
+    /// # Errors
+    /// As [`Sub::pending`].
+    pub fn pending(&self) -> Result<bool> {
+        Ok(self.holds() || self.sub.pending()?)
     }
 }
 

@@ -1,0 +1,57 @@
+//! Runs that cannot mean anything fail, with one line saying why: a run with no pose
+//! estimate, a timeout of nothing.
+
+mod common;
+
+use common::*;
+
+#[test]
+fn a_run_without_a_pose_is_a_failure_with_one_line() {
+    let prefix = prefix("noposes");
+    let dir = folder(&prefix);
+    // The first waypoint is already within reach: the vehicle never moves, and the
+    // route ends before the first scan.
+    let text = std::fs::read_to_string(short_scenario(&dir)).unwrap();
+    let scenario = dir.join("standstill.toml");
+    std::fs::write(
+        &scenario,
+        text.replace("switch_distance_m = 1.0", "switch_distance_m = 1e9"),
+    )
+    .unwrap();
+    let out = dir.join("run");
+    let run = run_stack(
+        &prefix,
+        &out,
+        &["--scenario", &scenario.display().to_string()],
+    );
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{stderr}");
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "one error line: {stderr}");
+    assert!(
+        errors[0].contains("without a pose estimate"),
+        "says why: {stderr}"
+    );
+    assert_eq!(metrics(&out)["complete"], true, "every stream ended");
+    assert_no_leftovers_and_remove(&prefix, &dir);
+}
+
+#[test]
+fn a_timeout_of_zero_seconds_is_refused_before_anything_starts() {
+    let dir = folder(&prefix("timeout0"));
+    let out = dir.join("run");
+    for timeout in ["0", "-1", "nan"] {
+        let refused = std::process::Command::new(LAUNCHER)
+            .args(["run", "--scenario", "bailey-short"])
+            .arg(format!("--timeout-s={timeout}"))
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&refused.stderr);
+        assert!(!refused.status.success(), "--timeout-s {timeout}: {stderr}");
+        assert!(stderr.contains("positive number of seconds"), "{stderr}");
+        assert!(!out.exists(), "the launcher made its run folder");
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
