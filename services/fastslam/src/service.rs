@@ -142,6 +142,7 @@ impl Service {
             self.core.out.smoothed(&solution)?;
         }
         self.core.out.flush()?;
+        self.core.slam.flush_smoother();
         Ok(if self.finished(&inputs.lidar) {
             Flow::Stop
         } else {

@@ -185,6 +185,14 @@ impl Slam {
         Ok(())
     }
 
+    /// Hands the back-end what the filter applied since the last call (one message; the
+    /// service calls it once per wake-up, after the pose went out).
+    pub fn flush_smoother(&mut self) {
+        if let Some(backend) = &mut self.backend {
+            backend.flush();
+        }
+    }
+
     /// The newest smoothed solution finished since the last call (`None` without a
     /// back-end or when none is new).
     pub fn smoothed(&mut self) -> Option<Solution> {

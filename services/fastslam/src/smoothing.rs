@@ -1,6 +1,7 @@
 //! The smoothing back-end on a thread of its own (docs/ALGORITHMS.md §8.1). The filter's
-//! thread hands it every control and every scan's keyed sightings through a channel and
-//! never waits for it; the back-end grows its graph ([`Smoother`]), solves when a loop
+//! thread collects every control and every scan's keyed sightings and hands them over
+//! in one message per wake-up ([`Backend::flush`], after the pose has gone out, so that
+//! waking the back-end never competes with the pose), and never waits for it; the back-end grows its graph ([`Smoother`]), solves when a loop
 //! closes, and reports after every scan — with the solution when that scan closed a
 //! loop — through another channel, which the service drains between inputs.
 //!
@@ -26,7 +27,9 @@ struct Report {
 /// The back-end thread, the two channels to it and what it reported.
 #[derive(Debug)]
 pub struct Backend {
-    to_worker: Option<Sender<Feed>>,
+    to_worker: Option<Sender<Vec<Feed>>>,
+    /// Fed since the last [`flush`](Self::flush), not yet handed over.
+    unsent: Vec<Feed>,
     from_worker: Receiver<Report>,
     worker: Option<JoinHandle<()>>,
     /// Everything fed so far, in order (for checkpoints).
@@ -53,13 +56,13 @@ impl Backend {
     ) -> anyhow::Result<Self> {
         let reanchor = config.reanchor;
         let mut smoother = Smoother::new(config, noise)?;
-        let (to_worker, inbox) = channel::<Feed>();
+        let (to_worker, inbox) = channel::<Vec<Feed>>();
         let (outbox, from_worker) = channel::<Report>();
         let worker = std::thread::Builder::new()
             .name("smoother".into())
             .spawn(move || {
                 let mut scan = 0;
-                for feed in inbox {
+                for feed in inbox.iter().flatten() {
                     let due = smoother.feed(&feed);
                     if matches!(feed, Feed::Scan { .. }) {
                         scan += 1;
@@ -77,6 +80,7 @@ impl Backend {
             })?;
         let mut backend = Self {
             to_worker: Some(to_worker),
+            unsent: Vec::new(),
             from_worker,
             worker: Some(worker),
             feed: Vec::new(),
@@ -88,19 +92,30 @@ impl Backend {
         for f in feed {
             backend.send(f);
         }
+        backend.flush();
         Ok(backend)
     }
 
-    /// Hands `feed` to the back-end (never waits).
+    /// Collects `feed` for the back-end (handed over at the next [`flush`](Self::flush)).
     pub fn send(&mut self, feed: Feed) {
         self.scans_fed += u64::from(matches!(feed, Feed::Scan { .. }));
+        self.unsent.push(feed.clone());
+        self.feed.push(feed);
+    }
+
+    /// Hands what was collected since the last call to the back-end, in one message
+    /// (never waits).
+    pub fn flush(&mut self) {
+        if self.unsent.is_empty() {
+            return;
+        }
+        let batch = std::mem::take(&mut self.unsent);
         if let Some(to) = &self.to_worker
-            && to.send(feed.clone()).is_err()
+            && to.send(batch).is_err()
         {
             tracing::warn!("smoothing back-end gone: its input is dropped");
             self.to_worker = None;
         }
-        self.feed.push(feed);
     }
 
     /// Takes one report in.
@@ -128,6 +143,9 @@ impl Backend {
     pub fn due(&mut self, delay: u64) -> Option<Solution> {
         self.pending.as_ref()?;
         let target = self.scans_fed.checked_sub(delay)?;
+        if self.scans_reported < target {
+            self.flush();
+        }
         while self.scans_reported < target {
             match self.from_worker.recv() {
                 Ok(report) => self.take(report),
@@ -154,6 +172,7 @@ impl Backend {
     /// Ends the input, waits for the back-end's last solve and returns the newest
     /// solution not yet taken.
     pub fn finish(&mut self) -> Option<Solution> {
+        self.flush();
         self.to_worker = None;
         if let Some(worker) = self.worker.take()
             && worker.join().is_err()
