@@ -159,7 +159,7 @@ typedef struct fastslam_Observation {
     double range; /* m: range to the landmark's centre, in (0, max_range] */
     double bearing; /* rad: bearing, vehicle frame */
     double diameter; /* m: measured diameter, 0 when unknown */
-    int64_t id; /* —: landmark id when known (known association), −1 otherwise */
+    int64_t id; /* —: landmark id when known (known association: 0 to 2²⁰ − 1, else the message is rejected as `out_of_range`), −1 otherwise */
 } fastslam_Observation;
 _Static_assert(sizeof(fastslam_Observation) == 32, "fastslam_Observation must match the Rust layout");
 _Static_assert(_Alignof(fastslam_Observation) == 8, "fastslam_Observation must match the Rust layout");
@@ -284,8 +284,8 @@ typedef struct fastslam_LaserScanHeader {
     fastslam_Header header;
     float angle_min; /* rad: direction of the first beam (0 = forward, counter-clockwise) */
     float angle_increment; /* rad: angle between beams, > 0 (beams sweep counter-clockwise) */
-    float time_increment; /* s: time between beams (0: instantaneous scan) */
-    float scan_time; /* s: time between scans */
+    float time_increment; /* s: time between beams, ≥ 0 (0: instantaneous scan) */
+    float scan_time; /* s: time between scans, ≥ 0 */
     float range_min; /* m: shortest measurable range */
     float range_max; /* m: longest measurable range */
     uint32_t ranges; /* —: number of ranges, 1..=65536 */

@@ -138,7 +138,7 @@ class Observation(ctypes.Structure):
         ("range", ctypes.c_double),  # m: range to the landmark's centre, in (0, max_range]
         ("bearing", ctypes.c_double),  # rad: bearing, vehicle frame
         ("diameter", ctypes.c_double),  # m: measured diameter, 0 when unknown
-        ("id", ctypes.c_int64),  # —: landmark id when known (known association), −1 otherwise
+        ("id", ctypes.c_int64),  # —: landmark id when known (known association: 0 to 2²⁰ − 1, else the message is rejected as `out_of_range`), −1 otherwise
     ]
 
     @staticmethod
@@ -265,8 +265,8 @@ class LaserScanHeader(ctypes.Structure):
         ("header", Header),
         ("angle_min", ctypes.c_float),  # rad: direction of the first beam (0 = forward, counter-clockwise)
         ("angle_increment", ctypes.c_float),  # rad: angle between beams, > 0 (beams sweep counter-clockwise)
-        ("time_increment", ctypes.c_float),  # s: time between beams (0: instantaneous scan)
-        ("scan_time", ctypes.c_float),  # s: time between scans
+        ("time_increment", ctypes.c_float),  # s: time between beams, ≥ 0 (0: instantaneous scan)
+        ("scan_time", ctypes.c_float),  # s: time between scans, ≥ 0
         ("range_min", ctypes.c_float),  # m: shortest measurable range
         ("range_max", ctypes.c_float),  # m: longest measurable range
         ("ranges", ctypes.c_uint32),  # —: number of ranges, 1..=65536
