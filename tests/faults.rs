@@ -720,24 +720,8 @@ fn scans_sent_far_ahead_of_their_odometry_by_one_thread_do_not_stall_the_service
         // The lidar's samples live in its own segment: stay until the service has them.
         lidar.wait_until_unsubscribed(&ipc).unwrap();
     });
-    sim.start("service");
-    let ipc = sim.ipc();
-    let pose = ipc.subscriber::<PoseEstimate>(&topics::POSE).unwrap();
-    let started = Instant::now();
-    let mut poses = 0;
-    while sim.stack.child("service").try_wait().unwrap().is_none() {
-        assert!(
-            started.elapsed() < Duration::from_secs(60),
-            "the service stalls: {poses} poses of {scans}"
-        );
-        poses += pose.drain(|_| {}).unwrap();
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    poses += pose.drain(|_| {}).unwrap();
-    publisher.join().expect("the publisher failed");
-    sim.wait_all(Duration::from_secs(1));
-    drop((pose, ipc));
-    assert_eq!(poses as u64, scans, "a pose per scan");
+    let poses = poses_until_the_service_ends(&mut sim, publisher, scans);
+    assert_eq!(poses, scans, "a pose per scan");
     let log_path = sim.stack.dir.join("service.0.log");
     let log = std::fs::read_to_string(&log_path).unwrap();
     let rejections = log
@@ -833,25 +817,9 @@ fn observations_with_unusable_ids_under_known_association_are_refused_and_counte
         }
         lidar.wait_until_unsubscribed(&ipc).unwrap();
     });
-    sim.start("service");
-    let ipc = sim.ipc();
-    let pose = ipc.subscriber::<PoseEstimate>(&topics::POSE).unwrap();
-    let started = Instant::now();
-    let mut poses = 0;
-    while sim.stack.child("service").try_wait().unwrap().is_none() {
-        assert!(
-            started.elapsed() < Duration::from_secs(60),
-            "the service hangs"
-        );
-        poses += pose.drain(|_| {}).unwrap();
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    poses += pose.drain(|_| {}).unwrap();
-    publisher.join().expect("the publisher failed");
-    sim.wait_all(Duration::from_secs(1));
-    drop((pose, ipc));
+    let poses = poses_until_the_service_ends(&mut sim, publisher, scans);
     let bad = bad_ids.len() as u64;
-    assert_eq!(poses as u64, scans - bad, "a pose per good scan");
+    assert_eq!(poses, scans - bad, "a pose per good scan");
     let log = std::fs::read_to_string(sim.stack.dir.join("service.0.log")).unwrap();
     let counts: Vec<u64> = log
         .rsplit("rejections=[")
@@ -872,4 +840,32 @@ fn observations_with_unusable_ids_under_known_association_are_refused_and_counte
     let prefix = sim.stack.prefix.clone();
     drop(sim);
     assert_no_leftovers(&prefix);
+}
+
+/// Starts the service of `sim` (its publisher thread `publisher` already sending up to
+/// `scans` scans), counts the poses it publishes until it exits (failing after 60 s),
+/// then joins the publisher and waits for the rest of the stack.
+fn poses_until_the_service_ends(
+    sim: &mut SimStack,
+    publisher: std::thread::JoinHandle<()>,
+    scans: u64,
+) -> u64 {
+    sim.start("service");
+    let ipc = sim.ipc();
+    let pose = ipc.subscriber::<PoseEstimate>(&topics::POSE).unwrap();
+    let started = Instant::now();
+    let mut poses = 0;
+    while sim.stack.child("service").try_wait().unwrap().is_none() {
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "the service stalls: {poses} poses of {scans}"
+        );
+        poses += pose.drain(|_| {}).unwrap();
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    poses += pose.drain(|_| {}).unwrap();
+    publisher.join().expect("the publisher failed");
+    sim.wait_all(Duration::from_secs(1));
+    drop((pose, ipc));
+    poses as u64
 }

@@ -28,12 +28,12 @@ struct Report {
 #[derive(Debug)]
 pub struct Backend {
     to_worker: Option<Sender<Vec<Feed>>>,
-    /// Fed since the last [`flush`](Self::flush), not yet handed over.
-    unsent: Vec<Feed>,
     from_worker: Receiver<Report>,
     worker: Option<JoinHandle<()>>,
-    /// Everything fed so far, in order (for checkpoints).
+    /// Everything fed so far, in order (for checkpoints); the part from `handed_over` on
+    /// waits for the next [`flush`](Self::flush).
     feed: Vec<Feed>,
+    handed_over: usize,
     /// Scans fed, and scans the back-end has reported.
     scans_fed: u64,
     scans_reported: u64,
@@ -80,10 +80,10 @@ impl Backend {
             })?;
         let mut backend = Self {
             to_worker: Some(to_worker),
-            unsent: Vec::new(),
             from_worker,
             worker: Some(worker),
             feed: Vec::new(),
+            handed_over: 0,
             scans_fed: 0,
             scans_reported: 0,
             unpublished: None,
@@ -99,17 +99,17 @@ impl Backend {
     /// Collects `feed` for the back-end (handed over at the next [`flush`](Self::flush)).
     pub fn send(&mut self, feed: Feed) {
         self.scans_fed += u64::from(matches!(feed, Feed::Scan { .. }));
-        self.unsent.push(feed.clone());
         self.feed.push(feed);
     }
 
     /// Hands what was collected since the last call to the back-end, in one message
     /// (never waits).
     pub fn flush(&mut self) {
-        if self.unsent.is_empty() {
+        if self.handed_over == self.feed.len() {
             return;
         }
-        let batch = std::mem::take(&mut self.unsent);
+        let batch = self.feed[self.handed_over..].to_vec();
+        self.handed_over = self.feed.len();
         if let Some(to) = &self.to_worker
             && to.send(batch).is_err()
         {
