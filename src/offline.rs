@@ -356,6 +356,10 @@ pub struct Row {
     pub smoothed_final_under_1m: usize,
     /// Landmark RMSE per run after optimal assignment (m).
     pub landmark: Summary,
+    /// Landmarks in the published map per run (against `true_landmarks`).
+    pub landmarks: Summary,
+    /// Landmarks in the true map (0 where the data has none).
+    pub true_landmarks: usize,
     /// Mean pose NEES per run (3 when consistent).
     pub nees: Summary,
     /// Fraction of steps within the χ²₃ 95 % bound per run.
@@ -461,6 +465,8 @@ fn summarise(method: String, particles: usize, runs: &[RunOutcome]) -> Row {
             .filter(|s| s.trajectory.final_error_m < 1.0)
             .count(),
         landmark: column(&|r| r.metrics.map.rmse_m),
+        landmarks: column(&|r| r.metrics.map.estimated as f64),
+        true_landmarks: runs.first().map_or(0, |r| r.metrics.map.truth),
         nees: column(&|r| r.metrics.consistency.nees_mean),
         nees_within: column(&|r| r.metrics.consistency.nees_within_95),
         singular: column(&|r| {

@@ -42,7 +42,8 @@ pub struct MonteCarloArgs {
     pub comparison: Comparison,
     /// Also write the rows to this CSV file, one per method, with the columns
     /// scenario,optimizer,correction,proposal,particles,seeds,ate_mean_m,ate_std_m,
-    /// nees_within_95,singular_fraction,cpu_s_per_run (correction: none, proposal or
+    /// nees_within_95,singular_fraction,cpu_s_per_run,smoothed_ate_mean_m,smoothed_ate_std_m,
+    /// ate_max_m,landmarks_mean,true_landmarks (docs/CSV.md; correction: none, proposal or
     /// resample-move, empty without an optimiser; proposal: motion or fastslam2).
     #[arg(long)]
     pub csv: Option<PathBuf>,
@@ -51,7 +52,7 @@ pub struct MonteCarloArgs {
 /// The header of `monte-carlo --csv`; tools outside the project read these names.
 pub const CSV_HEADER: &str = "scenario,optimizer,correction,proposal,particles,seeds,\
 ate_mean_m,ate_std_m,nees_within_95,singular_fraction,cpu_s_per_run,\
-smoothed_ate_mean_m,smoothed_ate_std_m";
+smoothed_ate_mean_m,smoothed_ate_std_m,ate_max_m,landmarks_mean,true_landmarks";
 
 /// One line of `monte-carlo --csv`.
 fn csv_row(scenario: &str, row: &Row) -> String {
@@ -61,7 +62,7 @@ fn csv_row(scenario: &str, row: &Row) -> String {
         row.correction.name()
     };
     format!(
-        "{scenario},{},{correction},{},{},{},{},{},{},{},{},{},{}",
+        "{scenario},{},{correction},{},{},{},{},{},{},{},{},{},{},{},{},{}",
         row.optimizer,
         row.proposal,
         row.particles,
@@ -72,7 +73,10 @@ fn csv_row(scenario: &str, row: &Row) -> String {
         row.singular.mean,
         row.cpu.mean,
         row.smoothed.mean,
-        row.smoothed.std
+        row.smoothed.std,
+        row.ate.max,
+        row.landmarks.mean,
+        row.true_landmarks
     )
 }
 
@@ -91,7 +95,7 @@ pub fn run(args: &MonteCarloArgs) -> anyhow::Result<()> {
         seeds[seeds.len() - 1]
     );
     println!(
-        "  {:<28} {:>5}  {:>30}  {:>30}  {:>30}  {:>10}  {:>8}  {:>12}  {:>8}  DR / achievable ATE (m)  × achievable · moves kept",
+        "  {:<28} {:>5}  {:>30}  {:>30}  {:>30}  {:>10}  {:>8}  {:>12}  {:>8}  DR / achievable ATE (m)  × achievable · worst ATE · landmarks mapped / true · moves kept",
         "method",
         "N",
         "ATE RMSE (m)",
@@ -169,7 +173,7 @@ fn print_row(row: &Row) {
         )
     });
     println!(
-        "  {:<28} {:>5}  {:>30}  {:>30}  {:>30}  {:>10.3}  {:>8.3}  {:>7.2} ± {:<4.2}  {:>8.2}  {:.3} / {:.3}  {:.1} ± {:.1}{moves}{smoothed}",
+        "  {:<28} {:>5}  {:>30}  {:>30}  {:>30}  {:>10.3}  {:>8.3}  {:>7.2} ± {:<4.2}  {:>8.2}  {:.3} / {:.3}  {:.1} ± {:.1} · {:.3} · {:.1} ± {:.1} / {}{moves}{smoothed}",
         row.method,
         row.particles,
         cell(&row.ate),
@@ -183,6 +187,10 @@ fn print_row(row: &Row) {
         row.dead_reckoning.mean,
         row.reference.mean,
         row.over_reference.mean,
-        row.over_reference.std
+        row.over_reference.std,
+        row.ate.max,
+        row.landmarks.mean,
+        row.landmarks.std,
+        row.true_landmarks
     );
 }

@@ -26,6 +26,8 @@ pub struct Summary {
     /// 95 % confidence interval of the mean, `mean ± t₀.₉₇₅,ₙ₋₁ · std / √n` (Student's t;
     /// the mean itself for one value).
     pub ci95: (f64, f64),
+    /// The largest finite value (the worst run, for errors; NaN without values).
+    pub max: f64,
 }
 
 impl Summary {
@@ -50,6 +52,7 @@ impl Summary {
             mean,
             std,
             ci95: (mean - half, mean + half),
+            max: finite.iter().copied().fold(f64::NAN, f64::max),
         }
     }
 }

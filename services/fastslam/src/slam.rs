@@ -514,9 +514,9 @@ impl Slam {
         self.filter.particles().len()
     }
 
-    /// Landmarks in the best particle's map.
+    /// Landmarks in the published map (the best particle's, provisional ones left out).
     pub fn landmarks(&self) -> usize {
-        self.filter.best().map().len()
+        self.filter.confirmed_landmarks()
     }
 
     /// The best particle's map as a message.

@@ -4,22 +4,34 @@
 //! decisions afterwards.
 //!
 //! Decisions the spec leaves open, taken here:
-//! - **One landmark per scan.** Observations are associated greedily in scan order, and a
-//!   landmark already claimed by an earlier observation of the same scan (matched, or
-//!   created under known association) is no candidate for later ones. Because of this,
-//!   every landmark is touched at most once per scan, so associating the whole scan before
-//!   updating any landmark gives exactly the decisions of updating as one goes.
-//! - **Ignored observations** (ML candidate with `gate_reject ≤ d²`, but some candidate with
-//!   `d² ≤ gate_new`) contribute `max(log N(ν; 0, S) of the ML candidate, log_p_new)`: the
-//!   observation is that landmark or a new one, and we do not commit to either. A fixed
-//!   0 would depend on the units of `S`.
+//! - **One scan, one assignment** (unknown association). Each observation is paired with
+//!   every landmark in its search window. A pair is *assignable* when its normalised
+//!   innovation squared is under `gate_reject` and its likelihood `N(ν; 0, S)` is at least
+//!   that of a new landmark (`log_p_new`): the choice between "re-sighting" and "new" is a
+//!   likelihood ratio, the gate a χ² validation bound. Each observation takes its most
+//!   likely assignable landmark; where two observations of the scan take the same one,
+//!   the scan's pairs are assigned jointly instead — the assignment with the largest total
+//!   log-likelihood, each observation free to be "no mapped landmark" at `log_p_new`
+//!   (Hungarian algorithm, `pathfinding`). Every landmark is thus touched at most once per
+//!   scan, and associating the whole scan before updating any landmark is exact.
+//! - **Unassigned observations** start a landmark when every landmark the scan's other
+//!   observations did not take lies beyond `gate_new`; otherwise they are *ignored*
+//!   (ambiguous) and contribute `max(log N(ν; 0, S) of the most likely such landmark,
+//!   log_p_new)`: the observation is that landmark or a new one, and we do not commit to
+//!   either. A fixed 0 would depend on the units of `S`.
+//! - **Pose uncertainty.** FastSLAM 2.0's proposal associates at the motion prior's mean
+//!   with the prior's covariance added to every `S` ([`Scan::associate_uncertain`]), so
+//!   after a long stretch without landmarks the gate has grown with the drift and a
+//!   re-sighted landmark is recognised instead of duplicated. A FastSLAM 1.0 particle is a
+//!   point: its pose uncertainty is the spread of the cloud.
 //! - **Known association** updates the landmark with the observation's id without gating
 //!   (the id is trusted); an id not yet in the map creates that landmark.
 //! - **Search window** of unknown association: landmarks within
 //!   `max(search_radius, 2 √gate_new σ_w)` metres of the observed point, where
-//!   `σ_w = √(σ_r² + (r σ_b)²)` is the observation's spread in the world. A landmark
-//!   farther away is taken to have `d² > gate_new`, which holds unless its own covariance
-//!   is much larger than the observation's.
+//!   `σ_w = √(σ_r² + (r σ_b)²)` is the observation's spread in the world, widened by
+//!   `2 √gate_new √(P_xx + P_yy + r² P_θθ)` with a pose covariance `P`. A landmark farther
+//!   away is taken to have `d² > gate_new`, which holds unless its own covariance is much
+//!   larger than the observation's.
 
 use super::ekf::{self, Innovation};
 use super::landmarks::{LandmarkMap, Slot};
@@ -140,10 +152,11 @@ pub(crate) enum Decision {
 
 /// The decisions for a whole scan (one per observation, in order) and the scan's
 /// log-likelihood under the particle.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default)]
 pub(crate) struct ScanAssociation {
     pub decisions: Vec<Decision>,
     pub log_likelihood: f64,
+    scratch: Scratch,
 }
 
 /// The landmarks the scan's earlier observations were assigned to (updated, or created
@@ -250,17 +263,45 @@ impl<'a> Scan<'a> {
         pose: &Pose2,
         out: &mut ScanAssociation,
     ) {
+        self.associate_around(map, pose, None, out);
+    }
+
+    /// [`associate`](Self::associate) at the mean of an uncertain pose: every
+    /// innovation covariance also carries the pose covariance,
+    /// `S = H_x P H_xᵀ + H_m Σ H_mᵀ + R`, so gates and likelihoods widen with the pose
+    /// uncertainty built up since the last update (FastSLAM 2.0's association, Montemerlo
+    /// et al. 2003). Known association is not affected.
+    pub(crate) fn associate_uncertain(
+        &self,
+        map: &LandmarkMap,
+        pose: &Pose2,
+        pose_covariance: &Matrix3<f64>,
+    ) -> ScanAssociation {
+        let mut association = ScanAssociation::default();
+        self.associate_around(map, pose, Some(pose_covariance), &mut association);
+        association
+    }
+
+    fn associate_around(
+        &self,
+        map: &LandmarkMap,
+        pose: &Pose2,
+        pose_covariance: Option<&Matrix3<f64>>,
+        out: &mut ScanAssociation,
+    ) {
+        if self.config.mode == AssociationMode::Unknown {
+            self.unknown_scan(map, pose, pose_covariance, out);
+            return;
+        }
         let noise = self.sensor.noise();
         out.decisions.clear();
         out.log_likelihood = 0.0;
         for obs in self.observations {
             // Landmarks claimed by earlier observations of this scan.
             let claimed = Claimed(&out.decisions);
-            let (decision, contribution) = match (self.config.mode, obs.id) {
-                (AssociationMode::Known, Some(id)) => {
-                    self.known(map, pose, obs, id, claimed, &noise)
-                }
-                _ => self.unknown(map, pose, obs, claimed, &noise),
+            let (decision, contribution) = match obs.id {
+                Some(id) => self.known(map, pose, obs, id, claimed, &noise),
+                None => (Decision::Ignore, self.config.log_p_new),
             };
             out.log_likelihood += contribution;
             out.decisions.push(decision);
@@ -300,54 +341,218 @@ impl<'a> Scan<'a> {
             })
     }
 
-    fn unknown(
+    /// Unknown association of the whole scan (see the module docs): every pair of an
+    /// observation and a landmark in its search window, the most likely landmark per
+    /// observation, and a joint assignment where two observations want one landmark.
+    fn unknown_scan(
         &self,
         map: &LandmarkMap,
         pose: &Pose2,
+        pose_covariance: Option<&Matrix3<f64>>,
+        out: &mut ScanAssociation,
+    ) {
+        let noise = self.sensor.noise();
+        let scratch = &mut out.scratch;
+        scratch.pairs.clear();
+        scratch.starts.clear();
+        for obs in self.observations {
+            scratch.starts.push(scratch.pairs.len());
+            self.pairs_of(map, pose, pose_covariance, obs, &noise, &mut scratch.pairs);
+        }
+        scratch.starts.push(scratch.pairs.len());
+        self.choose(scratch);
+        let log_p_new = self.config.log_p_new;
+        out.decisions.clear();
+        out.log_likelihood = 0.0;
+        for index in 0..self.observations.len() {
+            let (decision, contribution) = match out.scratch.chosen[index] {
+                Some(at) => {
+                    let pair = &out.scratch.pairs[at];
+                    (pair.decision(), pair.innovation.log_likelihood)
+                }
+                None => {
+                    // The landmarks the scan's other observations did not take.
+                    let free = out
+                        .scratch
+                        .pairs_of_observation(index)
+                        .iter()
+                        .filter(|pair| !out.scratch.taken_by_another(pair.slot, index));
+                    let (min_d2, best) =
+                        free.fold((f64::INFINITY, f64::NEG_INFINITY), |(d, l), pair| {
+                            (
+                                d.min(pair.innovation.d2),
+                                l.max(pair.innovation.log_likelihood),
+                            )
+                        });
+                    if min_d2 > self.config.gate_new {
+                        (Decision::New { id: None }, log_p_new)
+                    } else {
+                        (Decision::Ignore, best.max(log_p_new))
+                    }
+                }
+            };
+            out.log_likelihood += contribution;
+            out.decisions.push(decision);
+        }
+    }
+
+    /// Every landmark of `map` in the search window of `obs`, with its
+    /// innovation (the pose covariance, when given, added to `S`), into `pairs`.
+    fn pairs_of(
+        &self,
+        map: &LandmarkMap,
+        pose: &Pose2,
+        pose_covariance: Option<&Matrix3<f64>>,
         obs: &Observation,
-        claimed: Claimed<'_>,
         noise: &Matrix2<f64>,
-    ) -> (Decision, f64) {
+        pairs: &mut Vec<Pair>,
+    ) {
         let z = obs.z();
         let (point, _) = observation::inverse(pose, &z);
         let sigma_world = (noise[(0, 0)] + z[0] * z[0] * noise[(1, 1)]).sqrt();
         let radius = self
             .config
             .search_radius
-            .max(2.0 * self.config.gate_new.sqrt() * sigma_world);
-        let mut best: Option<Decision> = None;
-        let mut best_log_likelihood = f64::NEG_INFINITY;
-        let mut min_d2 = f64::INFINITY;
+            .max(2.0 * self.config.gate_new.sqrt() * sigma_world)
+            + pose_covariance.map_or(0.0, |p| {
+                2.0 * self.config.gate_new.sqrt()
+                    * (p[(0, 0)] + p[(1, 1)] + z[0] * z[0] * p[(2, 2)]).sqrt()
+            });
         for (slot, landmark) in map.within(point, radius) {
-            if claimed.contains(slot.id()) {
-                continue;
-            }
             let Some(p) = observation::predict(pose, &landmark.mean) else {
                 continue;
             };
-            let Some(innovation) = ekf::innovate(&z, &p, &landmark.covariance, noise) else {
-                continue;
-            };
-            min_d2 = min_d2.min(innovation.d2);
-            if innovation.log_likelihood > best_log_likelihood {
-                best_log_likelihood = innovation.log_likelihood;
-                best = Some(Decision::Update {
+            let h = p.wrt_landmark;
+            let mut s = h * landmark.covariance * h.transpose() + noise;
+            if let Some(pose_covariance) = pose_covariance {
+                s += p.wrt_pose * pose_covariance * p.wrt_pose.transpose();
+            }
+            if let Some(innovation) = ekf::innovate_with(&z, &p, &s) {
+                pairs.push(Pair {
                     slot,
-                    h: p.wrt_landmark,
+                    h,
                     innovation,
                 });
             }
         }
-        let log_p_new = self.config.log_p_new;
-        match best {
-            Some(update @ Decision::Update { innovation, .. })
-                if innovation.d2 < self.config.gate_reject =>
-            {
-                (update, best_log_likelihood)
-            }
-            _ if min_d2 > self.config.gate_new => (Decision::New { id: None }, log_p_new),
-            _ => (Decision::Ignore, best_log_likelihood.max(log_p_new)),
+    }
+
+    /// True when `pair` may be assigned: inside the reject gate and more likely than a
+    /// new landmark.
+    fn assignable(&self, pair: &Pair) -> bool {
+        pair.innovation.d2 < self.config.gate_reject
+            && pair.innovation.log_likelihood >= self.config.log_p_new
+    }
+
+    /// Fills `scratch.chosen`: each observation's most likely assignable landmark; where
+    /// two observations chose one landmark, the assignment that maximises the scan's
+    /// total log-likelihood (Hungarian algorithm), each observation free to be "not a
+    /// mapped landmark" at `log_p_new`.
+    fn choose(&self, scratch: &mut Scratch) {
+        let n = scratch.starts.len() - 1;
+        scratch.chosen.clear();
+        for index in 0..n {
+            let best = (scratch.starts[index]..scratch.starts[index + 1])
+                .filter(|&at| self.assignable(&scratch.pairs[at]))
+                .max_by(|&a, &b| {
+                    let (a, b) = (&scratch.pairs[a].innovation, &scratch.pairs[b].innovation);
+                    a.log_likelihood.total_cmp(&b.log_likelihood)
+                });
+            scratch.chosen.push(best);
         }
+        let conflict = scratch.chosen.iter().enumerate().any(|(i, a)| {
+            let Some(a) = a else { return false };
+            scratch.chosen[i + 1..]
+                .iter()
+                .flatten()
+                .any(|b| scratch.pairs[*a].slot == scratch.pairs[*b].slot)
+        });
+        if conflict {
+            self.assign_jointly(scratch);
+        }
+    }
+
+    /// The Hungarian assignment of [`choose`](Self::choose), over the observations with an
+    /// assignable landmark. Log-likelihoods are compared in micro-units (integers, as the
+    /// `pathfinding` crate's algorithm needs).
+    fn assign_jointly(&self, scratch: &mut Scratch) {
+        const FORBIDDEN: i64 = -(1 << 50);
+        let units = |log_likelihood: f64| (log_likelihood * 1e6).round() as i64;
+        let rows: Vec<usize> = (0..scratch.chosen.len())
+            .filter(|&i| scratch.chosen[i].is_some())
+            .collect();
+        let mut slots: Vec<Slot> = rows
+            .iter()
+            .flat_map(|&i| scratch.pairs_of_observation(i))
+            .filter(|pair| self.assignable(pair))
+            .map(|pair| pair.slot)
+            .collect();
+        slots.sort_unstable();
+        slots.dedup();
+        let columns = slots.len() + rows.len();
+        let mut weights = pathfinding::matrix::Matrix::new(rows.len(), columns, FORBIDDEN);
+        for (row, &i) in rows.iter().enumerate() {
+            weights[(row, slots.len() + row)] = units(self.config.log_p_new);
+            for at in scratch.starts[i]..scratch.starts[i + 1] {
+                let pair = &scratch.pairs[at];
+                if self.assignable(pair) {
+                    let column = slots.binary_search(&pair.slot).unwrap_or(0);
+                    weights[(row, column)] = units(pair.innovation.log_likelihood);
+                }
+            }
+        }
+        let (_, assignment) = pathfinding::kuhn_munkres::kuhn_munkres(&weights);
+        for (row, &i) in rows.iter().enumerate() {
+            let column = assignment[row];
+            scratch.chosen[i] = slots.get(column).and_then(|slot| {
+                (scratch.starts[i]..scratch.starts[i + 1])
+                    .find(|&at| scratch.pairs[at].slot == *slot)
+            });
+        }
+    }
+}
+
+/// One observation paired with one landmark of its search window.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Pair {
+    slot: Slot,
+    h: Matrix2<f64>,
+    innovation: Innovation,
+}
+
+impl Pair {
+    fn decision(&self) -> Decision {
+        Decision::Update {
+            slot: self.slot,
+            h: self.h,
+            innovation: self.innovation,
+        }
+    }
+}
+
+/// Working buffers of unknown association, kept between scans so a filter step allocates
+/// nothing here once they have grown to the scan's size.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Scratch {
+    /// Every pair, grouped by observation in scan order.
+    pairs: Vec<Pair>,
+    /// `pairs[starts[i]..starts[i + 1]]` are observation i's.
+    starts: Vec<usize>,
+    /// The pair each observation is assigned (an index into `pairs`), if any.
+    chosen: Vec<Option<usize>>,
+}
+
+impl Scratch {
+    fn pairs_of_observation(&self, index: usize) -> &[Pair] {
+        &self.pairs[self.starts[index]..self.starts[index + 1]]
+    }
+
+    /// True when `slot` is assigned to an observation other than `index`.
+    fn taken_by_another(&self, slot: Slot, index: usize) -> bool {
+        self.chosen
+            .iter()
+            .enumerate()
+            .any(|(i, c)| i != index && c.is_some_and(|at| self.pairs[at].slot == slot))
     }
 }
 
@@ -426,6 +631,52 @@ mod tests {
         let a = Scan::new(&obs, &sensor, &config, 0).associate(&map, &pose);
         assert!(matches!(a.decisions[0], Decision::Update { slot, .. } if slot.id() == 1));
         assert_eq!(a.decisions[1], Decision::New { id: None });
+    }
+
+    #[test]
+    fn a_scan_is_assigned_jointly_where_two_observations_want_one_landmark() {
+        // Landmarks 0.5 m apart across the line of sight; the first observation lies
+        // between them, a little nearer 1, the second right on 1 and out of 2's gate.
+        let map = map_with(&[(1, 10.0, 0.0), (2, 10.0, 0.5)]);
+        let pose = Pose2::default();
+        let sensor = Sensor::default();
+        let config = AssociationConfig::default();
+        let obs = [
+            seen(&pose, 10.0, 0.23, None),
+            seen(&pose, 10.0, -0.02, None),
+        ];
+        let scan = Scan::new(&obs, &sensor, &config, 0);
+        let a = scan.associate(&map, &pose);
+        let id = |d: &Decision| match d {
+            Decision::Update { slot, .. } => Some(slot.id()),
+            _ => None,
+        };
+        assert_eq!(
+            (id(&a.decisions[0]), id(&a.decisions[1])),
+            (Some(2), Some(1)),
+            "greedy in scan order would give 1 to the first and nothing to the second"
+        );
+        // Alone, the first takes landmark 1.
+        let alone = Scan::new(&obs[..1], &sensor, &config, 0).associate(&map, &pose);
+        assert_eq!(id(&alone.decisions[0]), Some(1));
+    }
+
+    #[test]
+    fn the_pose_covariance_widens_the_gate() {
+        let map = map_with(&[(1, 10.0, 0.0)]);
+        let pose = Pose2::default();
+        let sensor = Sensor::default();
+        let config = AssociationConfig::default();
+        // Seen 0.15 rad off: far outside the gate of a certain pose (σ_b = 1°).
+        let obs = [seen(&Pose2::new(0.0, 0.0, -0.15), 10.0, 0.0, None)];
+        let scan = Scan::new(&obs, &sensor, &config, 0);
+        assert_eq!(
+            scan.associate(&map, &pose).decisions[0],
+            Decision::New { id: None }
+        );
+        let drifted = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.01, 0.01, 0.1f64.powi(2)));
+        let a = scan.associate_uncertain(&map, &pose, &drifted);
+        assert!(matches!(a.decisions[0], Decision::Update { slot, .. } if slot.id() == 1));
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! (`#[serde(default, deny_unknown_fields)]`), defaults = Bailey's webmap simulator except
 //! where noted, and one `validate` that reports the first bad value.
 
-use super::association::AssociationConfig;
+use super::association::{AssociationConfig, AssociationMode};
 use super::evidence::NegativeEvidence;
 use super::proposal::Proposal;
 use crate::Result;
@@ -130,6 +130,19 @@ impl FastSlamConfig {
         self.negative_evidence.validate()?;
         self.resampling.validate()?;
         self.prior_floor.validate()
+    }
+
+    /// Negative evidence as the filter applies it: only under unknown association, where
+    /// a landmark must earn its place (docs/ALGORITHMS.md §1 step 4); with known ids every
+    /// landmark is real and none is provisional.
+    pub fn negative_evidence_in_effect(&self) -> NegativeEvidence {
+        match self.association.mode {
+            AssociationMode::Unknown => self.negative_evidence,
+            AssociationMode::Known => NegativeEvidence {
+                min_hits: 0,
+                ..self.negative_evidence
+            },
+        }
     }
 }
 

@@ -16,7 +16,7 @@ use crate::pose::Pose2;
 use serde::{Deserialize, Serialize};
 
 /// Settings of negative evidence; `min_hits = 0` switches it off.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct NegativeEvidence {
     /// Hits (scans with an assigned observation, creation included) that confirm a

@@ -175,8 +175,11 @@ pub struct StepReport {
 ///
 /// let mut slam = FastSlam::new(FastSlamConfig::default(), Pose2::default()).unwrap();
 /// slam.predict(&Control { v: 3.0, omega: 0.0, steering: 0.0 }, 0.025).unwrap();
-/// let report = slam.update(&[Observation { range: 10.0, bearing: 0.2, id: None }]).unwrap();
-/// assert_eq!(report.new_landmarks, 100);
+/// let seen = [Observation { range: 10.0, bearing: 0.2, id: None }];
+/// let report = slam.update(&seen).unwrap();
+/// assert_eq!(report.new_landmarks, 100); // one per particle
+/// assert!(slam.best_map().is_empty()); // provisional until seen again
+/// slam.update(&seen).unwrap();
 /// assert_eq!(slam.best_map().len(), 1);
 /// ```
 #[derive(Debug, Clone)]
@@ -313,7 +316,7 @@ impl FastSlam {
         let particle = Particle {
             pose,
             log_weight,
-            map: map.track_tentative(config.negative_evidence.min_hits),
+            map: map.track_tentative(config.negative_evidence_in_effect().min_hits),
             trail: Trail::default(),
             prior: MotionPrior::settled(pose, &config.prior_floor.covariance()),
         };
@@ -570,15 +573,37 @@ impl FastSlam {
     }
 
     /// Step 7: the map of the particle that weighed most at the last step
-    /// ([`best`](Self::best)), ordered by id.
+    /// ([`best`](Self::best)), ordered by id, without its provisional landmarks (see
+    /// [`is_confirmed`](Self::is_confirmed)).
     ///
     /// # Performance
     /// O(M log M) (collect and sort).
     pub fn best_map(&self) -> Vec<MapLandmark> {
         let best = self.best();
-        let mut landmarks: Vec<MapLandmark> = best.map.iter().map(MapLandmark::from).collect();
+        let mut landmarks: Vec<MapLandmark> = (best.map.iter())
+            .filter(|l| self.is_confirmed(l))
+            .map(MapLandmark::from)
+            .collect();
         landmarks.sort_unstable_by_key(|l| l.id);
         landmarks
+    }
+
+    /// True when `landmark` has earned its place in the published map: under unknown
+    /// association with negative evidence, once it was seen in `min_hits` scans; a
+    /// provisional landmark is used by its particle but not published (it may still be
+    /// removed, docs/ALGORITHMS.md §1 step 4).
+    pub fn is_confirmed(&self, landmark: &Landmark) -> bool {
+        landmark.hits >= self.config.negative_evidence_in_effect().min_hits
+    }
+
+    /// Landmarks in the published map ([`best_map`](Self::best_map)), counted without
+    /// collecting them.
+    pub fn confirmed_landmarks(&self) -> usize {
+        self.best()
+            .map
+            .iter()
+            .filter(|l| self.is_confirmed(l))
+            .count()
     }
 
     /// Moves every particle onto a smoothed solution (re-anchoring, docs/ALGORITHMS.md
@@ -675,8 +700,10 @@ mod tests {
             },
         ];
         slam.update(&seen).unwrap();
+        assert!(slam.best_map().is_empty(), "provisional after one sighting");
+        slam.update(&seen).unwrap();
         let before = slam.best_map();
-        assert_eq!(before.len(), 2);
+        assert_eq!(before.len(), 2, "confirmed by the second");
         // A quarter turn about the origin, then 2 m along x; the first landmark solved.
         let correction = Pose2::new(2.0, 0.0, std::f64::consts::FRAC_PI_2);
         let solved = (

@@ -5,7 +5,9 @@
 //!
 //! FastSLAM 2.0, per particle:
 //! 1. start from the motion prior `N(x̂, P)` ([`MotionPrior`](super::MotionPrior));
-//! 2. associate the scan at `x̂` (§1 step 3, the filter's own association and gates);
+//! 2. associate the scan at `x̂` with the pose uncertainty `P` in every innovation
+//!    covariance (§1 step 3, the filter's own gates;
+//!    [`Scan::associate_uncertain`](super::association::Scan::associate_uncertain));
 //! 3. for each observation of a matched landmark, in scan order, update the Gaussian like
 //!    an EKF whose state is the pose: with `H_x`, `H_m` the measurement Jacobians at the
 //!    current mean, `S_m = H_m Σ H_mᵀ + R` and `S = H_x P H_xᵀ + S_m`,
@@ -23,11 +25,10 @@
 //! `x̂` (a new landmark: `log_p_new`). New landmarks are created from the drawn pose, as
 //! in 1.0.
 //!
-//! Decisions taken here: association at the prior mean uses the landmark covariance only
-//! (as FastSLAM 1.0), not the combined one; the map update then re-associates at the drawn
-//! pose, which in rare borderline cases of unknown association may decide differently
-//! from step 2 (the proposal only moves the pose toward agreement with the matched
-//! landmarks, so a match rarely gets lost). A particle without a matched landmark is not
+//! Decisions taken here: the map update re-associates at the drawn pose (without the pose
+//! covariance, as FastSLAM 1.0), which in borderline cases of unknown association may
+//! decide differently from step 2 (the proposal moves the pose toward agreement with the
+//! matched landmarks, so a match rarely gets lost). A particle without a matched landmark is not
 //! drawn here: the filter defers sampling with this proposal, so the particle stays its
 //! motion prior, or is drawn from it when the scan starts landmarks
 //! ([`super::FastSlam`]'s deferred sampling).
@@ -76,7 +77,7 @@ pub(crate) struct Drawn {
 fn gaussian(scan: &Scan<'_>, particle: &Particle) -> Option<(Pose2, Matrix3<f64>, f64)> {
     let noise = scan.sensor().noise();
     let prior = particle.prior();
-    let association = scan.associate(particle.map(), &prior.mean);
+    let association = scan.associate_uncertain(particle.map(), &prior.mean, &prior.covariance);
     let (mut mean, mut cov) = (prior.mean, prior.covariance);
     let mut log_likelihood = association.log_likelihood;
     let mut matched = 0;

@@ -175,7 +175,7 @@ impl FastSlam {
                     map.insert(Landmark::from(l));
                 }
                 map.reserve_ids_below(m.next_id);
-                Ok(map.track_tentative(config.negative_evidence.min_hits))
+                Ok(map.track_tentative(config.negative_evidence_in_effect().min_hits))
             })
             .collect::<Result<_>>()?;
         let particles: Vec<Particle> = state

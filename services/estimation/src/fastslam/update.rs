@@ -318,7 +318,7 @@ impl FastSlam {
     /// association; the motion prior of every particle whose pose is now settled starts
     /// from it (an open one keeps accumulating).
     fn update_maps(&mut self, scan: &Scan<'_>, parallel: bool) {
-        let evidence = &self.config.negative_evidence;
+        let evidence = &self.config.negative_evidence_in_effect();
         let floor = self.config.prior_floor.covariance();
         let map_fixed = self.map_fixed;
         let Scratch {
