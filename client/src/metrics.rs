@@ -208,6 +208,17 @@ pub struct FilterHealth {
     /// Fewest distinct particles after a step.
     #[serde(deserialize_with = "crate::metrics::number")]
     pub distinct_min: f64,
+    /// The noise check: mean over the steps of the windowed NIS per degree of freedom
+    /// (1 when the noise model fits the data).
+    #[serde(deserialize_with = "crate::metrics::number")]
+    pub nis_mean: f64,
+    /// Fraction of the steps at which the noise check failed (NIS above its χ² band for
+    /// a whole window).
+    #[serde(deserialize_with = "crate::metrics::number")]
+    pub nis_high_fraction: f64,
+    /// Where the noise check points when it failed: `odometry` (the pose term dominates
+    /// the innovations), `sensor`, or empty when it never failed.
+    pub nis_suspect: String,
 }
 
 /// Inputs the service dropped or rejected, by reason ([`RejectionKind::name`]), as its
@@ -531,6 +542,7 @@ pub fn filter_health(rec: &Recording) -> FilterHealth {
         |f: &dyn Fn(&crate::recording::StatusSample) -> f64| s.iter().map(f).collect::<Vec<f64>>();
     let n_eff = of(&|x| x.n_eff);
     let distinct = of(&|x| f64::from(x.distinct));
+    let high: Vec<&crate::recording::StatusSample> = s.iter().filter(|x| x.nis_high).collect();
     let after: Vec<f64> = s
         .iter()
         .filter(|x| x.resampled)
@@ -546,6 +558,18 @@ pub fn filter_health(rec: &Recording) -> FilterHealth {
         distinct_mean: mean(&distinct),
         distinct_after_resampling_mean: mean(&after),
         distinct_min: distinct.iter().copied().fold(f64::NAN, f64::min),
+        nis_mean: mean(
+            &of(&|x| x.nis)
+                .into_iter()
+                .filter(|v| v.is_finite())
+                .collect::<Vec<_>>(),
+        ),
+        nis_high_fraction: high.len() as f64 / s.len().max(1) as f64,
+        nis_suspect: match high.iter().filter(|x| x.nis_pose).count() {
+            _ if high.is_empty() => String::new(),
+            pose if 2 * pose >= high.len() => "odometry".into(),
+            _ => "sensor".into(),
+        },
     }
 }
 
@@ -820,6 +844,9 @@ mod tests {
             resampled,
             landmarks: 3,
             step_time_s: 0.001 * stamp_ns as f64,
+            nis: 1.0,
+            nis_high: stamp_ns >= 2,
+            nis_pose: stamp_ns != 3,
         }
     }
 
@@ -841,6 +868,12 @@ mod tests {
         assert_eq!(
             (h.distinct_after_resampling_mean, h.distinct_min),
             (5.0, 4.0)
+        );
+        assert!((h.nis_mean - 1.0).abs() < 1e-12);
+        assert!((h.nis_high_fraction - 2.0 / 3.0).abs() < 1e-12);
+        assert_eq!(
+            h.nis_suspect, "odometry",
+            "half the failed steps blame the pose"
         );
         let c = cost(&rec);
         assert_eq!(c.step_time_ms.samples, 3);

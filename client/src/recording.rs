@@ -109,6 +109,12 @@ pub struct StatusSample {
     pub landmarks: u64,
     /// Wall-clock time of the filter update, as the service measured it (s).
     pub step_time_s: f64,
+    /// The noise check's NIS per degree of freedom over its window (NaN before a match).
+    pub nis: f64,
+    /// The noise check failed at this step ([`status::flags::NIS_HIGH`]).
+    pub nis_high: bool,
+    /// ... with the pose term dominating ([`status::flags::NIS_POSE`]).
+    pub nis_pose: bool,
 }
 
 impl Recording {
@@ -218,6 +224,9 @@ impl Recording {
             resampled: m.flags & status::flags::RESAMPLED != 0,
             landmarks: m.landmarks,
             step_time_s: m.step_time_ns as f64 * 1e-9,
+            nis: m.nis,
+            nis_high: m.flags & status::flags::NIS_HIGH != 0,
+            nis_pose: m.flags & status::flags::NIS_POSE != 0,
         });
     }
 }

@@ -164,6 +164,9 @@ mod tests {
                 resampled: true,
                 landmarks: 4,
                 step_time_s: 0.002,
+                nis: 1.2,
+                nis_high: false,
+                nis_pose: false,
             }],
             latencies: vec![(10, 0.004)],
             ..Default::default()

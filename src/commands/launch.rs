@@ -316,7 +316,23 @@ pub(crate) fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
         100.0 * c.nees_within_95,
         c.singular
     );
+    let h = &m.filter;
+    println!(
+        "  noise check    {:>8}     (innovations' NIS per degree of freedom; 1 when the noise model fits)",
+        short(h.nis_mean)
+    );
     println!("  wall time      {:8.2} s", wall.as_secs_f64());
+    if !h.nis_suspect.is_empty() {
+        let suspect = if h.nis_suspect == "odometry" {
+            "odometry noise looks larger than the configuration's sigma_v / sigma_omega"
+        } else {
+            "sensor noise looks larger than the configuration's sigma_range / sigma_bearing"
+        };
+        println!(
+            "  warning: innovations larger than the noise model explains at {:.0} % of steps: {suspect} (docs/REPLAYS.md, fitting the noise)",
+            100.0 * h.nis_high_fraction
+        );
+    }
     if m.inputs.rejected_total > 0 {
         println!(
             "  warning: the service dropped or rejected {} inputs ({}): see /inputs in \

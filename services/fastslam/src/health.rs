@@ -4,6 +4,7 @@
 
 use crate::sequencer::Sequencer;
 use crate::slam::{Slam, Step};
+use fastslam_estimation::fastslam::{NIS_WINDOW_SCANS, NisWindow};
 use fastslam_protocol::status::{REJECTION_KINDS, RejectionKind, ServiceStatus, flags};
 use std::time::{Duration, Instant};
 
@@ -16,6 +17,10 @@ pub struct Health {
     /// The rejection counters and their log.
     pub log: RejectionLog,
     last: ServiceStatus,
+    /// The noise check's window of innovations.
+    nis: NisWindow,
+    /// Whether the noise check's warning has been logged.
+    warned: bool,
 }
 
 impl Health {
@@ -25,7 +30,12 @@ impl Health {
             steps: 0,
             resamplings: 0,
             log: RejectionLog::new(log_interval),
-            last: ServiceStatus::default(),
+            last: ServiceStatus {
+                nis: f64::NAN,
+                ..ServiceStatus::default()
+            },
+            nis: NisWindow::new(NIS_WINDOW_SCANS),
+            warned: false,
         }
     }
 
@@ -55,6 +65,7 @@ impl Health {
     ) -> ServiceStatus {
         self.steps += 1;
         self.resamplings += u64::from(step.report.resampled);
+        let noise_flags = self.check_noise(step);
         self.last = ServiceStatus {
             header: step.pose.header,
             steps: self.steps,
@@ -64,14 +75,42 @@ impl Health {
             distinct_particles: step.report.distinct as u32,
             landmarks: slam.landmarks() as u64,
             step_time_ns: took.as_nanos() as u64,
-            flags: if step.report.resampled {
-                flags::RESAMPLED
-            } else {
-                0
-            },
+            flags: noise_flags
+                | if step.report.resampled {
+                    flags::RESAMPLED
+                } else {
+                    0
+                },
+            nis_dof: self.nis.dof().min(u64::from(u32::MAX)) as u32,
+            nis: self.nis.per_dof(),
             ..ServiceStatus::default()
         };
         self.now(seq)
+    }
+
+    /// The noise check (docs/ALGORITHMS.md §1, "Noise check"): adds the step's
+    /// innovations to the window, returns the status flags it sets, and logs one warning
+    /// the first time the innovations stay above their band for a whole window.
+    fn check_noise(&mut self, step: &Step) -> u32 {
+        self.nis.push(step.report.innovations);
+        if !self.nis.sustained_high() {
+            return 0;
+        }
+        let pose = self.nis.motion_share() > 0.5;
+        if !self.warned {
+            self.warned = true;
+            let suspect = if pose {
+                "odometry noise looks larger than the configuration's sigma_v / sigma_omega"
+            } else {
+                "sensor noise looks larger than the configuration's sigma_range / sigma_bearing"
+            };
+            tracing::warn!(
+                nis_per_dof = self.nis.per_dof(),
+                scans = NIS_WINDOW_SCANS,
+                "noise check: innovations larger than the noise model explains for {NIS_WINDOW_SCANS} scans in a row: {suspect}"
+            );
+        }
+        flags::NIS_HIGH | if pose { flags::NIS_POSE } else { 0 }
     }
 
     /// The status sent at shutdown: [`Health::now`], flagged [`flags::FINAL`] (not a step)
@@ -101,7 +140,8 @@ impl Health {
         ServiceStatus {
             queued: seq.queued().into(),
             last_input_ns: seq.watermarks().into(),
-            flags: (self.last.flags & flags::RESAMPLED) | degraded,
+            flags: (self.last.flags & (flags::RESAMPLED | flags::NIS_HIGH | flags::NIS_POSE))
+                | degraded,
             rejections: self.log.counts(),
             ..self.last
         }

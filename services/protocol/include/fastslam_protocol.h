@@ -243,11 +243,12 @@ typedef struct fastslam_ServiceStatus {
     uint64_t step_time_ns; /* ns: wall-clock time of the last filter update, sending its pose included (the pose goes out before the maps are updated, so it is seen earlier than this) */
     uint32_t queued[2]; /* —: inputs waiting: odometry, observations */
     uint64_t last_input_ns[2]; /* ns: newest accepted stamp: odometry, observations */
-    uint32_t flags; /* —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline); bit 2: odometry quiet; bit 3: lidar quiet; bit 4: final status, sent at shutdown (not a step) */
-    uint32_t reserved; /* —: 0 */
+    uint32_t flags; /* —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline); bit 2: odometry quiet; bit 3: lidar quiet; bit 4: final status, sent at shutdown (not a step); bit 5: noise check failed (NIS above its χ² band for a whole window); bit 6: with bit 5, the pose term dominates (odometry noise suspected; else the sensor's) */
+    uint32_t nis_dof; /* —: degrees of freedom in the noise check's window (2 per matched observation) */
     uint64_t rejections[16]; /* —: rejected inputs by reason: 0 non-finite, 1 out of range, 2 bad count, 3 stamp backwards, 4 refused by the filter, 5 duplicate seq, 6 stamp jump, 7 teleporting odometry, 8 queue overflow (oldest dropped), 9 late (after a quiet stream) */
+    double nis; /* —: noise check: NIS per degree of freedom over the last 50 scans, predicted from the motion prior (1 when the noise model fits; NaN before any match; docs/ALGORITHMS.md) */
 } fastslam_ServiceStatus;
-_Static_assert(sizeof(fastslam_ServiceStatus) == 224, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(sizeof(fastslam_ServiceStatus) == 232, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(_Alignof(fastslam_ServiceStatus) == 8, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, header.stamp_ns) == 0, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, header.seq) == 8, "fastslam_ServiceStatus must match the Rust layout");
@@ -261,8 +262,9 @@ _Static_assert(offsetof(fastslam_ServiceStatus, step_time_ns) == 56, "fastslam_S
 _Static_assert(offsetof(fastslam_ServiceStatus, queued) == 64, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, last_input_ns) == 72, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, flags) == 88, "fastslam_ServiceStatus must match the Rust layout");
-_Static_assert(offsetof(fastslam_ServiceStatus, reserved) == 92, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, nis_dof) == 92, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, rejections) == 96, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, nis) == 224, "fastslam_ServiceStatus must match the Rust layout");
 
 /* fastslam::EndOfStream: "this stream is finished" */
 #define FASTSLAM_END_OF_STREAM_TYPE_NAME "fastslam::EndOfStream"

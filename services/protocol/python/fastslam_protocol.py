@@ -217,7 +217,7 @@ class MapRequest(ctypes.Structure):
 
 
 class ServiceStatus(ctypes.Structure):
-    """`fastslam::ServiceStatus` (224 bytes, alignment 8): the service's filter health and input bookkeeping."""
+    """`fastslam::ServiceStatus` (232 bytes, alignment 8): the service's filter health and input bookkeeping."""
 
     _fields_ = [
         ("header", Header),
@@ -230,9 +230,10 @@ class ServiceStatus(ctypes.Structure):
         ("step_time_ns", ctypes.c_uint64),  # ns: wall-clock time of the last filter update, sending its pose included (the pose goes out before the maps are updated, so it is seen earlier than this)
         ("queued", ctypes.c_uint32 * 2),  # —: inputs waiting: odometry, observations
         ("last_input_ns", ctypes.c_uint64 * 2),  # ns: newest accepted stamp: odometry, observations
-        ("flags", ctypes.c_uint32),  # —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline); bit 2: odometry quiet; bit 3: lidar quiet; bit 4: final status, sent at shutdown (not a step)
-        ("reserved", ctypes.c_uint32),  # —: 0
+        ("flags", ctypes.c_uint32),  # —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline); bit 2: odometry quiet; bit 3: lidar quiet; bit 4: final status, sent at shutdown (not a step); bit 5: noise check failed (NIS above its χ² band for a whole window); bit 6: with bit 5, the pose term dominates (odometry noise suspected; else the sensor's)
+        ("nis_dof", ctypes.c_uint32),  # —: degrees of freedom in the noise check's window (2 per matched observation)
         ("rejections", ctypes.c_uint64 * 16),  # —: rejected inputs by reason: 0 non-finite, 1 out of range, 2 bad count, 3 stamp backwards, 4 refused by the filter, 5 duplicate seq, 6 stamp jump, 7 teleporting odometry, 8 queue overflow (oldest dropped), 9 late (after a quiet stream)
+        ("nis", ctypes.c_double),  # —: noise check: NIS per degree of freedom over the last 50 scans, predicted from the motion prior (1 when the noise model fits; NaN before any match; docs/ALGORITHMS.md)
     ]
 
     @staticmethod
@@ -344,7 +345,7 @@ LAYOUTS = {
     LandmarkMapHeader: (24, 8, {"header": 0, "count": 16, "reserved": 20}),
     MapLandmark: (56, 8, {"id": 0, "x": 8, "y": 16, "cov_xx": 24, "cov_xy": 32, "cov_yy": 40, "observations": 48}),
     MapRequest: (8, 8, {"reserved": 0}),
-    ServiceStatus: (224, 8, {"header": 0, "steps": 16, "resamplings": 24, "n_eff": 32, "particles": 40, "distinct_particles": 44, "landmarks": 48, "step_time_ns": 56, "queued": 64, "last_input_ns": 72, "flags": 88, "reserved": 92, "rejections": 96}),
+    ServiceStatus: (232, 8, {"header": 0, "steps": 16, "resamplings": 24, "n_eff": 32, "particles": 40, "distinct_particles": 44, "landmarks": 48, "step_time_ns": 56, "queued": 64, "last_input_ns": 72, "flags": 88, "nis_dof": 92, "rejections": 96, "nis": 224}),
     EndOfStream: (24, 8, {"header": 0, "stream": 16, "reserved": 20}),
     LaserScanHeader: (48, 8, {"header": 0, "angle_min": 16, "angle_increment": 20, "time_increment": 24, "scan_time": 28, "range_min": 32, "range_max": 36, "ranges": 40, "intensities": 44}),
     OccupancyGridHeader: (56, 8, {"header": 0, "resolution": 16, "origin_x": 24, "origin_y": 32, "origin_theta": 40, "width": 48, "height": 52}),

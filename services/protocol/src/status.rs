@@ -82,6 +82,13 @@ pub mod flags {
     /// an observation step (the step's fields repeat the last step's), but the final
     /// counters, landmark count, queues and stamps.
     pub const FINAL: u32 = 16;
+    /// The noise check: the innovations' NIS has been above its χ² band for a whole
+    /// window of scans — the noise model is too small for this data.
+    pub const NIS_HIGH: u32 = 32;
+    /// With [`NIS_HIGH`]: the pose term dominates the innovation covariance, so the
+    /// odometry noise (`sigma_v`, `sigma_omega`) is the likelier culprit; without it, the
+    /// sensor's (`sigma_range`, `sigma_bearing`).
+    pub const NIS_POSE: u32 = 64;
 }
 
 /// Published by the service after every observation step, and whenever an input stream
@@ -114,8 +121,11 @@ pub struct ServiceStatus {
     pub last_input_ns: [u64; 2],
     /// Bit set of [`flags`].
     pub flags: u32,
-    /// Reserved, 0.
-    pub reserved: u32,
+    /// Degrees of freedom of the noise check's window (2 per matched observation).
+    pub nis_dof: u32,
     /// Rejected inputs so far, indexed by [`RejectionKind`].
     pub rejections: [u64; REJECTION_KINDS],
+    /// The noise check: normalised innovation squared per degree of freedom over the
+    /// last scans (1 when the noise model fits; NaN before any match).
+    pub nis: f64,
 }

@@ -39,7 +39,7 @@ fn rust_layouts() -> Vec<Layout> {
         layout!(MapLandmark: id, x, y, cov_xx, cov_xy, cov_yy, observations),
         layout!(MapRequest: reserved),
         layout!(ServiceStatus: header.stamp_ns, header.seq, steps, resamplings, n_eff, particles,
-            distinct_particles, landmarks, step_time_ns, queued, last_input_ns, flags, reserved, rejections),
+            distinct_particles, landmarks, step_time_ns, queued, last_input_ns, flags, nis_dof, rejections, nis),
         layout!(EndOfStream: header.stamp_ns, header.seq, stream, reserved),
         layout!(LaserScanHeader: header.stamp_ns, header.seq, angle_min, angle_increment,
             time_increment, scan_time, range_min, range_max, ranges, intensities),

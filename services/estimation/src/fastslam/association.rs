@@ -74,6 +74,31 @@ pub struct AssociationConfig {
     pub search_radius: f64,
     /// Side of the spatial index's square cells (m); of the order of `search_radius`.
     pub cell_size: f64,
+    /// How a scan's observations share the landmarks (unknown association): `greedy`
+    /// (default) or `joint`.
+    pub assignment: Assignment,
+    /// Unknown association: a landmark is assignable only when its likelihood is at
+    /// least a new landmark's (`log_p_new`), beside the gate. Off by default.
+    pub likelihood_ratio: bool,
+    /// FastSLAM 2.0: associate at the motion prior's mean with its covariance in every
+    /// innovation covariance, so gates widen with the drift since the last update
+    /// ([`Scan::associate_uncertain`]). Off by default.
+    pub pose_uncertainty: bool,
+}
+
+/// How the observations of one scan share the landmarks under unknown association
+/// (each landmark takes at most one observation per scan either way).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Assignment {
+    /// In scan order: each observation takes the most likely landmark the earlier ones
+    /// left, if it passes the gate.
+    #[default]
+    Greedy,
+    /// Each observation takes its most likely assignable landmark; where two want the
+    /// same one, the scan's assignment with the largest total log-likelihood (Hungarian
+    /// algorithm).
+    Joint,
 }
 
 impl Default for AssociationConfig {
@@ -85,6 +110,9 @@ impl Default for AssociationConfig {
             log_p_new: -(30.0 * std::f64::consts::PI).ln(),
             search_radius: 5.0,
             cell_size: 10.0,
+            assignment: Assignment::Greedy,
+            likelihood_ratio: false,
+            pose_uncertainty: false,
         }
     }
 }
@@ -197,6 +225,11 @@ impl<'a> Scan<'a> {
         self.observations
     }
 
+    /// The association settings.
+    pub fn config(&self) -> &'a AssociationConfig {
+        self.config
+    }
+
     /// The sensor that took the scan.
     pub fn sensor(&self) -> &'a Sensor {
         self.sensor
@@ -282,7 +315,9 @@ impl<'a> Scan<'a> {
         association
     }
 
-    fn associate_around(
+    /// [`associate_into`](Self::associate_into), with a pose covariance as
+    /// [`associate_uncertain`](Self::associate_uncertain) when given.
+    pub(crate) fn associate_around(
         &self,
         map: &LandmarkMap,
         pose: &Pose2,
@@ -372,11 +407,18 @@ impl<'a> Scan<'a> {
                 }
                 None => {
                     // The landmarks the scan's other observations did not take.
+                    let joint = self.config.assignment == Assignment::Joint;
                     let free = out
                         .scratch
                         .pairs_of_observation(index)
                         .iter()
-                        .filter(|pair| !out.scratch.taken_by_another(pair.slot, index));
+                        .filter(|pair| {
+                            if joint {
+                                !out.scratch.taken_by_another(pair.slot, index)
+                            } else {
+                                !out.scratch.taken_before(pair.slot, index)
+                            }
+                        });
                     let (min_d2, best) =
                         free.fold((f64::INFINITY, f64::NEG_INFINITY), |(d, l), pair| {
                             (
@@ -441,24 +483,38 @@ impl<'a> Scan<'a> {
     /// new landmark.
     fn assignable(&self, pair: &Pair) -> bool {
         pair.innovation.d2 < self.config.gate_reject
-            && pair.innovation.log_likelihood >= self.config.log_p_new
+            && (!self.config.likelihood_ratio
+                || pair.innovation.log_likelihood >= self.config.log_p_new)
     }
 
-    /// Fills `scratch.chosen`: each observation's most likely assignable landmark; where
-    /// two observations chose one landmark, the assignment that maximises the scan's
-    /// total log-likelihood (Hungarian algorithm), each observation free to be "not a
-    /// mapped landmark" at `log_p_new`.
+    /// Fills `scratch.chosen` as [`Assignment`] says: greedily in scan order, or jointly
+    /// where two observations want one landmark.
     fn choose(&self, scratch: &mut Scratch) {
         let n = scratch.starts.len() - 1;
         scratch.chosen.clear();
-        for index in 0..n {
-            let best = (scratch.starts[index]..scratch.starts[index + 1])
-                .filter(|&at| self.assignable(&scratch.pairs[at]))
+        let most_likely = |scratch: &Scratch, index: usize, only_assignable: bool| {
+            (scratch.starts[index]..scratch.starts[index + 1])
+                .filter(|&at| !only_assignable || self.assignable(&scratch.pairs[at]))
+                .filter(|&at| {
+                    self.config.assignment == Assignment::Joint
+                        || !scratch.taken_before(scratch.pairs[at].slot, index)
+                })
                 .max_by(|&a, &b| {
                     let (a, b) = (&scratch.pairs[a].innovation, &scratch.pairs[b].innovation);
                     a.log_likelihood.total_cmp(&b.log_likelihood)
-                });
+                })
+        };
+        for index in 0..n {
+            let best = match self.config.assignment {
+                // The most likely landmark the earlier observations left, if assignable.
+                Assignment::Greedy => most_likely(scratch, index, false)
+                    .filter(|&at| self.assignable(&scratch.pairs[at])),
+                Assignment::Joint => most_likely(scratch, index, true),
+            };
             scratch.chosen.push(best);
+        }
+        if self.config.assignment == Assignment::Greedy {
+            return;
         }
         let conflict = scratch.chosen.iter().enumerate().any(|(i, a)| {
             let Some(a) = a else { return false };
@@ -545,6 +601,13 @@ pub(crate) struct Scratch {
 impl Scratch {
     fn pairs_of_observation(&self, index: usize) -> &[Pair] {
         &self.pairs[self.starts[index]..self.starts[index + 1]]
+    }
+
+    /// True when `slot` is assigned to an observation before `index`.
+    fn taken_before(&self, slot: Slot, index: usize) -> bool {
+        self.chosen[..index.min(self.chosen.len())]
+            .iter()
+            .any(|c| c.is_some_and(|at| self.pairs[at].slot == slot))
     }
 
     /// True when `slot` is assigned to an observation other than `index`.
@@ -640,7 +703,10 @@ mod tests {
         let map = map_with(&[(1, 10.0, 0.0), (2, 10.0, 0.5)]);
         let pose = Pose2::default();
         let sensor = Sensor::default();
-        let config = AssociationConfig::default();
+        let config = AssociationConfig {
+            assignment: Assignment::Joint,
+            ..AssociationConfig::default()
+        };
         let obs = [
             seen(&pose, 10.0, 0.23, None),
             seen(&pose, 10.0, -0.02, None),
@@ -654,9 +720,16 @@ mod tests {
         assert_eq!(
             (id(&a.decisions[0]), id(&a.decisions[1])),
             (Some(2), Some(1)),
-            "greedy in scan order would give 1 to the first and nothing to the second"
+            "jointly, each observation gets a landmark"
         );
         // Alone, the first takes landmark 1.
+        let greedy = AssociationConfig::default();
+        let in_order = Scan::new(&obs, &sensor, &greedy, 0).associate(&map, &pose);
+        assert_eq!(
+            (id(&in_order.decisions[0]), id(&in_order.decisions[1])),
+            (Some(1), None),
+            "greedy in scan order"
+        );
         let alone = Scan::new(&obs[..1], &sensor, &config, 0).associate(&map, &pose);
         assert_eq!(id(&alone.decisions[0]), Some(1));
     }

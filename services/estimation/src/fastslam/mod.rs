@@ -42,6 +42,7 @@ mod config;
 pub mod ekf;
 mod estimate;
 pub mod evidence;
+pub mod innovations;
 pub mod landmarks;
 mod particle;
 pub mod proposal;
@@ -53,10 +54,11 @@ mod update;
 pub use crate::moves::WeightBasis;
 use crate::resample::Resampled;
 pub use crate::resample::{ResamplingConfig, ResamplingScheme};
-pub use association::{AssociationConfig, AssociationMode, Scan};
+pub use association::{Assignment, AssociationConfig, AssociationMode, Scan};
 pub use config::{FastSlamConfig, PriorFloor};
 pub use estimate::{MapLandmark, PoseEstimate};
 pub use evidence::NegativeEvidence;
+pub use innovations::{Innovations, NIS_WINDOW_SCANS, NisVerdict, NisWindow};
 pub use landmarks::{Landmark, LandmarkMap, Slot};
 pub use particle::{MotionPrior, Particle};
 pub use proposal::Proposal;
@@ -162,6 +164,9 @@ pub struct StepReport {
     /// Observations of the scan rejected before association (not finite, a range outside
     /// (0, max_range + 5 σ_r], or no id under known association).
     pub rejected: usize,
+    /// The scan's innovations at the best particle's motion prior, for the noise check
+    /// ([`innovations`]).
+    pub innovations: Innovations,
 }
 
 /// The FastSLAM filter: particles with poses, weights and landmark maps.
@@ -242,6 +247,8 @@ pub(crate) struct Scratch {
     spare_particles: Vec<Particle>,
     /// Deferred draws and resample-move: which particles moved.
     moved: Vec<bool>,
+    /// The noise check's association (see [`innovations`]).
+    check: ScanAssociation,
 }
 
 /// What one scan does to one particle.

@@ -77,7 +77,11 @@ pub(crate) struct Drawn {
 fn gaussian(scan: &Scan<'_>, particle: &Particle) -> Option<(Pose2, Matrix3<f64>, f64)> {
     let noise = scan.sensor().noise();
     let prior = particle.prior();
-    let association = scan.associate_uncertain(particle.map(), &prior.mean, &prior.covariance);
+    let association = if scan.config().pose_uncertainty {
+        scan.associate_uncertain(particle.map(), &prior.mean, &prior.covariance)
+    } else {
+        scan.associate(particle.map(), &prior.mean)
+    };
     let (mut mean, mut cov) = (prior.mean, prior.covariance);
     let mut log_likelihood = association.log_likelihood;
     let mut matched = 0;

@@ -14,6 +14,9 @@ impl FastSlam {
     ) -> Result<StepReport> {
         let parallel = parallel::pays(self.particles.len(), scan.observations().len() + 1);
         self.start_step();
+        // The noise check, at the best particle's prior before anything moves it.
+        let innovations =
+            Innovations::of(scan, &self.particles[self.best], &mut self.scratch.check);
         // FastSLAM 2.0: draw each pose from the proposal that uses this scan.
         if self.config.proposal == Proposal::FastSlam2 {
             self.propose_fastslam2(scan, parallel);
@@ -79,6 +82,7 @@ impl FastSlam {
             ignored: total(|c| c.ignored),
             removed: total(|c| c.removed),
             rejected: 0,
+            innovations,
         })
     }
 
