@@ -1,10 +1,14 @@
 //! Restarts and saved maps through the real processes: the service stopped by SIGTERM
-//! leaves a checkpoint and a map that load; a saved map drives a localisation-only run
-//! that leaves it unchanged; bad checkpoint files and unknown flags fail in one line.
+//! leaves a checkpoint and a map that load; a service SIGKILLed again and again and
+//! resumed each time gives the metrics of the run it interrupted; a saved map drives a
+//! localisation-only run that leaves it unchanged; bad checkpoint files and unknown flags
+//! fail in one line.
 
 mod common;
 
 use common::*;
+use fastslam_protocol::ipc::{Ipc, StackConfig};
+use fastslam_protocol::{ServiceStatus, topics};
 use fastslam_service::checkpoint::Checkpoint;
 use fastslam_service::map_file;
 use std::path::Path;
@@ -223,5 +227,110 @@ fn a_sigkilled_service_resumes_from_its_checkpoint_without_a_long_gap() {
     eprintln!("resumed run: longest gap {gap:.2} s, ATE {ate:.3} m");
     assert!(ate < 3.0, "ATE {ate} m");
     drop(stack);
+    assert_no_leftovers_and_remove(&prefix, &dir);
+}
+
+/// `n` distinct observation steps in `lo..hi`, drawn from `seed`, in increasing order.
+fn seeded_steps(n: usize, seed: u64, lo: u64, hi: u64) -> Vec<u64> {
+    let mut state = seed;
+    let mut steps = std::collections::BTreeSet::new();
+    while steps.len() < n {
+        // xorshift64*
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        steps.insert(lo + state.wrapping_mul(0x2545_f491_4f6c_dd1d) % (hi - lo));
+    }
+    steps.into_iter().collect()
+}
+
+/// Runs `bailey-short` as fast as possible through processes started one by one into
+/// the run folder `<dir>/<name>`, SIGKILLing the service as soon as its status reports
+/// each of `kill_at` steps and resuming it from its checkpoint; the run's reproducible
+/// metrics and how many services ran.
+fn killed_at(prefix: &str, dir: &Path, name: &str, kill_at: &[u64]) -> (serde_json::Value, u64) {
+    let run = dir.join(name);
+    let ckpt = dir.join(format!("{name}.ckpt")).display().to_string();
+    let service = [
+        "--seed",
+        "1",
+        "--wait-subscribers",
+        "1",
+        "--as-fast-as-possible",
+        "--checkpoint",
+        &ckpt,
+        "--checkpoint-every",
+        "10",
+    ];
+    let sim = |subscribers: &'static str| {
+        [
+            "--scenario",
+            SCENARIO,
+            "--seed",
+            "1",
+            "--wait-subscribers",
+            subscribers,
+        ]
+    };
+    let mut stack = HandStack::new(prefix, dir.join(format!("{name}-logs")));
+    // The test watches the service's steps on its status topic.
+    let watcher = Ipc::open(
+        &StackConfig {
+            prefix: prefix.to_string(),
+            root: Some(stack.root.display().to_string()),
+        },
+        "test-watcher",
+        Duration::from_secs(60),
+    )
+    .unwrap();
+    let status = watcher
+        .optional_subscriber::<ServiceStatus>(&topics::STATUS)
+        .unwrap();
+    stack.start("client", &["--out", &run.display().to_string()]);
+    stack.start("service", &service);
+    stack.start("odometry-sim", &sim("2"));
+    stack.start("lidar-sim", &sim("2"));
+    stack.start("truth-sim", &sim("3"));
+    let mut resumed = service.to_vec();
+    resumed.extend(["--resume", &ckpt]);
+    for &step in kill_at {
+        let mut steps = 0;
+        wait_for(&format!("step {step}"), Duration::from_secs(60), || {
+            status.drain(|s| steps = steps.max(s.steps)).unwrap();
+            steps >= step
+        });
+        stack.kill("service");
+        status.drain(|_| {}).unwrap();
+        stack.start("service", &resumed);
+    }
+    for (process, status) in stack.wait_all(Duration::from_secs(120)) {
+        assert!(
+            status.success(),
+            "{process} failed ({status}); logs in {}",
+            stack.dir.display()
+        );
+    }
+    drop(status);
+    drop(watcher);
+    let m = metrics(&run);
+    assert_eq!(num(&m, "/inputs/rejected_total"), 0.0, "{m}");
+    (reproducible(&run), kill_at.len() as u64 + 1)
+}
+
+#[test]
+fn a_service_sigkilled_at_ten_random_steps_and_resumed_gives_the_uninterrupted_metrics() {
+    let prefix = prefix("resume10");
+    let dir = folder(&prefix);
+    let (whole, _) = killed_at(&prefix, &dir, "whole", &[]);
+    let kill_at = seeded_steps(10, 2024, 15, 280);
+    let (resumed, services) = killed_at(&prefix, &dir, "killed", &kill_at);
+    eprintln!(
+        "killed at steps {kill_at:?}: {services} services, ATE {} m",
+        num(&resumed, "/estimate/ate_rmse_m")
+    );
+    assert_eq!(
+        resumed, whole,
+        "the resumed run's metrics differ from the uninterrupted run's"
+    );
     assert_no_leftovers_and_remove(&prefix, &dir);
 }

@@ -13,11 +13,12 @@ use crate::{Metrics, Recording, report};
 use fastslam_protocol::ipc::{Ended, Flow, Ipc, Sub, WakeSource};
 use fastslam_protocol::stream::StreamEnd;
 use fastslam_protocol::{
-    EndOfStream, GroundTruth, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation,
+    EndOfStream, GroundTruth, Header, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation,
     ObservationsHeader, OccupancyGridHeader, Odometry, PoseEstimate, ServiceStatus, StreamId,
     TrajectoryHeader, TrajectoryPose, cli, topics, validate,
 };
 use fastslam_service::config::ServiceConfig;
+use std::collections::HashMap;
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -108,6 +109,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut mcap = RunMcap::create(&args.out.join(report::files::MCAP))?;
     let mut rec = Recording::default();
     let mut ends = Ends::new(lidar.stream());
+    let mut seen = Seen::default();
     let mut latency = LatencyMatcher::default();
     let mut monitor = ProcessMonitor::new();
     let mut live_ate = LiveAte::default();
@@ -137,6 +139,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             });
         })?;
         odometry.drain(|s| {
+            if !seen.fresh(StreamId::Odometry, s.header) {
+                return;
+            }
             ends.saw(StreamId::Odometry, s.header.seq);
             accept(validate::odometry(s.payload()), "odometry", || {
                 rec.add_odometry(s.payload());
@@ -144,6 +149,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             });
         })?;
         lidar.drain(|header, message| {
+            if !seen.fresh(lidar.stream(), header) {
+                return;
+            }
             ends.saw(lidar.stream(), header.seq);
             latency.observation(header.stamp_ns, Instant::now());
             match message {
@@ -156,6 +164,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
         })?;
         pose.drain(|s| {
+            if !seen.fresh(StreamId::Pose, s.header) {
+                return;
+            }
             let stamp_ns = s.header.stamp_ns;
             latency.pose(stamp_ns, Instant::now());
             ends.saw(StreamId::Pose, s.header.seq);
@@ -166,10 +177,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
         })?;
         status.drain(|s| {
+            if !seen.fresh(StreamId::Status, s.header) {
+                return;
+            }
             ends.saw(StreamId::Status, s.header.seq);
             rec.add_status(s.payload());
         })?;
         map.drain(|s| {
+            if !seen.fresh(StreamId::Map, s.user_header().header) {
+                return;
+            }
             ends.saw(StreamId::Map, s.user_header().header.seq);
             accept(
                 validate::landmark_map(s.user_header(), s.payload()),
@@ -181,6 +198,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
         })?;
         grid.drain(|s| {
+            if !seen.fresh(StreamId::Grid, s.user_header().header) {
+                return;
+            }
             ends.saw(StreamId::Grid, s.user_header().header.seq);
             accept(
                 validate::occupancy_grid(s.user_header(), s.payload()),
@@ -189,6 +209,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
         })?;
         smoothed.drain(|s| {
+            if !seen.fresh(StreamId::SmoothedTrajectory, s.user_header().header) {
+                return;
+            }
             ends.saw(StreamId::SmoothedTrajectory, s.user_header().header.seq);
             accept(
                 validate::trajectory(s.user_header(), s.payload()),
@@ -200,6 +223,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
         })?;
         smoothed_map.drain(|s| {
+            if !seen.fresh(StreamId::SmoothedMap, s.user_header().header) {
+                return;
+            }
             ends.saw(StreamId::SmoothedMap, s.user_header().header.seq);
             accept(
                 validate::landmark_map(s.user_header(), s.payload()),
@@ -327,6 +353,30 @@ impl Ends {
     }
 }
 
+/// The newest header taken of each stream, to skip what is sent again: a sensor sends
+/// what the service's last checkpoint does not cover again to a service resumed after a
+/// crash, and the resumed service publishes again what it had published since that
+/// checkpoint (the same messages: a resume repeats the run exactly). A message whose
+/// sequence number and stamp are both no newer than the newest taken is such a repeat;
+/// a publisher that restarts numbers from 0 again at later stamps, and is taken.
+#[derive(Debug, Default)]
+struct Seen(HashMap<StreamId, Header>);
+
+impl Seen {
+    /// True when the message with header `h` on stream `id` is not a repeat; it is then
+    /// the newest taken.
+    fn fresh(&mut self, id: StreamId, h: Header) -> bool {
+        let repeat = self
+            .0
+            .get(&id)
+            .is_some_and(|last| h.seq <= last.seq && h.stamp_ns <= last.stamp_ns);
+        if !repeat {
+            self.0.insert(id, h);
+        }
+        !repeat
+    }
+}
+
 /// Prints a progress line on stdout. A reader that went away (closed pipe) is not an
 /// error of the recording: the line is dropped.
 fn print_progress(p: &Progress) {
@@ -381,10 +431,7 @@ impl Lidar {
     ///
     /// # Errors
     /// IPC failures.
-    fn drain(
-        &self,
-        mut each: impl FnMut(fastslam_protocol::Header, LidarMessage<'_>),
-    ) -> anyhow::Result<usize> {
+    fn drain(&self, mut each: impl FnMut(Header, LidarMessage<'_>)) -> anyhow::Result<usize> {
         Ok(match self {
             Self::Observations(s) => s.drain(|m| {
                 let header = m.user_header();
@@ -421,5 +468,29 @@ fn accept(check: Result<(), validate::Rejection>, what: &str, keep: impl FnOnce(
     match check {
         Ok(()) => keep(),
         Err(reason) => tracing::warn!(%reason, "{what} skipped"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn repeats_are_skipped_and_a_restarted_publisher_is_taken() {
+        let h = |seq, stamp_ns| Header { stamp_ns, seq };
+        let mut seen = Seen::default();
+        assert!(seen.fresh(StreamId::Pose, h(0, 10)));
+        assert!(seen.fresh(StreamId::Pose, h(1, 20)));
+        assert!(!seen.fresh(StreamId::Pose, h(1, 20)), "sent again");
+        assert!(!seen.fresh(StreamId::Pose, h(0, 10)), "sent again");
+        assert!(seen.fresh(StreamId::Odometry, h(0, 10)), "another stream");
+        assert!(
+            seen.fresh(StreamId::Pose, h(0, 30)),
+            "a restarted publisher"
+        );
+        assert!(
+            seen.fresh(StreamId::Pose, h(2, 30)),
+            "the next after a restart"
+        );
     }
 }

@@ -1,14 +1,123 @@
 //! The loop of a sensor that derives its output from ground truth: take every
-//! ground-truth sample in order, hand it to the sensor, and finish when the ground-truth
-//! stream has ended.
+//! ground-truth sample in order, hand it to the sensor, send what it makes, and finish
+//! when the ground-truth stream has ended and every subscriber has left.
+//!
+//! A sensor keeps what it sent since the service's last checkpoint (the `checkpoint`
+//! topic says what that covers): when a subscriber dies (its node is dead: killed,
+//! crashed; one that leaves is simply gone), the sensor sends it all again, and its
+//! end-of-stream if it had ended, once the subscribers it waits for are back, so a
+//! service resumed from its checkpoint loses nothing. What it keeps is bounded
+//! ([`HISTORY_BYTES`]).
 
 use crate::Scenario;
 use crate::args::SimArgs;
-use fastslam_protocol::ipc::{Ended, Flow, Ipc, Pub, Sub, Wire};
+use fastslam_protocol::ipc::{Ended, Flow, Ipc, IpcError, Pub, Sub, Wire};
 use fastslam_protocol::stream::StreamEnd;
-use fastslam_protocol::{EndOfStream, GroundTruth, Header, StreamId, topics, validate};
+use fastslam_protocol::{
+    Checkpointed, EndOfStream, GroundTruth, Header, LaserScanHeader, Observation,
+    ObservationsHeader, Odometry, StreamId, topics, validate,
+};
 use iceoryx2::prelude::ZeroCopySend;
+use std::cell::RefCell;
+use std::collections::VecDeque;
 use std::fmt::Debug;
+use std::time::{Duration, Instant};
+
+/// The most a sensor keeps of what it sent since the last checkpoint, in bytes of
+/// payload (64 MiB: a million odometry messages, some 20,000 raw scans of 720 beams).
+/// Beyond it the oldest is forgotten; were it needed again, it is lost, and logged.
+pub const HISTORY_BYTES: usize = 64 << 20;
+
+/// How often a sensor looks whether a subscriber died (listing the stack's nodes reads
+/// the file system).
+const WATCH_EVERY: Duration = Duration::from_millis(50);
+
+/// A message a sensor sends, kept until a checkpoint covers it.
+pub trait Message {
+    /// The topic's payload.
+    type Payload: Wire + ?Sized;
+    /// The topic's user header.
+    type UserHeader: Debug + ZeroCopySend + 'static;
+    /// Its stamp and sequence number.
+    fn header(&self) -> Header;
+    /// Publishes it on `out`.
+    ///
+    /// # Errors
+    /// IPC failures.
+    fn send(&self, out: &Pub<Self::Payload, Self::UserHeader>) -> Result<(), IpcError>;
+    /// Its size in bytes, for the history's bound.
+    fn bytes(&self) -> usize;
+}
+
+impl Message for Odometry {
+    type Payload = Odometry;
+    type UserHeader = ();
+
+    fn header(&self) -> Header {
+        self.header
+    }
+
+    fn send(&self, out: &Pub<Odometry, ()>) -> Result<(), IpcError> {
+        out.send(*self)
+    }
+
+    fn bytes(&self) -> usize {
+        size_of::<Self>()
+    }
+}
+
+/// A user header that holds the message's [`Header`].
+pub trait Headed {
+    /// The message's stamp and sequence number.
+    fn header(&self) -> Header;
+}
+
+impl Headed for ObservationsHeader {
+    fn header(&self) -> Header {
+        self.header
+    }
+}
+
+impl Headed for LaserScanHeader {
+    fn header(&self) -> Header {
+        self.header
+    }
+}
+
+/// A message of a slice topic: its user header and its items.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SliceMessage<H, T> {
+    /// The user header.
+    pub header: H,
+    /// The slice.
+    pub items: Vec<T>,
+}
+
+impl<H, T> Message for SliceMessage<H, T>
+where
+    H: Headed + Debug + Copy + Default + ZeroCopySend + 'static,
+    T: Debug + Copy + ZeroCopySend + 'static,
+{
+    type Payload = [T];
+    type UserHeader = H;
+
+    fn header(&self) -> Header {
+        self.header.header()
+    }
+
+    fn send(&self, out: &Pub<[T], H>) -> Result<(), IpcError> {
+        out.send(self.header, &self.items)
+    }
+
+    fn bytes(&self) -> usize {
+        size_of::<H>() + self.items.len() * size_of::<T>()
+    }
+}
+
+/// Landmark observations, as the landmark sensor sends them.
+pub type ObservationsMessage = SliceMessage<ObservationsHeader, Observation>;
+/// A raw scan, as the lidar sends it.
+pub type ScanMessage = SliceMessage<LaserScanHeader, f32>;
 
 /// A simulated sensor process fed by ground truth: its scenario and seed, its stack
 /// connection, and the end-of-stream it owes its subscribers.
@@ -47,36 +156,221 @@ impl SensorProcess {
     }
 
     /// Subscribes to ground truth, waits for `output`'s subscribers, then calls `each`
-    /// with every ground-truth sample and the sequence number its output would get;
-    /// `each` returns the header it published, if any. Ends with the end-of-stream.
+    /// with every ground-truth sample and the sequence number its output would get, and
+    /// sends the message it returns, if any. Ends with the end-of-stream, then stays
+    /// until every subscriber has left; meanwhile a subscriber that died gets what the
+    /// last checkpoint does not cover once a new one is there.
     ///
     /// # Errors
     /// IPC failures or the first error of `each`.
-    pub fn relay<P, H>(
+    pub fn relay<M: Message>(
         &self,
-        output: &Pub<P, H>,
-        mut each: impl FnMut(&GroundTruth, u64) -> anyhow::Result<Option<Header>>,
-    ) -> anyhow::Result<()>
-    where
-        P: Wire + ?Sized,
-        H: Debug + ZeroCopySend + 'static,
-    {
+        output: &Pub<M::Payload, M::UserHeader>,
+        mut each: impl FnMut(&GroundTruth, u64) -> anyhow::Result<Option<M>>,
+    ) -> anyhow::Result<()> {
         let truth = GroundTruthFollower::open(&self.ipc)?;
+        let checkpoints = self
+            .ipc
+            .optional_subscriber::<Checkpointed>(&topics::CHECKPOINT)?;
         output.wait_for_subscribers(&self.ipc, self.wait_subscribers)?;
+        let slot = usize::from(self.stream != StreamId::Odometry);
+        let wanted = self.wait_subscribers.max(1);
+        let outbox = Outbox::new(&self.ipc, output, &checkpoints, &self.eos, slot, wanted);
+        let outbox = RefCell::new(outbox);
         let mut last: Option<Header> = None;
         truth.follow(
             &self.ipc,
             |gt| {
-                if let Some(sent) = each(gt, last.map_or(0, |h| h.seq + 1))? {
-                    last = Some(sent);
+                if let Some(m) = each(gt, last.map_or(0, |h| h.seq + 1))? {
+                    last = Some(m.header());
+                    outbox.borrow_mut().send(m)?;
                 }
                 Ok(())
             },
-            || Ok(output.flush()?),
+            || {
+                output.flush()?;
+                outbox.borrow_mut().tend()?;
+                Ok(())
+            },
         )?;
-        self.eos.send(EndOfStream::new(self.stream, last))?;
+        let end = EndOfStream::new(self.stream, last);
+        self.eos.send(end)?;
+        outbox.borrow_mut().end = Some(end);
         tracing::info!(messages = last.map_or(0, |h| h.seq + 1), stream = ?self.stream, "finished");
-        output.wait_until_unsubscribed(&self.ipc)?;
+        // Samples of a slice topic live in this process: stay until every subscriber has
+        // them, sending again to a service that died and resumed.
+        let left = self.ipc.wait_for(
+            || format!("the subscribers of {:?} to leave", self.stream),
+            || {
+                let mut outbox = outbox.borrow_mut();
+                let alive = outbox.tend()?;
+                Ok((alive == 0 && !outbox.paused).then_some(()))
+            },
+        );
+        match left {
+            Err(IpcError::Timeout { what, waited }) => {
+                tracing::warn!(?waited, "gave up waiting for {what}");
+                Ok(())
+            }
+            other => Ok(other?),
+        }
+    }
+}
+
+/// A sensor's output: its publisher, what it sent since the last checkpoint that covers
+/// it, and whether it holds new messages back for a service that died.
+struct Outbox<'a, M: Message> {
+    ipc: &'a Ipc,
+    out: &'a Pub<M::Payload, M::UserHeader>,
+    checkpoints: &'a Sub<Checkpointed, ()>,
+    eos: &'a Pub<EndOfStream, ()>,
+    /// The stream's slot in [`Checkpointed::covered_ns`].
+    slot: usize,
+    /// What was sent and no checkpoint covers yet, oldest first.
+    kept: VecDeque<M>,
+    /// Their bytes.
+    bytes: usize,
+    /// Messages forgotten beyond [`HISTORY_BYTES`] that no checkpoint covers yet, and the
+    /// newest one's stamp.
+    forgotten: (u64, u64),
+    /// A subscriber died: new messages wait until a resumed service asks for what it
+    /// missed, so that they reach it after what it missed.
+    paused: bool,
+    /// Subscribers the stream waited for before it started.
+    wanted: usize,
+    /// Live subscribers at the last look, and when that was.
+    alive: usize,
+    looked: Option<Instant>,
+    /// The end-of-stream, once sent.
+    end: Option<EndOfStream>,
+}
+
+impl<'a, M: Message> Outbox<'a, M> {
+    /// An empty history of `out`, whose stream has slot `slot` in the checkpoint
+    /// notices `checkpoints` and whose end goes out on `eos`; `wanted` subscribers were
+    /// waited for.
+    fn new(
+        ipc: &'a Ipc,
+        out: &'a Pub<M::Payload, M::UserHeader>,
+        checkpoints: &'a Sub<Checkpointed, ()>,
+        eos: &'a Pub<EndOfStream, ()>,
+        slot: usize,
+        wanted: usize,
+    ) -> Self {
+        Self {
+            ipc,
+            out,
+            checkpoints,
+            eos,
+            slot,
+            kept: VecDeque::new(),
+            bytes: 0,
+            forgotten: (0, 0),
+            paused: false,
+            wanted,
+            alive: wanted,
+            looked: None,
+            end: None,
+        }
+    }
+
+    /// Sends `m` and keeps it, forgetting the oldest beyond [`HISTORY_BYTES`]. After a
+    /// subscriber died, first waits (up to the wait timeout) for the resumed service's
+    /// request.
+    fn send(&mut self, m: M) -> Result<(), IpcError> {
+        if !self.paused && self.out.subscribers() < self.wanted {
+            // One of the subscribers waited for is gone: died, or left. Look now.
+            self.looked = None;
+            self.tend()?;
+        }
+        if self.paused {
+            let ipc = self.ipc;
+            ipc.wait_for(
+                || "a resumed service to ask for what it missed".into(),
+                || {
+                    self.tend()?;
+                    Ok((!self.paused).then_some(()))
+                },
+            )?;
+        }
+        m.send(self.out)?;
+        self.bytes += m.bytes();
+        self.kept.push_back(m);
+        while self.bytes > HISTORY_BYTES
+            && let Some(old) = self.kept.pop_front()
+        {
+            self.bytes -= old.bytes();
+            self.forgotten = (self.forgotten.0 + 1, old.header().stamp_ns);
+        }
+        Ok(())
+    }
+
+    /// Forgets what a checkpoint covering stamps up to `covered_ns` holds, but for its
+    /// last input: a resend starts with it, which tells the resumed service that the
+    /// resend has begun.
+    fn forget(&mut self, covered_ns: u64) {
+        while let Some(old) = self.kept.front()
+            && old.header().stamp_ns < covered_ns
+        {
+            self.bytes -= old.bytes();
+            self.kept.pop_front();
+        }
+        if self.forgotten.1 <= covered_ns {
+            self.forgotten = (0, 0);
+        }
+    }
+
+    /// Takes the checkpoint notices (forgetting what they cover; sending everything
+    /// after it again when a resumed service asks), and at most every [`WATCH_EVERY`]
+    /// looks whether a subscriber died (then holds new messages back). Returns the live
+    /// subscribers at the last look.
+    fn tend(&mut self) -> Result<usize, IpcError> {
+        let slot = self.slot;
+        let mut notices = Vec::new();
+        self.checkpoints.drain(|c| notices.push(*c.payload()))?;
+        for notice in notices {
+            self.forget(notice.covered_ns[slot]);
+            if notice.resume != 0 {
+                self.resend()?;
+            }
+        }
+        if self.looked.is_some_and(|t| t.elapsed() < WATCH_EVERY) {
+            return Ok(self.alive);
+        }
+        self.looked = Some(Instant::now());
+        let seen = self.out.watch()?;
+        self.alive = seen.alive;
+        if seen.died > 0 {
+            tracing::warn!(
+                kept = self.kept.len(),
+                "a subscriber died: holding new messages until a resumed service asks for what it missed"
+            );
+            self.paused = true;
+        }
+        Ok(self.alive)
+    }
+
+    /// Sends everything kept again, then the end-of-stream if the stream has ended, and
+    /// lets new messages go.
+    fn resend(&mut self) -> Result<(), IpcError> {
+        self.paused = false;
+        if self.forgotten.0 > 0 {
+            tracing::warn!(
+                lost = self.forgotten.0,
+                "messages beyond the history's bound cannot be sent again: lost"
+            );
+        }
+        for m in &self.kept {
+            m.send(self.out)?;
+        }
+        self.out.flush()?;
+        if let Some(end) = self.end {
+            self.eos.send(end)?;
+        }
+        tracing::info!(
+            messages = self.kept.len(),
+            "sent again to a resumed service"
+        );
         Ok(())
     }
 }
@@ -110,7 +404,7 @@ impl GroundTruthFollower {
         &self,
         ipc: &Ipc,
         mut each: impl FnMut(&GroundTruth) -> anyhow::Result<()>,
-        flush: impl Fn() -> anyhow::Result<()>,
+        mut flush: impl FnMut() -> anyhow::Result<()>,
     ) -> anyhow::Result<Ended> {
         let mut end = StreamEnd::default();
         let mut order = validate::StampOrder::default();

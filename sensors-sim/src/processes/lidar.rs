@@ -6,7 +6,7 @@ use crate::args::{SimArgs, streams};
 use crate::ground_truth::observation_due;
 use crate::landmark_sensor::LandmarkSensor;
 use crate::lidar_sensor::Lidar;
-use crate::relay::SensorProcess;
+use crate::relay::{ObservationsMessage, ScanMessage, SensorProcess};
 use crate::scenario::LidarSpec;
 use crate::vehicle::State;
 use fastslam_estimation::rng::stream;
@@ -51,8 +51,10 @@ fn run_scans(args: &Args, spec: LidarSpec) -> anyhow::Result<()> {
             return Ok(None);
         };
         let scan = lidar.scan(State::from(gt));
-        scans.send(lidar.header(header, period), &scan.data)?;
-        Ok(Some(header))
+        Ok(Some(ScanMessage {
+            header: lidar.header(header, period),
+            items: scan.data,
+        }))
     })
 }
 
@@ -65,10 +67,8 @@ fn run_features(args: &Args) -> anyhow::Result<()> {
         .coalescing();
     let mut sensor = LandmarkSensor::for_scenario(&process.scenario, process.seed);
     process.relay(&observations, |gt, seq| {
-        let Some((header, seen)) = sensor.scan(gt, seq) else {
-            return Ok(None);
-        };
-        observations.send(header, &seen)?;
-        Ok(Some(header.header))
+        Ok(sensor
+            .scan(gt, seq)
+            .map(|(header, items)| ObservationsMessage { header, items }))
     })
 }

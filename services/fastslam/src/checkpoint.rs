@@ -18,6 +18,7 @@
 use crate::per_input::{PerInput, Stream};
 use fastslam_estimation::fastslam::FilterState;
 use fastslam_estimation::graph::Feed;
+use fastslam_protocol::Header;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -239,27 +240,55 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 /// Skips inputs a resumed run has already processed: those stamped at or before the
 /// checkpoint's [`Checkpoint::processed_ns`] on their stream. They are counted, not
 /// treated as errors.
+///
+/// A resumed service asks the sensors to send again what they sent after the checkpoint
+/// (the `checkpoint` topic), and they start with the last input the checkpoint holds. A
+/// sensor that had not noticed the crash may have sent newer inputs first: until a
+/// stream's resend begins (an input at or before the floor, or one numbered before the
+/// first seen), its inputs are skipped too; they come again in the resend.
 #[derive(Debug, Clone, Default)]
 pub struct ResumeFloor {
     floor: Option<PerInput<u64>>,
+    /// Per stream: the first sequence number seen while its resend had not begun.
+    awaiting: PerInput<Option<Option<u64>>>,
     skipped: u64,
 }
 
 impl ResumeFloor {
     /// The floor of a run resumed from `checkpoint` (none for a fresh run).
     pub fn of(checkpoint: Option<&Checkpoint>) -> Self {
+        let resumed = checkpoint.is_some();
         Self {
             floor: checkpoint.map(|c| c.processed_ns),
+            awaiting: PerInput::from_fn(|_| resumed.then_some(None)),
             skipped: 0,
         }
     }
 
-    /// True when the input stamped `stamp_ns` on `stream` is new; counts it as skipped
-    /// otherwise.
-    pub fn admits(&mut self, stream: Stream, stamp_ns: u64) -> bool {
-        let stale = self.floor.is_some_and(|f| stamp_ns <= f[stream]);
+    /// True when the input `h` on `stream` is new; counts it as skipped otherwise.
+    pub fn admits(&mut self, stream: Stream, h: Header) -> bool {
+        let Some(floor) = self.floor else {
+            return true;
+        };
+        let floor = floor[stream];
+        if let Some(first) = self.awaiting[stream] {
+            let begun = h.stamp_ns <= floor || first.is_some_and(|f| h.seq < f);
+            if begun {
+                self.awaiting[stream] = None;
+            } else {
+                self.awaiting[stream] = Some(first.or(Some(h.seq)));
+                self.skipped += 1;
+                return false;
+            }
+        }
+        let stale = h.stamp_ns <= floor;
         self.skipped += u64::from(stale);
         !stale
+    }
+
+    /// True when the checkpoint holds the input stamped `stamp_ns` on `stream`.
+    pub fn covers(&self, stream: Stream, stamp_ns: u64) -> bool {
+        self.floor.is_some_and(|f| stamp_ns <= f[stream])
     }
 
     /// Inputs skipped so far.
@@ -366,15 +395,24 @@ mod tests {
 
     #[test]
     fn the_resume_floor_skips_and_counts_processed_inputs() {
+        let h = |seq, stamp_ns| Header { stamp_ns, seq };
         let c = checkpoint();
         let mut floor = ResumeFloor::of(Some(&c));
-        assert!(!floor.admits(Stream::Odometry, 900));
-        assert!(floor.admits(Stream::Odometry, 901));
-        assert!(!floor.admits(Stream::Lidar, 1000));
-        assert!(floor.admits(Stream::Lidar, 1100));
-        assert_eq!(floor.skipped(), 2);
+        assert!(
+            !floor.admits(Stream::Odometry, h(12, 1200)),
+            "sent before the resend"
+        );
+        assert!(
+            !floor.admits(Stream::Odometry, h(9, 900)),
+            "the resend begins"
+        );
+        assert!(floor.admits(Stream::Odometry, h(10, 1000)));
+        assert!(!floor.admits(Stream::Lidar, h(5, 1000)));
+        assert!(floor.admits(Stream::Lidar, h(6, 1100)));
+        assert_eq!(floor.skipped(), 3);
+        assert!(floor.covers(Stream::Lidar, 1000) && !floor.covers(Stream::Lidar, 1001));
         let mut fresh = ResumeFloor::of(None);
-        assert!(fresh.admits(Stream::Odometry, 0));
+        assert!(fresh.admits(Stream::Odometry, h(0, 0)));
         assert_eq!(fresh.skipped(), 0);
     }
 }

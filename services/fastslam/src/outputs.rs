@@ -9,8 +9,8 @@ use fastslam_protocol::ipc::{Ipc, Pub, SliceServer};
 use fastslam_protocol::status::ServiceStatus;
 use fastslam_protocol::validate;
 use fastslam_protocol::{
-    EndOfStream, Header, LandmarkMapHeader, MapLandmark, MapRequest, OccupancyGridHeader,
-    PoseEstimate, StreamId, TrajectoryHeader, TrajectoryPose, topics,
+    Checkpointed, EndOfStream, Header, LandmarkMapHeader, MapLandmark, MapRequest,
+    OccupancyGridHeader, PoseEstimate, StreamId, TrajectoryHeader, TrajectoryPose, topics,
 };
 
 /// The service's output ports (and the `map/get` server) and the last header sent on each.
@@ -22,12 +22,14 @@ pub(crate) struct Outputs {
     smoothed_trajectory: Pub<[TrajectoryPose], TrajectoryHeader>,
     smoothed_map: Pub<[MapLandmark], LandmarkMapHeader>,
     status: Pub<ServiceStatus, ()>,
+    checkpoint: Pub<Checkpointed, ()>,
     eos: Pub<EndOfStream, ()>,
     last_pose: Option<Header>,
     last_map: Option<Header>,
     last_grid: Option<Header>,
     last_status: Option<Header>,
     last_smoothed: Option<Header>,
+    last_checkpoint: Option<Header>,
 }
 
 /// Next header of a stream whose last header was `last`.
@@ -50,12 +52,14 @@ impl Outputs {
             smoothed_trajectory: ipc.slice_publisher(&topics::SMOOTHED_TRAJECTORY)?,
             smoothed_map: ipc.slice_publisher(&topics::SMOOTHED_MAP)?,
             status: ipc.publisher(&topics::STATUS)?.coalescing(),
+            checkpoint: ipc.newest_only_publisher(&topics::CHECKPOINT)?,
             eos: ipc.publisher(&topics::END_OF_STREAM)?,
             last_pose: None,
             last_map: None,
             last_grid: None,
             last_status: None,
             last_smoothed: None,
+            last_checkpoint: None,
         })
     }
 
@@ -167,6 +171,26 @@ impl Outputs {
         status.header = next_header(self.last_status, status.header.stamp_ns);
         self.status.send(status)?;
         self.last_status = Some(status.header);
+        Ok(())
+    }
+
+    /// Tells the sensors that a checkpoint was written after the step stamped `stamp_ns`,
+    /// holding the inputs up to `covered_ns` per stream; with `resume`, that this service
+    /// has resumed from it and needs everything after.
+    pub(crate) fn checkpointed(
+        &mut self,
+        stamp_ns: u64,
+        covered_ns: [u64; 2],
+        resume: bool,
+    ) -> anyhow::Result<()> {
+        let header = next_header(self.last_checkpoint, stamp_ns);
+        self.checkpoint.send(Checkpointed {
+            header,
+            covered_ns,
+            resume: resume.into(),
+            reserved: 0,
+        })?;
+        self.last_checkpoint = Some(header);
         Ok(())
     }
 

@@ -95,6 +95,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let config = args.config()?;
     let (slam, resumed) = args.persist.start(&config)?;
     let timeout = Duration::from_secs_f64(args.wait_timeout_s.max(0.0));
+    if resumed.is_some() {
+        // What the dead service left holds ports the resumed one needs.
+        let dead = fastslam_protocol::ipc::remove_dead_nodes(&args.stack.stack())?;
+        tracing::info!(dead, "removed what dead processes left");
+    }
     let ipc = Ipc::open(&args.stack.stack(), "fastslam-service", timeout)?
         .busy_polling(args.wait.busy_poll)
         .spinning(args.wait.spin());
@@ -104,6 +109,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         out.resume(checkpoint);
     }
     let inputs = Inputs::open(&ipc, config.input.lidar)?;
+    if let Some(checkpoint) = &resumed {
+        // Subscribed: the sensors may now send again what the checkpoint does not hold.
+        let stamp_ns = checkpoint.processed_ns.lidar;
+        out.checkpointed(stamp_ns, checkpoint.processed_ns.into(), true)?;
+    }
     out.wait_for_subscribers(&ipc, args.wait_subscribers)?;
     tracing::info!(
         particles = config.filter.particles, optimizer = %config.optimizer.kind,

@@ -206,7 +206,12 @@ impl Service {
     fn drain_end_of_stream(&mut self, inputs: &Inputs) -> anyhow::Result<()> {
         inputs.end_of_stream.drain(|s| {
             if let Some(stream) = inputs.closed_by(s.payload().stream) {
+                let last = s.payload().header;
                 self.ends[stream].announce(s.payload());
+                // A stream that ended before the checkpoint was written is not sent again.
+                if self.floor.covers(stream, last.stamp_ns) {
+                    self.ends[stream].saw(last.seq);
+                }
             }
         })?;
         if self.ends.odometry.finished() {
@@ -286,7 +291,7 @@ impl Service {
         check: impl FnOnce(&mut Admission) -> Result<(), Rejection>,
     ) -> bool {
         self.ends[stream].saw(h.seq);
-        if !self.floor.admits(stream, h.stamp_ns) {
+        if !self.floor.admits(stream, h) {
             return false;
         }
         if let Err(r) = check(&mut self.admission) {
@@ -494,9 +499,12 @@ impl Core {
                 }
                 self.out.status(status)?;
                 if self.persist.checkpoint_due(self.health.steps()) {
-                    let write = self.persist.write_checkpoint(|| self.checkpoint());
-                    if let Err(e) = write {
-                        tracing::warn!("{e:#}");
+                    match self.persist.write_checkpoint(|| self.checkpoint()) {
+                        Ok(()) => {
+                            let covered = self.sequencer.released().into();
+                            self.out.checkpointed(stamp_ns, covered, false)?;
+                        }
+                        Err(e) => tracing::warn!("{e:#}"),
                     }
                 }
             }

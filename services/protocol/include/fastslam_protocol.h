@@ -68,6 +68,11 @@
 #define FASTSLAM_TOPIC_STATUS_BUFFER 256
 #define FASTSLAM_TOPIC_STATUS_HISTORY 1
 
+/* checkpoint: payload fastslam::Checkpointed, user header none */
+#define FASTSLAM_TOPIC_CHECKPOINT "checkpoint"
+#define FASTSLAM_TOPIC_CHECKPOINT_BUFFER 16
+#define FASTSLAM_TOPIC_CHECKPOINT_HISTORY 1
+
 /* end_of_stream: payload fastslam::EndOfStream, user header none */
 #define FASTSLAM_TOPIC_END_OF_STREAM "end_of_stream"
 #define FASTSLAM_TOPIC_END_OF_STREAM_BUFFER 16
@@ -265,6 +270,22 @@ _Static_assert(offsetof(fastslam_ServiceStatus, flags) == 88, "fastslam_ServiceS
 _Static_assert(offsetof(fastslam_ServiceStatus, nis_dof) == 92, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, rejections) == 96, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, nis) == 224, "fastslam_ServiceStatus must match the Rust layout");
+
+/* fastslam::Checkpointed: what the service's last checkpoint covers; a resumed service's request */
+#define FASTSLAM_CHECKPOINTED_TYPE_NAME "fastslam::Checkpointed"
+typedef struct fastslam_Checkpointed {
+    fastslam_Header header;
+    uint64_t covered_ns[2]; /* ns: stamp of the last input the checkpoint holds: odometry, lidar */
+    uint32_t resume; /* —: 1: a resumed service asks for everything after `covered_ns`; 0: a checkpoint was written */
+    uint32_t reserved; /* —: 0 */
+} fastslam_Checkpointed;
+_Static_assert(sizeof(fastslam_Checkpointed) == 40, "fastslam_Checkpointed must match the Rust layout");
+_Static_assert(_Alignof(fastslam_Checkpointed) == 8, "fastslam_Checkpointed must match the Rust layout");
+_Static_assert(offsetof(fastslam_Checkpointed, header.stamp_ns) == 0, "fastslam_Checkpointed must match the Rust layout");
+_Static_assert(offsetof(fastslam_Checkpointed, header.seq) == 8, "fastslam_Checkpointed must match the Rust layout");
+_Static_assert(offsetof(fastslam_Checkpointed, covered_ns) == 16, "fastslam_Checkpointed must match the Rust layout");
+_Static_assert(offsetof(fastslam_Checkpointed, resume) == 32, "fastslam_Checkpointed must match the Rust layout");
+_Static_assert(offsetof(fastslam_Checkpointed, reserved) == 36, "fastslam_Checkpointed must match the Rust layout");
 
 /* fastslam::EndOfStream: "this stream is finished" */
 #define FASTSLAM_END_OF_STREAM_TYPE_NAME "fastslam::EndOfStream"

@@ -49,6 +49,8 @@ SMOOTHED_MAP = Topic("smoothed/map", 2, 1, "[fastslam::MapLandmark]", "fastslam:
 
 STATUS = Topic("status", 256, 1, "fastslam::ServiceStatus", "")
 
+CHECKPOINT = Topic("checkpoint", 16, 1, "fastslam::Checkpointed", "")
+
 END_OF_STREAM = Topic("end_of_stream", 16, 0, "fastslam::EndOfStream", "")
 
 STREAM_GROUND_TRUTH = 1
@@ -243,6 +245,23 @@ class ServiceStatus(ctypes.Structure):
         return "fastslam::ServiceStatus"
 
 
+class Checkpointed(ctypes.Structure):
+    """`fastslam::Checkpointed` (40 bytes, alignment 8): what the service's last checkpoint covers; a resumed service's request."""
+
+    _fields_ = [
+        ("header", Header),
+        ("covered_ns", ctypes.c_uint64 * 2),  # ns: stamp of the last input the checkpoint holds: odometry, lidar
+        ("resume", ctypes.c_uint32),  # —: 1: a resumed service asks for everything after `covered_ns`; 0: a checkpoint was written
+        ("reserved", ctypes.c_uint32),  # —: 0
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::Checkpointed"
+
+
 class EndOfStream(ctypes.Structure):
     """`fastslam::EndOfStream` (24 bytes, alignment 8): "this stream is finished"."""
 
@@ -346,6 +365,7 @@ LAYOUTS = {
     MapLandmark: (56, 8, {"id": 0, "x": 8, "y": 16, "cov_xx": 24, "cov_xy": 32, "cov_yy": 40, "observations": 48}),
     MapRequest: (8, 8, {"reserved": 0}),
     ServiceStatus: (232, 8, {"header": 0, "steps": 16, "resamplings": 24, "n_eff": 32, "particles": 40, "distinct_particles": 44, "landmarks": 48, "step_time_ns": 56, "queued": 64, "last_input_ns": 72, "flags": 88, "nis_dof": 92, "rejections": 96, "nis": 224}),
+    Checkpointed: (40, 8, {"header": 0, "covered_ns": 16, "resume": 32, "reserved": 36}),
     EndOfStream: (24, 8, {"header": 0, "stream": 16, "reserved": 20}),
     LaserScanHeader: (48, 8, {"header": 0, "angle_min": 16, "angle_increment": 20, "time_increment": 24, "scan_time": 28, "range_min": 32, "range_max": 36, "ranges": 40, "intensities": 44}),
     OccupancyGridHeader: (56, 8, {"header": 0, "resolution": 16, "origin_x": 24, "origin_y": 32, "origin_theta": 40, "width": 48, "height": 52}),

@@ -37,6 +37,6 @@ pub use landmarks::{LandmarkMapHeader, MapLandmark, MapRequest, Observation, Obs
 pub use odometry::Odometry;
 pub use pose::{GroundTruth, PoseEstimate};
 pub use scan::LaserScanHeader;
-pub use status::ServiceStatus;
+pub use status::{Checkpointed, ServiceStatus};
 pub use stream::{EndOfStream, StreamId};
 pub use trajectory::{TrajectoryHeader, TrajectoryPose};

@@ -129,3 +129,24 @@ pub struct ServiceStatus {
     /// last scans (1 when the noise model fits; NaN before any match).
     pub nis: f64,
 }
+
+/// What the service's last checkpoint covers, published on
+/// [`crate::topics::CHECKPOINT`] each time it writes one: a service resumed from that
+/// checkpoint skips every input stamped at or before `covered_ns` of its stream, so a
+/// sensor may forget what it sent up to there. A sensor keeps what it sent since; a
+/// service resumed after a crash asks for it with `resume` set.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ZeroCopySend)]
+#[type_name("fastslam::Checkpointed")]
+#[repr(C)]
+pub struct Checkpointed {
+    /// Stamp of the last observation step the checkpoint holds, and sequence number.
+    pub header: Header,
+    /// Stamp of the last input the checkpoint holds per stream (odometry, lidar), ns.
+    pub covered_ns: [u64; 2],
+    /// 1: sent once by a service that has just resumed from this checkpoint and
+    /// subscribed to its inputs: send again everything after `covered_ns`, then go on.
+    /// 0: a checkpoint was written.
+    pub resume: u32,
+    /// Reserved, 0.
+    pub reserved: u32,
+}

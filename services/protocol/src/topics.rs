@@ -107,6 +107,16 @@ pub const STATUS: Topic = Topic {
     history: 1,
     initial_slice_len: 1,
 };
+/// [`crate::Checkpointed`] from the FastSLAM service, after each checkpoint it writes
+/// (what the sensors may forget) and once after a resume (what it asks for again). The
+/// service never waits on it: a sample that finds a subscriber's buffer full is not
+/// delivered to it, so the buffer is ample.
+pub const CHECKPOINT: Topic = Topic {
+    name: "checkpoint",
+    buffer: 16,
+    history: 1,
+    initial_slice_len: 1,
+};
 /// [`crate::EndOfStream`] from every publisher of a finite stream.
 pub const END_OF_STREAM: Topic = Topic {
     name: "end_of_stream",

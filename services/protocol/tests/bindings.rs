@@ -34,6 +34,7 @@ fn rust_topics() -> Vec<Topic> {
         topics::SMOOTHED_TRAJECTORY,
         topics::SMOOTHED_MAP,
         topics::STATUS,
+        topics::CHECKPOINT,
         topics::END_OF_STREAM,
     ]
 }

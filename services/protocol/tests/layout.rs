@@ -38,6 +38,7 @@ fn rust_layouts() -> Vec<Layout> {
         layout!(LandmarkMapHeader: header.stamp_ns, header.seq, count, reserved),
         layout!(MapLandmark: id, x, y, cov_xx, cov_xy, cov_yy, observations),
         layout!(MapRequest: reserved),
+        layout!(Checkpointed: header.stamp_ns, header.seq, covered_ns, resume, reserved),
         layout!(ServiceStatus: header.stamp_ns, header.seq, steps, resamplings, n_eff, particles,
             distinct_particles, landmarks, step_time_ns, queued, last_input_ns, flags, nis_dof, rejections, nis),
         layout!(EndOfStream: header.stamp_ns, header.seq, stream, reserved),

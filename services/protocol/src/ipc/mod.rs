@@ -32,7 +32,7 @@ mod wire;
 use error::iox_err;
 pub use error::{IpcError, Result};
 pub use node::Ipc;
-pub use publisher::{COALESCING_PERIOD, Pub};
+pub use publisher::{COALESCING_PERIOD, Pub, Subscribers};
 pub use request_response::SliceServer;
 pub use stack::{StackConfig, remove_dead_nodes, remove_stack_files, shared_memory_files};
 pub use subscriber::{HoldingSub, Received, Sub, Taken};

@@ -6,14 +6,18 @@
 use super::Sub;
 use super::{Ipc, IpcError, Result, Service, Wire, iox_err, shutdown};
 use crate::topics::Topic;
+use iceoryx2::config::Config;
+use iceoryx2::node::{NodeState, NodeView};
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
-use iceoryx2::port::{BackpressureAction, BackpressureInfo};
+use iceoryx2::port::{BackpressureAction, BackpressureFn, BackpressureInfo};
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::PortFactory as _;
 use iceoryx2::service::port_factory::publish_subscribe::PortFactory;
 use std::cell::Cell;
+use std::collections::{HashMap, HashSet};
 use std::fmt::Debug;
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
 impl Ipc {
@@ -25,7 +29,20 @@ impl Ipc {
         &self,
         topic: &Topic,
     ) -> Result<Pub<T, ()>> {
-        Pub::open(self, topic)
+        Pub::open(self, topic, Full::Wait)
+    }
+
+    /// Opens a publisher for fixed-size messages `T` on `topic` that never waits: a
+    /// sample that finds a subscriber's buffer full is not delivered to it. For topics
+    /// where a newer sample makes the older ones moot (`checkpoint`).
+    ///
+    /// # Errors
+    /// As [`Ipc::publisher`].
+    pub fn newest_only_publisher<T: Debug + ZeroCopySend + 'static>(
+        &self,
+        topic: &Topic,
+    ) -> Result<Pub<T, ()>> {
+        Pub::open(self, topic, Full::Skip)
     }
 
     /// Opens a publisher for a header `H` plus a slice of `T` on `topic`.
@@ -37,7 +54,7 @@ impl Ipc {
         H: Debug + ZeroCopySend + 'static,
         T: Debug + ZeroCopySend + Copy + 'static,
     {
-        Pub::open(self, topic)
+        Pub::open(self, topic, Full::Wait)
     }
 }
 
@@ -55,6 +72,71 @@ pub struct Pub<P: Wire + ?Sized, H: Debug + ZeroCopySend + 'static> {
     deferred: Cell<usize>,
     max_deferred: usize,
     last_notified: Cell<Option<Instant>>,
+    /// The subscribers' nodes, shared with the backpressure handler.
+    watch: Arc<Mutex<Watch>>,
+    /// The stack's iceoryx2 configuration (to list its nodes).
+    config: Config,
+}
+
+/// What a publisher does when a subscriber's buffer is full.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Full {
+    /// Wait until it has room, unless the subscriber's node died or the process shuts
+    /// down.
+    Wait,
+    /// Skip that subscriber.
+    Skip,
+}
+
+/// How many of a publisher's subscribers are alive, and how many died since the last
+/// look ([`Pub::watch`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Subscribers {
+    /// Subscribers whose node is alive.
+    pub alive: usize,
+    /// Subscribers whose node was found dead since the last look (killed, crashed: a
+    /// subscriber that leaves is gone, not dead).
+    pub died: usize,
+}
+
+/// What a publisher knows of its subscribers' nodes: filled in by [`Pub::watch`], read by
+/// its backpressure handler.
+#[derive(Debug, Default)]
+struct Watch {
+    /// The node of every subscriber port seen, by port id.
+    node_of: HashMap<u128, u128>,
+    /// Nodes found dead.
+    dead: HashSet<u128>,
+    /// Dead nodes [`Pub::watch`] has reported.
+    reported: HashSet<u128>,
+}
+
+impl Watch {
+    /// True when subscriber port `port` belongs to a node known to be dead; with
+    /// `look`, a node not known to be dead yet is looked up among the stack's nodes
+    /// (`config`).
+    fn port_is_dead(&mut self, port: u128, look: bool, config: &Config) -> bool {
+        let Some(node) = self.node_of.get(&port).copied() else {
+            return false;
+        };
+        if look && !self.dead.contains(&node) {
+            self.dead.extend(dead_nodes(config).unwrap_or_default());
+        }
+        self.dead.contains(&node)
+    }
+}
+
+/// Ids of the stack's nodes whose process died and whose resources nobody removed yet.
+fn dead_nodes(config: &Config) -> Result<Vec<u128>> {
+    let mut dead = Vec::new();
+    Node::<Service>::list(config, |state| {
+        if let NodeState::Dead(view) = state {
+            dead.push(view.id().value());
+        }
+        CallbackProgression::Continue
+    })
+    .map_err(iox_err("list the stack's nodes"))?;
+    Ok(dead)
 }
 
 /// The wake-up period of a [`Pub::coalescing`] publisher. As fast as possible a filter
@@ -68,10 +150,20 @@ where
     P: Wire + ?Sized,
     H: Debug + ZeroCopySend + 'static,
 {
-    fn open(ipc: &Ipc, topic: &Topic) -> Result<Self> {
+    fn open(ipc: &Ipc, topic: &Topic, full: Full) -> Result<Self> {
         let service = ipc.pubsub::<P, H>(topic)?;
-        let publisher = P::create_publisher(&service, topic)
-            .map_err(iox_err(format!("create publisher on {}", topic.name)))?;
+        let watch = Arc::new(Mutex::new(Watch::default()));
+        let config = ipc.node.config().clone();
+        let created = match full {
+            Full::Wait => {
+                let handler = retry_unless_dead_or_shutting_down(watch.clone(), config.clone());
+                P::create_publisher(&service, topic, handler)
+            }
+            Full::Skip => P::create_publisher(&service, topic, |_: &BackpressureInfo| {
+                BackpressureAction::DiscardData
+            }),
+        };
+        let publisher = created.map_err(iox_err(format!("create publisher on {}", topic.name)))?;
         let notifier = ipc
             .event(topic)?
             .notifier_builder()
@@ -86,6 +178,8 @@ where
             deferred: Cell::new(0),
             max_deferred: (topic.buffer / 4).max(1),
             last_notified: Cell::new(None),
+            watch,
+            config,
         })
     }
 
@@ -114,6 +208,39 @@ where
     /// Number of subscribers connected right now.
     pub fn subscribers(&self) -> usize {
         self.service.dynamic_config().number_of_subscribers()
+    }
+
+    /// How many subscribers are alive, and how many died since the last look: a
+    /// subscriber whose node is dead (its process was killed or crashed) is told apart
+    /// from one that left, which is simply gone. From then on a sample that finds a dead
+    /// subscriber's buffer full is not delivered to it rather than waited for.
+    ///
+    /// # Errors
+    /// [`IpcError::Iceoryx`] when the stack's nodes cannot be listed.
+    pub fn watch(&self) -> Result<Subscribers> {
+        let listed = dead_nodes(&self.config)?;
+        let mut guard = self.watch.lock().unwrap_or_else(PoisonError::into_inner);
+        let Watch {
+            node_of,
+            dead,
+            reported,
+        } = &mut *guard;
+        dead.extend(listed);
+        let mut seen = Subscribers::default();
+        self.service.dynamic_config().list_subscribers(|d| {
+            let node = d.node_id.value();
+            node_of.insert(d.subscriber_id.value(), node);
+            seen.alive += usize::from(!dead.contains(&node));
+            CallbackProgression::Continue
+        });
+        // Also those the backpressure handler found dead, or that were removed since.
+        let died: HashSet<u128> = (node_of.values())
+            .filter(|&node| dead.contains(node) && !reported.contains(node))
+            .copied()
+            .collect();
+        seen.died = died.len();
+        reported.extend(died);
+        Ok(seen)
     }
 
     /// Waits until at least `n` subscribers are connected, so that nothing published
@@ -183,19 +310,39 @@ const QUICK_RETRIES: u64 = 16;
 /// Sleep between later retries of a full subscriber buffer.
 const BACKPRESSURE_NAP: Duration = Duration::from_micros(50);
 
-/// Keeps retrying a full subscriber buffer, unless the process is shutting down. After
-/// [`QUICK_RETRIES`] it naps between retries: iceoryx2 would otherwise yield in a loop
-/// (up to 10 000 times), which on a machine with fewer cores than processes takes the
-/// CPU from the very subscriber it waits for (measured: a fifth of the stack's CPU time
-/// in `sched_yield` as fast as possible on 2 cores).
-pub(super) fn retry_unless_shutting_down(info: &BackpressureInfo) -> BackpressureAction {
-    if shutdown::requested() {
-        return BackpressureAction::DiscardData;
+/// A send that has waited this long on a full buffer asks whether its subscriber died.
+const DEAD_CHECK_AFTER: Duration = Duration::from_millis(20);
+/// Retries between two such questions (listing the nodes reads the file system).
+const DEAD_CHECK_EVERY: u64 = 64;
+
+/// Keeps retrying a full subscriber buffer, unless the process is shutting down or the
+/// subscriber's node is dead (known from [`Pub::watch`]: a publisher that never watches
+/// waits as before). After [`QUICK_RETRIES`] it naps between retries: iceoryx2 would
+/// otherwise yield in a loop (up to 10 000 times), which on a machine with fewer cores
+/// than processes takes the CPU from the very subscriber it waits for (measured: a fifth
+/// of the stack's CPU time in `sched_yield` as fast as possible on 2 cores).
+fn retry_unless_dead_or_shutting_down(
+    watch: Arc<Mutex<Watch>>,
+    config: Config,
+) -> impl BackpressureFn + 'static {
+    move |info: &BackpressureInfo| {
+        if shutdown::requested() {
+            return BackpressureAction::DiscardData;
+        }
+        if info.retries >= QUICK_RETRIES {
+            std::thread::sleep(BACKPRESSURE_NAP);
+        }
+        let look =
+            info.elapsed_time >= DEAD_CHECK_AFTER && info.retries.is_multiple_of(DEAD_CHECK_EVERY);
+        if (watch.lock().unwrap_or_else(PoisonError::into_inner)).port_is_dead(
+            info.receiver_port_id,
+            look,
+            &config,
+        ) {
+            return BackpressureAction::DiscardData;
+        }
+        BackpressureAction::Retry
     }
-    if info.retries >= QUICK_RETRIES {
-        std::thread::sleep(BACKPRESSURE_NAP);
-    }
-    BackpressureAction::Retry
 }
 
 impl<T: Debug + ZeroCopySend + 'static> Pub<T, ()> {

@@ -38,6 +38,19 @@ impl Ipc {
         Sub::open(self, topic)
     }
 
+    /// Opens a subscriber for fixed-size messages `T` on `topic` without waiting for a
+    /// publisher: for a topic that may have none, whose newest sample (its history) is
+    /// all that counts (`checkpoint`).
+    ///
+    /// # Errors
+    /// As [`Ipc::publisher`].
+    pub fn optional_subscriber<T: Debug + ZeroCopySend + 'static>(
+        &self,
+        topic: &Topic,
+    ) -> Result<Sub<T, ()>> {
+        Sub::open_now(self, topic)
+    }
+
     /// Opens a subscriber for a header `H` plus a slice of `T` on `topic`; see
     /// [`Ipc::subscriber`].
     ///
@@ -87,6 +100,20 @@ where
             || format!("a publisher on {}", topic.name),
             || service.dynamic_config().number_of_publishers() > 0,
         )?;
+        Self::connect(ipc, topic, &service)
+    }
+
+    /// Opens a subscriber at once, publisher or not.
+    fn open_now(ipc: &Ipc, topic: &Topic) -> Result<Self> {
+        Self::connect(ipc, topic, &ipc.pubsub::<P, H>(topic)?)
+    }
+
+    /// Creates the subscriber on `service`, connects it and its listener.
+    fn connect(
+        ipc: &Ipc,
+        topic: &Topic,
+        service: &iceoryx2::service::port_factory::publish_subscribe::PortFactory<Service, P, H>,
+    ) -> Result<Self> {
         let subscriber = service
             .subscriber_builder()
             .buffer_size(topic.buffer)

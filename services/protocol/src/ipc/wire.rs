@@ -1,13 +1,12 @@
 //! What travels: the iceoryx2 service flavour ([`Service`]), and [`Wire`], which lets one
 //! [`Pub`] and one [`Sub`] serve fixed-size payloads and slices alike.
 
-use super::publisher::retry_unless_shutting_down;
 #[cfg(doc)]
 use super::{Pub, Sub};
 use crate::topics::Topic;
-use iceoryx2::port::ReceiveError;
 use iceoryx2::port::publisher::{Publisher, PublisherCreateError};
 use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::port::{BackpressureFn, ReceiveError};
 use iceoryx2::prelude::*;
 use iceoryx2::sample::Sample;
 use iceoryx2::service::builder::publish_subscribe::{
@@ -30,13 +29,15 @@ pub trait Wire: Debug + IceoryxSend + 'static {
         builder: PubSubBuilder<Self, H, Service>,
     ) -> std::result::Result<PortFactory<Service, Self, H>, PublishSubscribeOpenOrCreateError>;
 
-    /// Creates a publisher (slices: growing by powers of two from the topic's first guess).
+    /// Creates a publisher (slices: growing by powers of two from the topic's first guess)
+    /// that asks `full` what to do when a subscriber's buffer is full.
     ///
     /// # Errors
     /// iceoryx2's error when the publisher cannot be created.
     fn create_publisher<H: Debug + ZeroCopySend + 'static>(
         service: &PortFactory<Service, Self, H>,
         topic: &Topic,
+        full: impl BackpressureFn + 'static,
     ) -> std::result::Result<Publisher<Service, Self, H>, PublisherCreateError>;
 
     /// Receives the next sample, if any.
@@ -58,11 +59,12 @@ impl<T: Debug + ZeroCopySend + 'static> Wire for T {
     fn create_publisher<H: Debug + ZeroCopySend + 'static>(
         service: &PortFactory<Service, Self, H>,
         _topic: &Topic,
+        full: impl BackpressureFn + 'static,
     ) -> std::result::Result<Publisher<Service, Self, H>, PublisherCreateError> {
         service
             .publisher_builder()
             .backpressure_strategy(BackpressureStrategy::RetryUntilDelivered)
-            .set_backpressure_handler(retry_unless_shutting_down)
+            .set_backpressure_handler(full)
             .create()
     }
 
@@ -83,13 +85,14 @@ impl<T: Debug + ZeroCopySend + 'static> Wire for [T] {
     fn create_publisher<H: Debug + ZeroCopySend + 'static>(
         service: &PortFactory<Service, Self, H>,
         topic: &Topic,
+        full: impl BackpressureFn + 'static,
     ) -> std::result::Result<Publisher<Service, Self, H>, PublisherCreateError> {
         service
             .publisher_builder()
             .initial_max_slice_len(topic.initial_slice_len)
             .allocation_strategy(AllocationStrategy::PowerOfTwo)
             .backpressure_strategy(BackpressureStrategy::RetryUntilDelivered)
-            .set_backpressure_handler(retry_unless_shutting_down)
+            .set_backpressure_handler(full)
             .create()
     }
 
