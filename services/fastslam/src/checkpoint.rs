@@ -17,6 +17,7 @@
 
 use crate::per_input::{PerInput, Stream};
 use fastslam_estimation::fastslam::FilterState;
+use fastslam_estimation::fastslam::NisWindow;
 use fastslam_estimation::graph::Feed;
 use fastslam_protocol::Header;
 use serde::{Deserialize, Serialize};
@@ -26,7 +27,7 @@ use std::path::{Path, PathBuf};
 /// The first bytes of every checkpoint file.
 pub const MAGIC: [u8; 8] = *b"FSLMCKPT";
 /// The payload layout written by this build; bumped whenever [`Checkpoint`] changes.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 /// Bytes before the payload: magic, version, length, hash.
 const HEADER_LEN: usize = 28;
 
@@ -101,6 +102,8 @@ pub struct Checkpoint {
     /// What the smoothing back-end was fed (empty without one): a resumed service feeds
     /// it again and so rebuilds the same graph.
     pub smoother_feed: Vec<Feed>,
+    /// The noise check's window, and whether its warning was logged.
+    pub noise_check: (NisWindow, bool),
 }
 
 /// FNV-1a, 64 bits: a cheap hash that catches flipped or lost bytes.
@@ -327,6 +330,7 @@ mod tests {
             resamplings: 0,
             last_seq: [Some(0), Some(0), None, Some(0), None, None],
             smoother_feed: Vec::new(),
+            noise_check: (NisWindow::new(10), true),
         }
     }
 

@@ -39,10 +39,16 @@ impl Health {
         }
     }
 
-    /// Continues the counters of a run resumed from a checkpoint.
-    pub fn resume(&mut self, steps: u64, resamplings: u64) {
+    /// Continues the counters and the noise check of a run resumed from a checkpoint.
+    pub fn resume(&mut self, steps: u64, resamplings: u64, noise_check: &(NisWindow, bool)) {
         self.steps = steps;
         self.resamplings = resamplings;
+        (self.nis, self.warned) = noise_check.clone();
+    }
+
+    /// The noise check's state, for a checkpoint.
+    pub fn noise_check(&self) -> (NisWindow, bool) {
+        (self.nis.clone(), self.warned)
     }
 
     /// Observation steps done.

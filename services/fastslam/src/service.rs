@@ -405,7 +405,7 @@ impl Core {
     ) -> Self {
         let mut health = Health::new(Duration::from_secs_f64(config.input.log_interval_s));
         if let Some(c) = resumed {
-            health.resume(c.steps, c.resamplings);
+            health.resume(c.steps, c.resamplings, &c.noise_check);
         }
         Self {
             slam,
@@ -430,6 +430,7 @@ impl Core {
             resamplings: self.health.resamplings(),
             last_seq: self.out.last_seq(),
             smoother_feed: self.slam.smoother_feed(),
+            noise_check: self.health.noise_check(),
         }
     }
 

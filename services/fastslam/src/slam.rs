@@ -568,6 +568,8 @@ mod tests {
     fn pose_after_a_gap(coasting: bool) -> f64 {
         let mut config = ServiceConfig::default();
         config.filter.particles = 20;
+        // Publish a landmark from its first sighting (no provisional period).
+        config.filter.negative_evidence.min_hits = 0;
         let mut slam = Slam::new(&config).unwrap();
         for k in 0..=40 {
             slam.apply(&odometry(k * 25_000_000, 2.0), &mut |_| {})
@@ -602,6 +604,8 @@ mod tests {
     fn odometry_then_a_scan_moves_the_estimate_and_maps_the_landmark() {
         let mut config = ServiceConfig::default();
         config.filter.particles = 20;
+        // Publish a landmark from its first sighting (no provisional period).
+        config.filter.negative_evidence.min_hits = 0;
         let mut slam = Slam::new(&config).unwrap();
         assert_eq!(slam.apply(&odometry(0, 0.0), &mut |_| {}).unwrap(), None);
         for k in 1..=40 {
@@ -740,6 +744,8 @@ mod tests {
     fn a_raw_scan_becomes_pole_observations_and_a_grid() {
         let mut config = ServiceConfig::default();
         config.filter.particles = 10;
+        // Publish a landmark from its first sighting (no provisional period).
+        config.filter.negative_evidence.min_hits = 0;
         let mut slam = Slam::new(&config).unwrap();
         assert_eq!(slam.apply(&odometry(0, 0.0), &mut |_| {}).unwrap(), None);
         // A full turn of 720 beams: a pole of radius 0.2 m at (4, 0) inside a round wall

@@ -2,7 +2,8 @@
 //! each scan, predicted from the motion prior, summed over a sliding window and compared
 //! with its χ² band (docs/ALGORITHMS.md §1 step 3, "Noise check").
 //!
-//! Per scan, at the best particle's motion prior `N(x̂, P)` and with its map, every
+//! Per scan, at the noise check's motion prior `N(x̂, P)` — the best particle's pose at the
+//! last update, propagated through the controls since — and with that particle's map, every
 //! observation the association matches gives `d² = νᵀ S⁻¹ ν` with the full innovation
 //! covariance `S = H_x P H_xᵀ + H_m Σ H_mᵀ + R`: when the motion noise, the sensor noise
 //! and the landmark covariances are right, `d²` is χ² with 2 degrees of freedom. Over a
@@ -12,12 +13,14 @@
 //! (`sigma_v`, `sigma_omega`) when the pose term does, else the sensor's.
 
 use super::association::{Decision, Scan, ScanAssociation};
-use super::particle::Particle;
+use super::landmarks::LandmarkMap;
+use super::particle::MotionPrior;
 use crate::observation::predict;
+use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 
 /// The innovations of one scan against one particle's prior and map.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct Innovations {
     /// `Σ d²` over the matched observations.
     pub nis: f64,
@@ -28,23 +31,18 @@ pub struct Innovations {
 }
 
 impl Innovations {
-    /// The innovations of `scan` for `particle`, at its motion prior (`association` is
-    /// a reused buffer).
+    /// The innovations of `scan` against `map` at the motion prior `prior`
+    /// (`association` is a reused buffer).
     ///
     /// # Performance
     /// One association plus O(matched) 2 × 2 and 2 × 3 products.
     pub(crate) fn of(
         scan: &Scan<'_>,
-        particle: &Particle,
+        map: &LandmarkMap,
+        prior: &MotionPrior,
         association: &mut ScanAssociation,
     ) -> Self {
-        let prior = particle.prior();
-        scan.associate_around(
-            particle.map(),
-            &prior.mean,
-            Some(&prior.covariance),
-            association,
-        );
+        scan.associate_around(map, &prior.mean, Some(&prior.covariance), association);
         let noise = scan.sensor().noise();
         let mut out = Self::default();
         let mut share = 0.0;
@@ -52,7 +50,7 @@ impl Innovations {
             let Decision::Update { slot, .. } = decision else {
                 continue;
             };
-            let Some(landmark) = particle.map().at(*slot) else {
+            let Some(landmark) = map.at(*slot) else {
                 continue;
             };
             let Some(p) = predict(&prior.mean, &landmark.mean) else {
@@ -90,7 +88,8 @@ pub enum NisVerdict {
 }
 
 /// The NIS of the last `scans` scans, summed, with its verdict; see the module docs.
-#[derive(Debug, Clone)]
+/// Plain data, so a checkpoint can carry it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct NisWindow {
     scans: usize,
     window: VecDeque<Innovations>,

@@ -193,6 +193,9 @@ pub struct FastSlam {
     particles: Vec<Particle>,
     weights: Weights,
     step: u64,
+    /// The noise check's motion prior: the best particle's pose at the last update,
+    /// propagated by every control since (kept whether or not the particles keep theirs).
+    check_prior: MotionPrior,
     /// Whether [`predict`](Self::predict) propagates every particle's [`MotionPrior`].
     motion_prior: bool,
     /// Whether poses are drawn at observations instead of control by control (see the
@@ -328,6 +331,7 @@ impl FastSlam {
             prior: MotionPrior::settled(pose, &config.prior_floor.covariance()),
         };
         Ok(Self {
+            check_prior: particle.prior,
             particles: vec![particle; n],
             weights: Weights::from_log(&vec![log_weight; n])?,
             deferred: config.proposal == Proposal::FastSlam2,
@@ -461,6 +465,7 @@ impl FastSlam {
             particle.pose = pose;
             particle.prior = prior;
         }
+        self.check_prior = self.check_prior.predict(motion, control, dt);
         self.step = step;
         Ok(())
     }
@@ -635,11 +640,15 @@ impl FastSlam {
             let q = correction.compose(&Pose2::new(p.x, p.y, 0.0));
             Vector2::new(q.x, q.y)
         };
+        self.check_prior.mean = correction.compose(&self.check_prior.mean);
+        self.check_prior.covariance =
+            rotation3 * self.check_prior.covariance * rotation3.transpose();
         for particle in &mut self.particles {
             particle.pose = correction.compose(&particle.pose);
             particle.prior.mean = correction.compose(&particle.prior.mean);
             particle.prior.covariance =
                 rotation3 * particle.prior.covariance * rotation3.transpose();
+
             let ids: Vec<u64> = particle.map.iter().map(|l| l.id).collect();
             for id in ids {
                 particle.map.update(id, |l| match solved.get(&id) {

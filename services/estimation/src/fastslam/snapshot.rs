@@ -28,6 +28,8 @@ pub struct FilterState {
     pub maps: Vec<MapState>,
     /// The particles, in filter order.
     pub particles: Vec<ParticleState>,
+    /// The noise check's motion prior: mean, and covariance row-major.
+    pub check_prior: (Pose2, [f64; 9]),
 }
 
 /// One landmark map.
@@ -134,6 +136,10 @@ impl FastSlam {
             })
             .collect();
         FilterState {
+            check_prior: (
+                self.check_prior.mean,
+                std::array::from_fn(|k| self.check_prior.covariance[(k / 3, k % 3)]),
+            ),
             step: self.step,
             best: self.best as u32,
             maps: stored,
@@ -202,7 +208,14 @@ impl FastSlam {
             })
             .collect::<Result<_>>()?;
         let log_weights: Vec<f64> = particles.iter().map(|p| p.log_weight).collect();
+        if !state.check_prior.0.is_finite() {
+            return Err(invalid("the noise check's prior is not finite".into()));
+        }
         Ok(Self {
+            check_prior: MotionPrior {
+                mean: state.check_prior.0,
+                covariance: Matrix3::from_row_slice(&state.check_prior.1),
+            },
             weights: Weights::from_log(&log_weights)?,
             particles,
             deferred: config.proposal == super::Proposal::FastSlam2,

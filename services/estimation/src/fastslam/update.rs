@@ -15,8 +15,12 @@ impl FastSlam {
         let parallel = parallel::pays(self.particles.len(), scan.observations().len() + 1);
         self.start_step();
         // The noise check, at the best particle's prior before anything moves it.
-        let innovations =
-            Innovations::of(scan, &self.particles[self.best], &mut self.scratch.check);
+        let innovations = Innovations::of(
+            scan,
+            &self.particles[self.best].map,
+            &self.check_prior,
+            &mut self.scratch.check,
+        );
         // FastSLAM 2.0: draw each pose from the proposal that uses this scan.
         if self.config.proposal == Proposal::FastSlam2 {
             self.propose_fastslam2(scan, parallel);
@@ -65,6 +69,10 @@ impl FastSlam {
                 .position(|&a| a == best)
                 .unwrap_or_else(|| weights.argmax())
         });
+        self.check_prior = MotionPrior::settled(
+            self.particles[self.best].pose,
+            &self.config.prior_floor.covariance(),
+        );
         std::mem::swap(&mut self.weights, &mut weights);
         self.scratch.spare_weights = Some(weights);
         self.step = scan.step();
