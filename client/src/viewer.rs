@@ -3,7 +3,7 @@
 //! channels ([`RunLog`]: the topics and schemas of `run.mcap`, plus `/trajectory`, the
 //! estimated trajectory so far). Open Foxglove and connect to `ws://localhost:8765`.
 //!
-//! It must never slow the stack: a publisher waits while a subscriber's buffer is full,
+//! It must keep no publisher waiting: a publisher waits while a subscriber's buffer is full,
 //! so the viewer takes every pending sample on every wake-up and keeps only the newest of
 //! each topic (copying it aside, never holding shared memory); every [`PUBLISH_EVERY`]
 //! it logs what is new, and every [`RESEND_EVERY`] it logs the maps, the grid and the
@@ -28,7 +28,7 @@ use std::time::{Duration, Instant};
 pub const ABOUT: &str = "Live viewer: joins a running stack and serves it to Foxglove over \
 WebSocket (connect Foxglove to ws://localhost:8765): the pose with its covariance, the truth \
 and dead reckoning, the trajectory so far, the landmark map with 2σ ellipses, the scans or \
-observations and the occupancy grid. It drops what it has no time for and never slows the stack.";
+observations and the occupancy grid. It keeps only the newest of each topic and keeps no publisher waiting.";
 
 /// The WebSocket port Foxglove connects to by default.
 pub const DEFAULT_PORT: u16 = 8765;

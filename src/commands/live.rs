@@ -10,7 +10,7 @@ use std::path::Path;
 #[derive(Debug, Clone, clap::Args)]
 pub struct LiveArgs {
     /// Serve the run live to Foxglove over WebSocket while it goes (connect Foxglove to
-    /// ws://localhost:8765): a viewer process joins the stack; it never slows it.
+    /// ws://localhost:8765): a viewer process joins the stack; no publisher waits on it.
     #[arg(long)]
     pub live: bool,
     /// Port of the live view's WebSocket server (0: any free port, named in the viewer's
