@@ -321,7 +321,7 @@ impl Stack {
             .args(["--prefix", &self.stack.prefix])
             .args(["--iox-root", self.stack.root.as_deref().unwrap_or_default()])
             .args(flags)
-            .args(role.wait_flags())
+            .args(role.wait_flags(false))
             .stdin(Stdio::null())
             .stdout(log.try_clone()?)
             .stderr(log)

@@ -66,6 +66,10 @@ enum Command {
     ///
     /// The full step grid takes minutes; `--quick` runs a subset in well under a minute.
     Bench(bench::BenchArgs),
+    /// Serve a running stack live to Foxglove over WebSocket (connect Foxglove to
+    /// ws://localhost:8765), for a stack whose processes you start yourself; `run --live`
+    /// and `replay --live` start it for you. It exits when the stack's streams end.
+    Viewer(fastslam_client::viewer::Args),
     /// The truth simulator process (started by `run`).
     #[command(hide = true)]
     TruthSim(truth::Args),
@@ -148,5 +152,6 @@ fn dispatch(command: Command) -> anyhow::Result<u8> {
         )),
         Command::Service(a) => done(run_process("service", a, fastslam_service::process::run)),
         Command::Client(a) => done(run_process("client", a, fastslam_client::process::run)),
+        Command::Viewer(a) => done(run_process("viewer", a, fastslam_client::viewer::run)),
     }
 }

@@ -2,6 +2,8 @@
 //! starts publishing once its consumers have subscribed (`--wait-subscribers`), so a
 //! consumer that starts late loses nothing; the counts come from this one table, for
 //! `run` and `replay` alike, and the processes start in its order (consumers first).
+//! With `--live` the live viewer ([`VIEWER`]) starts first and is one more consumer of
+//! every producer.
 
 /// One process of a stack and the processes that consume what it waits on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -12,15 +14,23 @@ pub struct Role {
     pub consumers: &'static [&'static str],
 }
 
+/// The live viewer (`--live`): it subscribes to every topic, so every producer waits for
+/// its subscription too.
+pub const VIEWER: &str = "viewer";
+
 impl Role {
-    /// Its `--wait-subscribers` count.
-    pub fn wait_subscribers(&self) -> usize {
-        self.consumers.len()
+    /// Its `--wait-subscribers` count; with the live viewer (`live`), one more for a
+    /// process that waits for anyone (a producer).
+    pub fn wait_subscribers(&self, live: bool) -> usize {
+        match self.consumers.len() {
+            0 => 0,
+            n => n + usize::from(live),
+        }
     }
 
     /// `--wait-subscribers N` when it waits for anyone, else nothing.
-    pub fn wait_flags(&self) -> Vec<String> {
-        match self.wait_subscribers() {
+    pub fn wait_flags(&self, live: bool) -> Vec<String> {
+        match self.wait_subscribers(live) {
             0 => Vec::new(),
             n => vec!["--wait-subscribers".into(), n.to_string()],
         }
@@ -84,6 +94,12 @@ mod tests {
                 }
             }
         }
-        assert_eq!(SIMULATION[4].wait_subscribers(), 3);
+        assert_eq!(SIMULATION[4].wait_subscribers(false), 3);
+        assert_eq!(SIMULATION[4].wait_subscribers(true), 4);
+        assert_eq!(
+            SIMULATION[0].wait_subscribers(true),
+            0,
+            "the client publishes nothing"
+        );
     }
 }

@@ -138,6 +138,8 @@ fn the_structured_world_runs_end_to_end_with_raw_scans() {
         "run.mcap holds every scan: {mcap}"
     );
     assert_eq!(mcap["schemas"]["/scan"], "foxglove.LaserScan/protobuf");
+    assert!(mcap["counts"]["/grid"].as_u64() >= Some(1), "{mcap}");
+    assert_eq!(mcap["schemas"]["/grid"], "foxglove.Grid/protobuf");
     assert_no_leftovers_and_remove(&prefix, &dir);
 }
 

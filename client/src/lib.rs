@@ -7,6 +7,8 @@
 
 pub mod align;
 pub mod expect;
+pub mod foxglove_log;
+pub mod inputs;
 pub mod latency;
 pub mod mcap;
 pub mod metrics;
@@ -21,6 +23,7 @@ pub mod resources;
 pub mod rpe;
 pub mod stats;
 pub mod timeline;
+pub mod viewer;
 
 pub use metrics::Metrics;
 pub use recording::Recording;

@@ -3,6 +3,7 @@
 //! line on stdout a few times a second (see [`crate::progress`]).
 
 use crate::expect::JudgeArgs;
+use crate::inputs::{Ends, Inputs, LidarMessage};
 use crate::latency::LatencyMatcher;
 use crate::mcap::RunMcap;
 use crate::metrics::{AlignMode, ScoreAt, fit_alignment, interpolate, scored_at};
@@ -10,13 +11,8 @@ use crate::progress::{LiveAte, Progress};
 use crate::reference::NoiseModel;
 use crate::resources::ProcessMonitor;
 use crate::{Metrics, Recording, report};
-use fastslam_protocol::ipc::{Ended, Flow, Ipc, Sub, WakeSource};
-use fastslam_protocol::stream::StreamEnd;
-use fastslam_protocol::{
-    EndOfStream, GroundTruth, Header, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation,
-    ObservationsHeader, OccupancyGridHeader, Odometry, PoseEstimate, ServiceStatus, StreamId,
-    TrajectoryHeader, TrajectoryPose, cli, topics, validate,
-};
+use fastslam_protocol::ipc::{Ended, Flow, Ipc};
+use fastslam_protocol::{Header, StreamId, cli, validate};
 use fastslam_service::config::ServiceConfig;
 use std::collections::HashMap;
 use std::io::Write;
@@ -85,24 +81,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     )?
     .busy_polling(args.wait.busy_poll)
     .spinning(args.wait.spin());
-    // A producer starts once the subscribers of one topic are there (truth simulator:
-    // ground truth; odometry: odometry; lidar: its scans or observations; service: pose),
-    // and a short run may be over before a later subscription exists: end-of-stream and
-    // each producer's other topics come before the topic it waits on.
-    let eos = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
-    let true_map =
-        ipc.slice_subscriber::<LandmarkMapHeader, MapLandmark>(&topics::TRUE_LANDMARKS)?;
-    let map = ipc.slice_subscriber::<LandmarkMapHeader, MapLandmark>(&topics::MAP)?;
-    let grid = ipc.slice_subscriber::<OccupancyGridHeader, i8>(&topics::GRID)?;
-    let smoothed =
-        ipc.slice_subscriber::<TrajectoryHeader, TrajectoryPose>(&topics::SMOOTHED_TRAJECTORY)?;
-    let smoothed_map =
-        ipc.slice_subscriber::<LandmarkMapHeader, MapLandmark>(&topics::SMOOTHED_MAP)?;
-    let status = ipc.subscriber::<ServiceStatus>(&topics::STATUS)?;
-    let lidar = Lidar::open(&ipc)?;
-    let truth = ipc.subscriber::<GroundTruth>(&topics::GROUND_TRUTH)?;
-    let odometry = ipc.subscriber::<Odometry>(&topics::ODOMETRY)?;
-    let pose = ipc.subscriber::<PoseEstimate>(&topics::POSE)?;
+    let inputs = Inputs::open(&ipc)?;
+    let Inputs {
+        eos,
+        true_map,
+        map,
+        grid,
+        smoothed,
+        smoothed_map,
+        status,
+        lidar,
+        truth,
+        odometry,
+        pose,
+    } = &inputs;
     tracing::info!(lidar = ?lidar.stream(), "recording");
 
     std::fs::create_dir_all(&args.out)?;
@@ -115,20 +107,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut live_ate = LiveAte::default();
     let mut last_sample = Instant::now();
     monitor.sample(&ipc);
-    let sources: [&dyn WakeSource; 11] = [
-        &truth,
-        &odometry,
-        lidar.source(),
-        &status,
-        &map,
-        &grid,
-        &smoothed,
-        &smoothed_map,
-        &pose,
-        &true_map,
-        &eos,
-    ];
-    let ended = ipc.wake_loop::<anyhow::Error>(&sources, Some(SAMPLE_EVERY), || {
+    let ended = ipc.wake_loop::<anyhow::Error>(&inputs.sources(), Some(SAMPLE_EVERY), || {
         // Truth before poses, observations before poses: a pose's truth and observation
         // were published before it, so they are in by the time the pose is.
         truth.drain(|s| {
@@ -205,7 +184,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             accept(
                 validate::occupancy_grid(s.user_header(), s.payload()),
                 "grid",
-                || rec.grid = Some((*s.user_header(), s.payload().to_vec())),
+                || {
+                    mcap.grid(s.user_header(), s.payload());
+                    rec.grid = Some((*s.user_header(), s.payload().to_vec()));
+                },
             );
         })?;
         smoothed.drain(|s| {
@@ -306,53 +288,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The streams the client records until they end, each with its end bookkeeping.
-struct Ends([(StreamId, StreamEnd); 9]);
-
-impl Ends {
-    /// The stack's streams, with `lidar` (scans or observations) as the lidar's.
-    fn new(lidar: StreamId) -> Self {
-        Self(
-            [
-                StreamId::GroundTruth,
-                StreamId::Odometry,
-                lidar,
-                StreamId::Pose,
-                StreamId::Map,
-                StreamId::Grid,
-                StreamId::SmoothedTrajectory,
-                StreamId::SmoothedMap,
-                StreamId::Status,
-            ]
-            .map(|id| (id, StreamEnd::default())),
-        )
-    }
-
-    /// The message `seq` of stream `id` was processed.
-    fn saw(&mut self, id: StreamId, seq: u64) {
-        if let Some((_, end)) = self.0.iter_mut().find(|(s, _)| *s == id) {
-            end.saw(seq);
-        }
-    }
-
-    /// Records an end-of-stream message; true when it closes one of these streams.
-    fn announce(&mut self, eos: &EndOfStream) -> bool {
-        let id = StreamId::from_u32(eos.stream);
-        match self.0.iter_mut().find(|(s, _)| Some(*s) == id) {
-            Some((_, end)) => {
-                end.announce(eos);
-                true
-            }
-            None => false,
-        }
-    }
-
-    /// True once every stream has ended and its last message was processed.
-    fn finished(&self) -> bool {
-        self.0.iter().all(|(_, end)| end.finished())
-    }
-}
-
 /// The newest header taken of each stream, to skip what is sent again: a sensor sends
 /// what the service's last checkpoint does not cover again to a service resumed after a
 /// crash, and the resumed service publishes again what it had published since that
@@ -382,85 +317,6 @@ impl Seen {
 fn print_progress(p: &Progress) {
     let mut out = std::io::stdout().lock();
     let _ = writeln!(out, "{p}").and_then(|()| out.flush());
-}
-
-/// The lidar's output, subscribed to only for its stamps (latency): raw scans or landmark
-/// observations, whichever has a publisher, scans when both do (as the service chooses).
-enum Lidar {
-    Observations(Sub<[Observation], ObservationsHeader>),
-    Scans(Sub<[f32], LaserScanHeader>),
-}
-
-impl Lidar {
-    /// Waits until the scan or the observation topic has a publisher and subscribes to it.
-    ///
-    /// # Errors
-    /// IPC failures, or a timeout when neither topic gets a publisher.
-    fn open(ipc: &Ipc) -> anyhow::Result<Self> {
-        let scans = ipc.publisher_probe::<[f32], LaserScanHeader>(&topics::SCAN)?;
-        let observations =
-            ipc.publisher_probe::<[Observation], ObservationsHeader>(&topics::OBSERVATIONS)?;
-        ipc.wait_until(
-            || "a publisher on scan or observations".into(),
-            || scans() + observations() > 0,
-        )?;
-        Ok(if scans() > 0 {
-            Self::Scans(ipc.slice_subscriber(&topics::SCAN)?)
-        } else {
-            Self::Observations(ipc.slice_subscriber(&topics::OBSERVATIONS)?)
-        })
-    }
-
-    /// The stream it carries.
-    fn stream(&self) -> StreamId {
-        match self {
-            Self::Observations(_) => StreamId::Observations,
-            Self::Scans(_) => StreamId::Scan,
-        }
-    }
-
-    /// The subscriber to wake on.
-    fn source(&self) -> &dyn WakeSource {
-        match self {
-            Self::Observations(s) => s,
-            Self::Scans(s) => s,
-        }
-    }
-
-    /// Calls `each` with the header of every pending message and the message.
-    ///
-    /// # Errors
-    /// IPC failures.
-    fn drain(&self, mut each: impl FnMut(Header, LidarMessage<'_>)) -> anyhow::Result<usize> {
-        Ok(match self {
-            Self::Observations(s) => s.drain(|m| {
-                let header = m.user_header();
-                let message = match validate::observations(header, m.payload()) {
-                    Ok(()) => LidarMessage::Observations(header, m.payload()),
-                    Err(_) => LidarMessage::Invalid,
-                };
-                each(header.header, message)
-            })?,
-            Self::Scans(s) => s.drain(|m| {
-                let header = m.user_header();
-                let message = match validate::laser_scan(header, m.payload()) {
-                    Ok(()) => LidarMessage::Scan(header, m.payload()),
-                    Err(_) => LidarMessage::Invalid,
-                };
-                each(header.header, message)
-            })?,
-        })
-    }
-}
-
-/// One message of the lidar, as [`Lidar::drain`] hands it on.
-enum LidarMessage<'a> {
-    /// Landmark observations.
-    Observations(&'a ObservationsHeader, &'a [Observation]),
-    /// A raw scan: its header and its ranges (then intensities).
-    Scan(&'a LaserScanHeader, &'a [f32]),
-    /// A message that failed validation: only its stamp counts (latency, stream end).
-    Invalid,
 }
 
 /// Runs `keep` for a valid message; logs and skips an invalid one.

@@ -67,10 +67,11 @@ pub fn schedule(data: &DataSet) -> Vec<(u64, Next)> {
 /// Opens the player's publishers, waits for its consumers, then plays `data`.
 ///
 /// `consumers` counts the processes that take the sensor streams: 1 = the service alone,
-/// 2 = the service and the client. Play starts once odometry and the observations have
-/// that many subscribers (the client takes observations too, for latency: counting one
-/// would let the client's subscription stand in for a service that is still starting)
-/// and, with a client, the ground truth at least one. Each consumer subscribes to
+/// 2 = the service and the client, 3 = also the live viewer. Play starts once odometry
+/// and the observations have that many subscribers (the client takes observations too,
+/// for latency: counting one would let the client's subscription stand in for a service
+/// that is still starting) and the ground truth one fewer (every consumer but the
+/// service takes it). Each consumer subscribes to
 /// end-of-stream first and to the topic its producer waits on last, so by then every
 /// subscription exists and nothing published is lost.
 ///
@@ -87,7 +88,7 @@ pub fn play(ipc: &Ipc, data: &DataSet, pacing: Pacing, consumers: usize) -> Resu
     out.odometry.wait_for_subscribers(ipc, consumers)?;
     out.observations.wait_for_subscribers(ipc, consumers)?;
     out.truth
-        .wait_for_subscribers(ipc, usize::from(consumers > 1))?;
+        .wait_for_subscribers(ipc, consumers.saturating_sub(1))?;
     let order = schedule(data);
     let first_ns = order.first().map_or(0, |(stamp, _)| *stamp);
     let send_map = |stamp_ns: u64, seq: u64| {

@@ -7,9 +7,11 @@
 //!    optionally the same with one particle, the pipeline's floor on this machine.
 //! 3. As-fast-as-possible throughput of the whole multi-process stack against the
 //!    in-process driver on the same scenario (the ratio is the IPC overhead), with CPU
-//!    time and peak memory per process.
+//!    time and peak memory per process; and the same run with the live viewer (`--live`),
+//!    against the run without it.
 //! 4. Optionally, peak memory of the service over runs of growing length.
 
+use crate::commands::live::LiveArgs;
 use crate::commands::run::{self, RunArgs};
 use anyhow::{Context, bail};
 use fastslam_client::Metrics;
@@ -263,12 +265,13 @@ fn print_rows(ns: &[usize], table: &[Vec<f64>]) {
     }
 }
 
-/// How a benchmark's stack runs: `run --realtime`, `--busy-poll`, `--spin-us`.
+/// How a benchmark's stack runs: `run --realtime`, `--busy-poll`, `--spin-us`, `--live`.
 #[derive(Debug, Clone, Copy, Default)]
 struct Pacing {
     realtime: bool,
     busy_poll: bool,
     spin_us: u64,
+    live: bool,
 }
 
 /// Runs the whole stack with `particles` and returns its `metrics.json`.
@@ -280,6 +283,7 @@ fn stack_run(
         realtime,
         busy_poll,
         spin_us,
+        live,
     }: Pacing,
 ) -> anyhow::Result<(Metrics, Duration)> {
     let out = args.out.join(label);
@@ -299,6 +303,9 @@ fn stack_run(
         service_flags: Vec::new(),
         busy_poll,
         spin_us,
+        // Any free port: the bench measures the viewer's cost to the stack, with no
+        // Foxglove connected.
+        live: LiveArgs { live, live_port: 0 },
     };
     let started = Instant::now();
     let code = run::run(run_args)?;
@@ -386,6 +393,7 @@ fn latency(args: &BenchArgs, run: LatencyRun) -> anyhow::Result<()> {
         } else {
             0
         },
+        live: false,
     };
     let (m, wall) = stack_run(args, scenario, (label, particles), pacing)?;
     println!("  wall time {:.1} s", wall.as_secs_f64());
@@ -424,18 +432,20 @@ fn throughput(args: &BenchArgs) -> anyhow::Result<()> {
     }
     // After the rounds, whose runs print their own summaries.
     println!(
-        "\n[throughput] {rounds} rounds: {:>12} {:>10} {:>14} {:>12} {:>12} {:>14} {:>12}",
+        "\n[throughput] {rounds} rounds: {:>12} {:>10} {:>14} {:>12} {:>12} {:>14} {:>12} {:>12} {:>10}",
         "in-proc s",
         "CPU s",
         "multi-proc s",
         "streamed s",
         "streamed/in",
         "service CPU s",
-        "svc/in CPU"
+        "svc/in CPU",
+        "live strm s",
+        "live/off"
     );
     for (round, r) in results.iter().enumerate() {
         println!(
-            "  round {:>13} {:>12.3} {:>10.3} {:>14.3} {:>12.3} {:>11.2}x {:>14.3} {:>11.2}x",
+            "  round {:>13} {:>12.3} {:>10.3} {:>14.3} {:>12.3} {:>11.2}x {:>14.3} {:>11.2}x {:>12.3} {:>9.2}x",
             round + 1,
             r.in_wall,
             r.in_cpu,
@@ -443,7 +453,9 @@ fn throughput(args: &BenchArgs) -> anyhow::Result<()> {
             r.streamed,
             r.streamed / r.in_wall,
             r.service_cpu,
-            r.service_cpu / r.in_cpu
+            r.service_cpu / r.in_cpu,
+            r.live_streamed,
+            r.live_streamed / r.streamed
         );
     }
     let last = results.last().expect("at least one round");
@@ -473,6 +485,10 @@ fn throughput(args: &BenchArgs) -> anyhow::Result<()> {
         ratio(|r| r.service_cpu / r.in_cpu)
     );
     println!(
+        "  live view (--live, the viewer subscribed, no Foxglove connected): streamed time {} of the same run without it",
+        ratio(|r| r.live_streamed / r.streamed)
+    );
+    println!(
         "  same metrics as in process: ATE {:.3} m (in process {:.3} m)",
         last.metrics.estimate.ate_rmse_m, last.in_process_ate
     );
@@ -492,6 +508,9 @@ struct Round {
     multi_wall: f64,
     streamed: f64,
     service_cpu: f64,
+    /// The same multi-process run with the live viewer (`--live`, no Foxglove connected):
+    /// its streaming time.
+    live_streamed: f64,
     metrics: Metrics,
 }
 
@@ -514,6 +533,11 @@ fn throughput_round(
         ("throughput", args.stack_particles),
         Pacing::default(),
     )?;
+    let live = Pacing {
+        live: true,
+        ..Pacing::default()
+    };
+    let (live_metrics, _) = stack_run(args, name, ("throughput-live", args.stack_particles), live)?;
     Ok(Round {
         simulated: offline.simulated.as_secs_f64(),
         in_wall,
@@ -523,6 +547,7 @@ fn throughput_round(
         multi_wall: wall.as_secs_f64(),
         streamed: metrics.cost.stream_wall_s,
         service_cpu: metrics.cost.service_cpu_s,
+        live_streamed: live_metrics.cost.stream_wall_s,
         metrics,
     })
 }

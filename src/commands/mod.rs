@@ -3,12 +3,14 @@
 //! processes, tabled), `monte-carlo` (many runs in process), `ungm` (the UNGM benchmark),
 //! `bench` (performance figures), `test` (your own publisher through the service and the
 //! client, judged by expectations), `map-get` (a running stack's map), `scenarios` and
-//! `extraction-report`; `launch` holds what `run` and `replay` share.
+//! `extraction-report`; `launch` holds what `run` and `replay` share, `live` their live
+//! view.
 
 pub mod bench;
 pub mod compare;
 pub mod extraction_report;
 pub mod launch;
+pub mod live;
 pub mod map_get;
 pub mod monte_carlo;
 pub mod replay;

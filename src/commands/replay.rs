@@ -3,6 +3,7 @@
 //! process — under a fresh stack prefix, with a run folder at the end.
 
 use crate::commands::launch::{Ended, Place, conclude, prepare};
+use crate::commands::live::LiveArgs;
 use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::Context;
 use fastslam_client::expect::JudgeArgs;
@@ -92,6 +93,9 @@ pub struct ReplayRunArgs {
     /// Expectations on the metrics and a JUnit report, passed on to the client.
     #[command(flatten)]
     pub judge: JudgeArgs,
+    /// The live view in Foxglove.
+    #[command(flatten)]
+    pub live: LiveArgs,
 }
 
 /// What the replay process needs beyond the common flags: its subcommand, run-folder
@@ -210,7 +214,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
     client.extend(["--service-config".into(), config.display().to_string()]);
     client.extend(profile.client.flags.iter().cloned());
     client.extend(args.judge.flags());
-    let mut replay = stack_flags;
+    let mut replay = stack_flags.clone();
     replay.extend([
         "--data".into(),
         std::fs::canonicalize(plan.data)?.display().to_string(),
@@ -232,6 +236,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         plan.label, profile.name
     );
     place.announce();
+    args.live.spawn(&mut stack, &exe, &stack_flags, &logs)?;
     for role in &topology::REPLAY {
         let (name, flags) = match role.name {
             "client" => ("client", client.clone()),
@@ -240,7 +245,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         };
         let mut argv = vec![name.to_string()];
         argv.extend(flags);
-        argv.extend(role.wait_flags());
+        argv.extend(role.wait_flags(args.live.live));
         stack.spawn(name, &exe, &argv, &logs.join(format!("{name}.log")))?;
     }
     let outcome = stack.wait(&stop, args.timeout_s.map(Duration::from_secs_f64));

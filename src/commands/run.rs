@@ -2,6 +2,7 @@
 //! a run folder at the end.
 
 use crate::commands::launch::{Ended, Place, conclude, prepare};
+use crate::commands::live::LiveArgs;
 use crate::progress;
 use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::{Context, bail};
@@ -71,6 +72,9 @@ pub struct RunArgs {
     /// polling").
     #[arg(long, default_value_t = 0, value_name = "US")]
     pub spin_us: u64,
+    /// The live view in Foxglove.
+    #[command(flatten)]
+    pub live: LiveArgs,
 }
 
 /// Runs the stack; returns the process exit code (0 finished, 1 failed, 130 interrupted).
@@ -154,7 +158,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         .iter()
         .map(|role| {
             let mut flags = own_flags(role.name);
-            flags.extend(role.wait_flags());
+            flags.extend(role.wait_flags(args.live.live));
             (role.name, flags)
         })
         .collect();
@@ -164,6 +168,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     );
     place.announce();
     let total_s = progress::simulated_duration_s(&scenario);
+    args.live.spawn(&mut stack, &exe, &stack_flags, &logs)?;
     let mut live_view = None;
     for (name, flags) in &processes {
         let mut argv = vec![name.to_string()];

@@ -1,0 +1,334 @@
+//! The live viewer: joins a running stack as a subscriber, like the client, and serves
+//! the run over Foxglove's WebSocket protocol (subprotocol `foxglove.sdk.v1`) through the run's
+//! channels ([`RunLog`]: the topics and schemas of `run.mcap`, plus `/trajectory`, the
+//! estimated trajectory so far). Open Foxglove and connect to `ws://localhost:8765`.
+//!
+//! It must keep no publisher waiting: a publisher waits while a subscriber's buffer is full,
+//! so the viewer takes every pending sample on every wake-up and keeps only the newest of
+//! each topic (copying it aside, never holding shared memory); every [`PUBLISH_EVERY`]
+//! it logs what is new, and every [`RESEND_EVERY`] it logs the maps, the grid and the
+//! trajectory again, for a Foxglove that connects late. Encoding and sending happen only
+//! for topics a Foxglove client subscribed to, and the server drops its oldest queued
+//! messages rather than block. It exits once every stream of the stack has ended.
+
+use crate::foxglove_log::RunLog;
+use crate::inputs::{Ends, Inputs, Lidar};
+use fastslam_protocol::ipc::{Flow, Ipc, Received, Sub};
+use fastslam_protocol::{
+    GroundTruth, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation, ObservationsHeader,
+    OccupancyGridHeader, Odometry, PoseEstimate, StreamId, TrajectoryHeader, TrajectoryPose, cli,
+    validate,
+};
+use foxglove::{Context, WebSocketServer};
+use iceoryx2::prelude::ZeroCopySend;
+use std::fmt::Debug;
+use std::time::{Duration, Instant};
+
+/// What `--help` says about this process.
+pub const ABOUT: &str = "Live viewer: joins a running stack and serves it to Foxglove over \
+WebSocket (connect Foxglove to ws://localhost:8765): the pose with its covariance, the truth \
+and dead reckoning, the trajectory so far, the landmark map with 2σ ellipses, the scans or \
+observations and the occupancy grid. It keeps only the newest of each topic and keeps no publisher waiting.";
+
+/// The WebSocket port Foxglove connects to by default.
+pub const DEFAULT_PORT: u16 = 8765;
+
+/// How often the viewer logs what is new.
+pub const PUBLISH_EVERY: Duration = Duration::from_millis(50);
+/// How often the viewer logs the maps, the grid and the trajectory again.
+pub const RESEND_EVERY: Duration = Duration::from_millis(500);
+
+/// Flags of the viewer.
+#[derive(Debug, Clone, clap::Args)]
+pub struct Args {
+    /// Stack to join.
+    #[command(flatten)]
+    pub stack: cli::StackArgs,
+    /// Port of the WebSocket server (0: any free port, named in the log).
+    #[arg(long, default_value_t = DEFAULT_PORT)]
+    pub port: u16,
+    /// Address the WebSocket server listens on.
+    #[arg(long, default_value = "127.0.0.1")]
+    pub host: String,
+    /// Give up waiting for the stack's publishers after this many seconds.
+    #[arg(long, default_value_t = 60.0)]
+    pub wait_timeout_s: f64,
+}
+
+/// Serves the stack until every stream has ended (or a signal arrives).
+///
+/// # Errors
+/// A port that cannot be bound, or IPC failures.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let context = Context::new();
+    let server = WebSocketServer::new()
+        .name("fastslam")
+        .context(&context)
+        .bind(&args.host, args.port)
+        .start_blocking()?;
+    tracing::info!(
+        url = %format!("ws://{}:{}", args.host, server.port()),
+        "live view: connect Foxglove to it"
+    );
+    let ipc = Ipc::open(
+        &args.stack.stack(),
+        "viewer",
+        Duration::from_secs_f64(args.wait_timeout_s.max(0.0)),
+    )?;
+    let inputs = Inputs::open(&ipc)?;
+    let mut log = RunLog::new(&context);
+    let mut newest = Newest::default();
+    let mut ends = Ends::new(inputs.lidar.stream());
+    let mut published = Instant::now();
+    let mut resent = Instant::now();
+    ipc.wake_loop::<anyhow::Error>(&inputs.sources(), Some(PUBLISH_EVERY), || {
+        newest.drain(&inputs, &mut ends)?;
+        if published.elapsed() >= PUBLISH_EVERY {
+            published = Instant::now();
+            let again = resent.elapsed() >= RESEND_EVERY;
+            if again {
+                resent = published;
+            }
+            newest.log(&mut log, again);
+        }
+        Ok(if ends.finished() {
+            Flow::Stop
+        } else {
+            Flow::Continue
+        })
+    })?;
+    newest.log(&mut log, true);
+    server.stop().wait_blocking();
+    Ok(())
+}
+
+/// The newest message of one topic, copied out of shared memory, and whether it was
+/// logged since.
+struct Latest<T> {
+    value: Option<T>,
+    fresh: bool,
+}
+
+impl<T> Default for Latest<T> {
+    fn default() -> Self {
+        Self {
+            value: None,
+            fresh: false,
+        }
+    }
+}
+
+impl<T> Latest<T> {
+    /// Replaces the value.
+    fn keep(&mut self, value: T) {
+        self.value = Some(value);
+        self.fresh = true;
+    }
+
+    /// The value when it was not logged yet, or in any case when `again`; it then counts
+    /// as logged.
+    fn take(&mut self, again: bool) -> Option<&T> {
+        let due = std::mem::take(&mut self.fresh) || again;
+        self.value.as_ref().filter(|_| due)
+    }
+}
+
+impl<H: Copy, T: Copy> Latest<(H, Vec<T>)> {
+    /// Replaces the value by a header and a copy of `items`, reusing the last one's
+    /// memory.
+    fn keep_slice(&mut self, header: H, items: &[T]) {
+        let (h, v) = self.value.get_or_insert_with(|| (header, Vec::new()));
+        *h = header;
+        v.clear();
+        v.extend_from_slice(items);
+        self.fresh = true;
+    }
+}
+
+/// The newest of every topic, and the estimated trajectory so far.
+#[derive(Default)]
+struct Newest {
+    pose: Latest<PoseEstimate>,
+    trajectory: Latest<Vec<PoseEstimate>>,
+    truth: Latest<GroundTruth>,
+    odometry: Latest<Odometry>,
+    scan: Latest<(LaserScanHeader, Vec<f32>)>,
+    observations: Latest<(ObservationsHeader, Vec<Observation>)>,
+    map: Latest<(LandmarkMapHeader, Vec<MapLandmark>)>,
+    true_map: Latest<(LandmarkMapHeader, Vec<MapLandmark>)>,
+    grid: Latest<(OccupancyGridHeader, Vec<i8>)>,
+    smoothed: Latest<(TrajectoryHeader, Vec<TrajectoryPose>)>,
+    smoothed_map: Latest<(LandmarkMapHeader, Vec<MapLandmark>)>,
+}
+
+impl Newest {
+    /// Takes every pending sample of every topic, keeping the newest valid one of each
+    /// and noting each stream's progress in `ends`.
+    fn drain(&mut self, inputs: &Inputs, ends: &mut Ends) -> anyhow::Result<()> {
+        let Inputs {
+            eos,
+            true_map,
+            map,
+            grid,
+            smoothed,
+            smoothed_map,
+            status,
+            lidar,
+            truth,
+            odometry,
+            pose,
+        } = inputs;
+        truth.drain(|s| {
+            ends.saw(StreamId::GroundTruth, s.header.seq);
+            if validate::ground_truth(s.payload()).is_ok() {
+                self.truth.keep(*s.payload());
+            }
+        })?;
+        odometry.drain(|s| {
+            ends.saw(StreamId::Odometry, s.header.seq);
+            if validate::odometry(s.payload()).is_ok() {
+                self.odometry.keep(*s.payload());
+            }
+        })?;
+        match lidar {
+            Lidar::Scans(sub) => {
+                slices(sub, StreamId::Scan, ends, validate::laser_scan, |h, d| {
+                    self.scan.keep_slice(*h, d);
+                })?
+            }
+            Lidar::Observations(sub) => slices(
+                sub,
+                StreamId::Observations,
+                ends,
+                validate::observations,
+                |h, o| self.observations.keep_slice(*h, o),
+            )?,
+        }
+        pose.drain(|s| {
+            ends.saw(StreamId::Pose, s.header.seq);
+            self.pose.keep(*s.payload());
+            let trajectory = self.trajectory.value.get_or_insert_with(Vec::new);
+            trajectory.push(*s.payload());
+            self.trajectory.fresh = true;
+        })?;
+        status.drain(|s| ends.saw(StreamId::Status, s.header.seq))?;
+        let maps = [
+            (map, StreamId::Map, &mut self.map),
+            (smoothed_map, StreamId::SmoothedMap, &mut self.smoothed_map),
+        ];
+        for (sub, id, latest) in maps {
+            slices(sub, id, ends, validate::landmark_map, |h, l| {
+                latest.keep_slice(*h, l);
+            })?;
+        }
+        slices(
+            grid,
+            StreamId::Grid,
+            ends,
+            validate::occupancy_grid,
+            |h, c| {
+                self.grid.keep_slice(*h, c);
+            },
+        )?;
+        slices(
+            smoothed,
+            StreamId::SmoothedTrajectory,
+            ends,
+            validate::trajectory,
+            |h, p| self.smoothed.keep_slice(*h, p),
+        )?;
+        true_map.drain(|s| {
+            if validate::landmark_map(s.user_header(), s.payload()).is_ok() {
+                self.true_map.keep_slice(*s.user_header(), s.payload());
+            }
+        })?;
+        eos.drain(|s| {
+            ends.announce(s.payload());
+        })?;
+        Ok(())
+    }
+
+    /// Logs what is new; with `again`, also the maps, the grid and the trajectory as
+    /// they stand.
+    fn log(&mut self, log: &mut RunLog, again: bool) {
+        if let Some(m) = self.truth.take(false) {
+            log.truth(m);
+        }
+        if let Some(m) = self.odometry.take(false) {
+            log.dead_reckoning(m);
+        }
+        if let Some((h, d)) = self.scan.take(false) {
+            log.scan(h, d);
+        }
+        if let Some((h, o)) = self.observations.take(false) {
+            log.observations(h, o);
+        }
+        if let Some(m) = self.pose.take(false) {
+            log.pose(m);
+        }
+        if again && let Some(poses) = self.trajectory.take(false) {
+            log.trajectory(poses);
+        }
+        if let Some((h, l)) = self.true_map.take(again) {
+            log.true_map(h, l);
+        }
+        if let Some((h, l)) = self.map.take(again) {
+            log.map(h, l);
+        }
+        if let Some((h, c)) = self.grid.take(again) {
+            log.grid(h, c);
+        }
+        if let Some((h, p)) = self.smoothed.take(again) {
+            log.smoothed(h, p);
+        }
+        if let Some((h, l)) = self.smoothed_map.take(again) {
+            log.smoothed_map(h, l);
+        }
+    }
+}
+
+/// Drains a slice topic of stream `id`: notes each sample in `ends` and hands each valid
+/// one (by `check`) to `keep`.
+fn slices<H, T>(
+    sub: &Sub<[T], H>,
+    id: StreamId,
+    ends: &mut Ends,
+    check: fn(&H, &[T]) -> Result<(), validate::Rejection>,
+    mut keep: impl FnMut(&H, &[T]),
+) -> anyhow::Result<()>
+where
+    H: Debug + ZeroCopySend + Sequenced + 'static,
+    T: Debug + ZeroCopySend + 'static,
+{
+    sub.drain(|s: Received<[T], H>| {
+        ends.saw(id, s.user_header().seq());
+        if check(s.user_header(), s.payload()).is_ok() {
+            keep(s.user_header(), s.payload());
+        }
+    })?;
+    Ok(())
+}
+
+/// A slice message's header, which carries the message's sequence number.
+trait Sequenced {
+    /// The message's sequence number.
+    fn seq(&self) -> u64;
+}
+
+macro_rules! sequenced {
+    ($($h:ty),*) => {$(
+        impl Sequenced for $h {
+            fn seq(&self) -> u64 {
+                self.header.seq
+            }
+        }
+    )*};
+}
+
+sequenced!(
+    LaserScanHeader,
+    ObservationsHeader,
+    LandmarkMapHeader,
+    OccupancyGridHeader,
+    TrajectoryHeader
+);

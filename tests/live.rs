@@ -1,0 +1,150 @@
+//! The live view (`run --live`): a WebSocket client speaking Foxglove's protocol
+//! (subprotocol `foxglove.sdk.v1`, with the Python `websockets` package) subscribes to
+//! what the viewer advertises and receives poses and a map while the stack runs; and the
+//! viewer changes nothing in a run's results.
+
+mod common;
+
+use common::*;
+use std::net::TcpListener;
+use std::process::{Command, Stdio};
+
+/// The WebSocket client release the test speaks Foxglove's protocol with.
+const WEBSOCKETS: &str = "websockets==15.0.1";
+
+/// A Foxglove WebSocket client: connects to `argv[1]` (retrying until the server is up),
+/// subscribes to every channel the server advertises, and counts the message-data frames
+/// (binary, opcode 1: subscription id u32, log time u64, payload) per topic until it has a
+/// pose and a map, the server closes, or `argv[2]` seconds pass. Prints the server's name,
+/// the advertised channels (topic → `schemaName/encoding`), the counts and the largest
+/// payload per topic, as JSON.
+const CLIENT: &str = r#"import json, struct, sys, time
+from websockets.sync.client import connect
+from websockets.exceptions import ConnectionClosed
+url, deadline = sys.argv[1], time.time() + float(sys.argv[2])
+while True:
+    try:
+        ws = connect(url, subprotocols=['foxglove.sdk.v1'], open_timeout=5, max_size=None)
+        break
+    except OSError:
+        if time.time() > deadline:
+            raise
+        time.sleep(0.2)
+server, channels, by_sub, counts, sizes = None, {}, {}, {}, {}
+with ws:
+    assert ws.subprotocol == 'foxglove.sdk.v1', ws.subprotocol
+    while time.time() < deadline and not (counts.get('/pose') and counts.get('/map')):
+        try:
+            frame = ws.recv(timeout=1)
+        except TimeoutError:
+            continue
+        except ConnectionClosed:
+            break
+        if isinstance(frame, str):
+            op = json.loads(frame)
+            if op['op'] == 'serverInfo':
+                server = op['name']
+            elif op['op'] == 'advertise':
+                subscriptions = []
+                for c in op['channels']:
+                    channels[c['id']] = c
+                    sub = len(by_sub) + 1
+                    by_sub[sub] = c['topic']
+                    subscriptions.append({'id': sub, 'channelId': c['id']})
+                ws.send(json.dumps({'op': 'subscribe', 'subscriptions': subscriptions}))
+        elif frame[0] == 1:
+            sub, _log_time = struct.unpack_from('<IQ', frame, 1)
+            topic = by_sub[sub]
+            counts[topic] = counts.get(topic, 0) + 1
+            sizes[topic] = max(sizes.get(topic, 0), len(frame) - 13)
+advertised = {c['topic']: f"{c.get('schemaName', '')}/{c['encoding']}" for c in channels.values()}
+print(json.dumps({'server': server, 'advertised': advertised, 'counts': counts, 'sizes': sizes}))
+"#;
+
+/// A TCP port nobody listens on right now.
+fn free_port() -> u16 {
+    let listener = TcpListener::bind("127.0.0.1:0").expect("binding a free port");
+    listener.local_addr().unwrap().port()
+}
+
+#[test]
+fn foxglove_receives_poses_and_the_map_while_the_stack_runs() {
+    let python = python_venv("websockets-15.0.1", WEBSOCKETS)
+        .join("bin")
+        .join("python3");
+    let prefix = prefix("live_view");
+    let dir = folder(&prefix);
+    let out = dir.join("run");
+    let port = free_port().to_string();
+    // A real-time drive of about 12 s: time for a client to connect and see the map grow.
+    let scenario = short_scenario(&dir);
+    let launcher = Command::new(LAUNCHER)
+        .args([
+            "run",
+            "--prefix",
+            &prefix,
+            "--realtime",
+            "--timeout-s",
+            "300",
+        ])
+        .args(["--live", "--live-port", &port, "--scenario"])
+        .arg(&scenario)
+        .arg("--out")
+        .arg(&out)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("starting the launcher");
+    let client = Command::new(python)
+        .args(["-c", CLIENT, &format!("ws://127.0.0.1:{port}"), "60"])
+        .output()
+        .expect("running the WebSocket client");
+    let result = launcher
+        .wait_with_output()
+        .expect("waiting for the launcher");
+    assert_success(&result);
+    assert!(
+        client.status.success(),
+        "the WebSocket client failed: {}",
+        String::from_utf8_lossy(&client.stderr)
+    );
+    let seen: serde_json::Value =
+        serde_json::from_slice(&client.stdout).expect("the client prints JSON");
+    assert_eq!(seen["server"], "fastslam", "{seen}");
+    let advertised = |topic: &str| seen["advertised"][topic].as_str().unwrap_or("").to_string();
+    assert_eq!(advertised("/pose"), "foxglove.Odometry/protobuf", "{seen}");
+    assert_eq!(
+        advertised("/map"),
+        "foxglove.SceneUpdate/protobuf",
+        "{seen}"
+    );
+    for topic in ["/truth", "/dead_reckoning"] {
+        assert_eq!(advertised(topic), "foxglove.PoseInFrame/protobuf", "{seen}");
+    }
+    assert_eq!(advertised("/trajectory"), "foxglove.PosesInFrame/protobuf");
+    let count = |topic: &str| seen["counts"][topic].as_u64().unwrap_or(0);
+    assert!(count("/pose") >= 1, "no pose received: {seen}");
+    assert!(count("/map") >= 1, "no map received: {seen}");
+    // A map message with landmarks: each landmark adds a sphere (tens of bytes) to the
+    // scene entity.
+    let map_bytes = seen["sizes"]["/map"].as_u64().unwrap_or(0);
+    assert!(map_bytes > 200, "an empty map: {seen}");
+    // The run itself is complete and the viewer left with the stack.
+    assert_eq!(metrics(&out)["complete"], true);
+    assert!(out.join("logs").join("viewer.log").is_file());
+    assert_no_leftovers_and_remove(&prefix, &dir);
+}
+
+#[test]
+fn the_live_view_changes_no_result() {
+    let prefix = prefix("live_same");
+    let dir = folder(&prefix);
+    let scenario = ["--scenario", "bailey-short"];
+    let off = dir.join("off");
+    assert_success(&run_stack(&prefix, &off, &scenario));
+    let on = dir.join("on");
+    let live = [&scenario[..], &["--live", "--live-port", "0"]].concat();
+    assert_success(&run_stack(&prefix, &on, &live));
+    assert_eq!(reproducible(&on), reproducible(&off));
+    assert_no_leftovers_and_remove(&prefix, &dir);
+}
