@@ -23,8 +23,12 @@
 //! The processes are the launcher's own subcommands (`service`, `client`), started from
 //! the launcher executable you name: in this workspace's tests
 //! `env!("CARGO_BIN_EXE_fastslam-stack")`, elsewhere an installed `fastslam-stack`. Drop
-//! stops what still runs (SIGTERM) and removes the stack's shared memory and root.
+//! stops what still runs (SIGTERM) and removes the stack's shared memory and root; every
+//! process it starts also dies with the process that started it, however that ends
+//! (`PR_SET_PDEATHSIG`, sent when the thread that started the process ends: keep a
+//! [`Stack`] on the thread that made it).
 
+use crate::children::dying_with_this_process;
 use crate::topology::{REPLAY, Role};
 use anyhow::{Context, bail};
 use fastslam_client::Metrics;
@@ -211,7 +215,7 @@ impl Stack {
     /// When it cannot be started.
     pub fn start_publisher(&mut self, mut publisher: Command) -> anyhow::Result<()> {
         let log = std::fs::File::create(self.log(PUBLISHER))?;
-        let child = publisher
+        let child = dying_with_this_process(&mut publisher)
             .envs(self.env())
             .stdin(Stdio::null())
             .stdout(log.try_clone()?)
@@ -300,9 +304,16 @@ impl Stack {
         judged.is_some_and(|e| e.judge_folder(&self.out).is_ok_and(|v| !v.passed()))
     }
 
-    /// Fails with the end of the log of child `i` unless `status` is success.
+    /// Fails with the end of the log of child `i` unless `status` is success; a client
+    /// that failed a run without a pose estimate (its run folder written) fails with that
+    /// one line.
     fn check(&self, i: usize, status: ExitStatus) -> anyhow::Result<()> {
         let name = self.children[i].0;
+        if name == "client"
+            && let Ok(metrics) = Metrics::read(&self.out.join("metrics.json"))
+        {
+            metrics.require_a_pose(&self.out)?;
+        }
         if !status.success() {
             bail!("the {name} failed ({status}):\n{}", tail(&self.log(name)));
         }
@@ -316,7 +327,7 @@ impl Stack {
 
     fn spawn(&mut self, launcher: &Path, role: &Role, flags: &[String]) -> anyhow::Result<()> {
         let log = std::fs::File::create(self.log(role.name))?;
-        let child = Command::new(launcher)
+        let child = dying_with_this_process(&mut Command::new(launcher))
             .arg(role.name)
             .args(["--prefix", &self.stack.prefix])
             .args(["--iox-root", self.stack.root.as_deref().unwrap_or_default()])

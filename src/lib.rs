@@ -1,8 +1,10 @@
 //! The launcher's library: what its commands share with each other and with integration
 //! tests — a stack for your own publisher's tests ([`harness`]), the service settings of a run ([`settings`]), the processes of a
 //! stack and who waits for whom ([`topology`]), the estimators a comparison runs
-//! ([`methods`]) and the in-process pipeline of the Monte Carlo comparison ([`offline`]).
+//! ([`methods`]) and the in-process pipeline of the Monte Carlo comparison ([`offline`]), and children that die
+//! with their parent ([`children`]).
 
+pub mod children;
 pub mod harness;
 pub mod lists;
 pub mod methods;

@@ -9,6 +9,7 @@
 //! the *thread* that started the child ends, so a supervisor lives on the thread that
 //! made it.
 
+use fastslam_stack::children::dying_with_this_process;
 use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
 use std::fs::{File, OpenOptions};
@@ -103,7 +104,6 @@ impl Supervisor {
         stdout: Stdio,
         stderr: File,
     ) -> std::io::Result<&mut Child> {
-        let launcher = nix::unistd::getpid();
         let mut command = Command::new(exe);
         command
             .args(args)
@@ -111,10 +111,7 @@ impl Supervisor {
             .stdout(stdout)
             .stderr(stderr)
             .process_group(0);
-        // SAFETY: `die_with` makes two system calls and allocates nothing, as a function
-        // run between fork and exec must.
-        unsafe { command.pre_exec(move || die_with(launcher)) };
-        let child = command.spawn()?;
+        let child = dying_with_this_process(&mut command).spawn()?;
         tracing::debug!(name, pid = child.id(), "started");
         self.processes.push(Process {
             name,
@@ -251,17 +248,6 @@ impl Drop for Supervisor {
     fn drop(&mut self) {
         self.stop_all();
     }
-}
-
-/// In a child between fork and exec: SIGKILL when the `launcher` ends. A launcher that
-/// ended before the request took effect (the child was then re-parented) fails the
-/// start instead, so no child outlives it.
-fn die_with(launcher: Pid) -> std::io::Result<()> {
-    nix::sys::prctl::set_pdeathsig(Signal::SIGKILL)?;
-    if nix::unistd::getppid() != launcher {
-        return Err(std::io::Error::other("the launcher has ended"));
-    }
-    Ok(())
 }
 
 /// Creates (or empties) a log and opens it for appending.

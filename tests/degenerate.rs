@@ -5,19 +5,24 @@ mod common;
 
 use common::*;
 
-#[test]
-fn a_run_without_a_pose_is_a_failure_with_one_line() {
-    let prefix = prefix("noposes");
-    let dir = folder(&prefix);
-    // The first waypoint is already within reach: the vehicle never moves, and the
-    // route ends before the first scan.
-    let text = std::fs::read_to_string(short_scenario(&dir)).unwrap();
+/// A scenario in `dir` whose vehicle never moves: the first waypoint is already within
+/// reach, and the route ends before the first scan.
+fn standstill(dir: &std::path::Path) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(short_scenario(dir)).unwrap();
     let scenario = dir.join("standstill.toml");
     std::fs::write(
         &scenario,
         text.replace("switch_distance_m = 1.0", "switch_distance_m = 1e9"),
     )
     .unwrap();
+    scenario
+}
+
+#[test]
+fn a_run_without_a_pose_is_a_failure_with_one_line() {
+    let prefix = prefix("noposes");
+    let dir = folder(&prefix);
+    let scenario = standstill(&dir);
     let out = dir.join("run");
     let run = run_stack(
         &prefix,
@@ -33,6 +38,35 @@ fn a_run_without_a_pose_is_a_failure_with_one_line() {
         "says why: {stderr}"
     );
     assert_eq!(metrics(&out)["complete"], true, "every stream ended");
+    assert_no_leftovers_and_remove(&prefix, &dir);
+}
+
+#[test]
+fn a_standalone_client_fails_a_run_without_a_pose_with_one_line() {
+    let prefix = prefix("clientnopose");
+    let dir = folder(&prefix);
+    let scenario = standstill(&dir).display().to_string();
+    let out = dir.join("run");
+    let mut stack = HandStack::new(&prefix, dir.join("logs"));
+    let sim = |subscribers| ["--scenario", &scenario, "--wait-subscribers", subscribers];
+    stack.start("client", &["--out", &out.display().to_string()]);
+    stack.start("service", &["--wait-subscribers", "1"]);
+    stack.start("odometry-sim", &sim("2"));
+    stack.start("lidar-sim", &sim("2"));
+    stack.start("truth-sim", &sim("3"));
+    let statuses = stack.wait_all(std::time::Duration::from_secs(120));
+    let client = statuses
+        .iter()
+        .find(|(name, _)| *name == "client")
+        .unwrap()
+        .1;
+    assert_eq!(client.code(), Some(1), "logs in {}", dir.display());
+    let log = std::fs::read_to_string(dir.join("logs").join("client.0.log")).unwrap();
+    let errors: Vec<&str> = log.lines().filter(|l| l.contains("error:")).collect();
+    assert_eq!(errors.len(), 1, "one error line: {log}");
+    assert!(errors[0].contains("without a pose estimate"), "{log}");
+    assert_eq!(metrics(&out)["complete"], true, "every stream ended");
+    drop(stack);
     assert_no_leftovers_and_remove(&prefix, &dir);
 }
 

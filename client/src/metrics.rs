@@ -280,6 +280,24 @@ pub struct Cost {
 }
 
 impl Metrics {
+    /// Fails when every stream ended without a single pose estimate (a route that never
+    /// moves, no scan reaching the filter): such a run is a failure, not a success with
+    /// no metrics. `folder` is the run folder, named in the error.
+    ///
+    /// # Errors
+    /// One line saying so, when the run is complete and has no pose.
+    pub fn require_a_pose(&self, folder: &std::path::Path) -> anyhow::Result<()> {
+        if self.complete && self.estimate.poses == 0 {
+            anyhow::bail!(
+                "the run ended without a pose estimate: every stream ended before a scan \
+                 reached the filter ({} inputs rejected); run folder {}",
+                self.inputs.rejected_total,
+                folder.display()
+            );
+        }
+        Ok(())
+    }
+
     /// Reads a run folder's `metrics.json` back.
     ///
     /// # Errors

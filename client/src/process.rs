@@ -270,6 +270,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ate_m = metrics.estimate.ate_rmse_m, landmark_rmse_m = metrics.map.rmse_m,
         "run folder written"
     );
+    metrics.require_a_pose(&args.out)?;
     if args.judge.on() {
         let verdict = expectations.judge(&metrics);
         let mut out = std::io::stdout().lock();

@@ -2,7 +2,9 @@
 //!
 //! The processes are found through iceoryx2 itself: `Node::list` under the stack's
 //! configuration names every node with its process id, so the client needs no help from
-//! the launcher and also measures processes a user started by hand. Each process is
+//! the launcher and also measures the stack's processes a user started by hand. Only the
+//! stack's own processes count, told by their node names (`ipc::STACK_NODES`): a process
+//! of one's own that joins the stack (a viewer, a publisher) is not measured. Each process is
 //! sampled while it runs (the client calls [`ProcessMonitor::sample`] on a timer and when
 //! a stream ends) and its last sample stands after it exits: a process has done its work
 //! once it has announced the end of its stream, so the final sample misses only its
@@ -10,7 +12,7 @@
 //! scheduler's run time of every thread, in ns); the user/kernel split from
 //! `/proc/<pid>/stat` is in clock ticks (usually 10 ms).
 
-use fastslam_protocol::ipc::{Ipc, Service};
+use fastslam_protocol::ipc::{Ipc, Service, is_stack_node};
 use iceoryx2::node::{NodeState, NodeView};
 use iceoryx2::prelude::{CallbackProgression, Node};
 use serde::{Deserialize, Serialize};
@@ -79,6 +81,7 @@ impl ProcessMonitor {
         let listed = Node::<Service>::list(ipc.node().config(), |state| {
             if let NodeState::Alive(view) = state
                 && let Some(details) = view.details()
+                && is_stack_node(details.name().as_str())
             {
                 found.push((
                     details.process_id().value(),

@@ -69,10 +69,8 @@ def main():
     parser.add_argument("--wait-s", type=float, default=30.0,
                         help="give up when the stack's topics do not exist after this long")
     parser.add_argument("--after-subscribers", type=int, default=0,
-                        help="subscribe to `pose` only once it has this many subscribers: a "
-                             "service started with --wait-subscribers counts every pose "
-                             "subscriber, so joining before the stack's own client would let "
-                             "the service start without it")
+                        help="subscribe to `pose` only once it has this many subscribers "
+                             "(the stack's own client among them)")
     args = parser.parse_args()
 
     config = iox.config.default()

@@ -11,7 +11,7 @@
 
 use crate::Scenario;
 use crate::args::SimArgs;
-use fastslam_protocol::ipc::{Ended, Flow, Ipc, IpcError, Pub, Sub, Wire};
+use fastslam_protocol::ipc::{Ended, Flow, Ipc, IpcError, Pub, Sub, Subscribers, Wire};
 use fastslam_protocol::stream::StreamEnd;
 use fastslam_protocol::{
     Checkpointed, EndOfStream, GroundTruth, Header, LaserScanHeader, Observation,
@@ -199,21 +199,12 @@ impl SensorProcess {
         tracing::info!(messages = last.map_or(0, |h| h.seq + 1), stream = ?self.stream, "finished");
         // Samples of a slice topic live in this process: stay until every subscriber has
         // them, sending again to a service that died and resumed.
-        let left = self.ipc.wait_for(
-            || format!("the subscribers of {:?} to leave", self.stream),
-            || {
-                let mut outbox = outbox.borrow_mut();
-                let alive = outbox.tend()?;
-                Ok((alive == 0 && !outbox.paused).then_some(()))
-            },
-        );
-        match left {
-            Err(IpcError::Timeout { what, waited }) => {
-                tracing::warn!(?waited, "gave up waiting for {what}");
-                Ok(())
-            }
-            other => Ok(other?),
-        }
+        output.wait_until_left(&self.ipc, || {
+            let mut outbox = outbox.borrow_mut();
+            let seen = outbox.tend()?;
+            Ok((!outbox.paused).then_some(seen))
+        })?;
+        Ok(())
     }
 }
 
@@ -238,8 +229,8 @@ struct Outbox<'a, M: Message> {
     paused: bool,
     /// Subscribers the stream waited for before it started.
     wanted: usize,
-    /// Live subscribers at the last look, and when that was.
-    alive: usize,
+    /// Subscribers at the last look, and when that was.
+    seen: Subscribers,
     looked: Option<Instant>,
     /// The end-of-stream, once sent.
     end: Option<EndOfStream>,
@@ -268,7 +259,10 @@ impl<'a, M: Message> Outbox<'a, M> {
             forgotten: (0, 0),
             paused: false,
             wanted,
-            alive: wanted,
+            seen: Subscribers {
+                alive: wanted,
+                ..Subscribers::default()
+            },
             looked: None,
             end: None,
         }
@@ -322,9 +316,9 @@ impl<'a, M: Message> Outbox<'a, M> {
 
     /// Takes the checkpoint notices (forgetting what they cover; sending everything
     /// after it again when a resumed service asks), and at most every [`WATCH_EVERY`]
-    /// looks whether a subscriber died (then holds new messages back). Returns the live
-    /// subscribers at the last look.
-    fn tend(&mut self) -> Result<usize, IpcError> {
+    /// looks whether a subscriber died (then holds new messages back). Returns the
+    /// subscribers seen at the last look.
+    fn tend(&mut self) -> Result<Subscribers, IpcError> {
         let slot = self.slot;
         let mut notices = Vec::new();
         self.checkpoints.drain(|c| notices.push(*c.payload()))?;
@@ -335,11 +329,11 @@ impl<'a, M: Message> Outbox<'a, M> {
             }
         }
         if self.looked.is_some_and(|t| t.elapsed() < WATCH_EVERY) {
-            return Ok(self.alive);
+            return Ok(self.seen);
         }
         self.looked = Some(Instant::now());
         let seen = self.out.watch()?;
-        self.alive = seen.alive;
+        self.seen = seen;
         if seen.died > 0 {
             tracing::warn!(
                 kept = self.kept.len(),
@@ -347,7 +341,7 @@ impl<'a, M: Message> Outbox<'a, M> {
             );
             self.paused = true;
         }
-        Ok(self.alive)
+        Ok(self.seen)
     }
 
     /// Sends everything kept again, then the end-of-stream if the stream has ended, and

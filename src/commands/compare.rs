@@ -20,6 +20,7 @@ use fastslam_client::stats::{mean, std_dev};
 use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::moves::MoveCorrection;
 use fastslam_sensors_sim::scenario::DEFAULT_SCENARIO;
+use fastslam_stack::children::dying_with_this_process;
 use fastslam_stack::lists::List;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::{Deserialize, Serialize};
@@ -382,23 +383,24 @@ fn run_one(
     let folder = out.join("runs").join(config.folder());
     let prefix = format!("fc{}j{index}x", std::process::id());
     let mut cmd = Command::new(exe);
-    cmd.args([
-        "run",
-        "--scenario",
-        &args.scenario,
-        "--optimizer",
-        &config.method.optimizer,
-    ])
-    .args(["--particles", &config.particles.to_string()])
-    .args([
-        "--seed",
-        &config.seed.to_string(),
-        "--prefix",
-        &prefix,
-        "--out",
-    ])
-    .arg(&folder)
-    .stdin(Stdio::null());
+    dying_with_this_process(&mut cmd)
+        .args([
+            "run",
+            "--scenario",
+            &args.scenario,
+            "--optimizer",
+            &config.method.optimizer,
+        ])
+        .args(["--particles", &config.particles.to_string()])
+        .args([
+            "--seed",
+            &config.seed.to_string(),
+            "--prefix",
+            &prefix,
+            "--out",
+        ])
+        .arg(&folder)
+        .stdin(Stdio::null());
     if let Some(proposal) = config.method.proposal {
         cmd.args(["--proposal", &proposal.to_string()]);
     }

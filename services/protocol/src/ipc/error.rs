@@ -24,6 +24,13 @@ pub enum IpcError {
         /// iceoryx2's error, as text.
         reason: String,
     },
+    /// A topic's service exists with settings the stack cannot use: another process
+    /// created it with settings of its own.
+    #[error("{reason}")]
+    Incompatible {
+        /// Which setting falls short, what the stack needs, and what to do.
+        reason: String,
+    },
     /// Waiting for peers took longer than allowed.
     #[error("timed out after {waited:?} waiting for {what}")]
     Timeout {

@@ -10,6 +10,7 @@
 //! - `stack`: where a stack lives ([`StackConfig`]) and the files it leaves behind;
 //! - [`shutdown`]: SIGINT/SIGTERM and the other signals iceoryx2 catches;
 //! - `node`: a process's connection ([`Ipc`]), its bounded waits, opening services;
+//! - `mismatch`: why a service another process created cannot be opened;
 //! - `wake`: the loop that sleeps until samples arrive ([`Ipc::wake_loop`]);
 //! - `publisher`: [`Pub`], lossless and optionally coalescing wake-ups;
 //! - `subscriber`: [`Sub`], [`HoldingSub`] and publisher probes;
@@ -18,6 +19,7 @@
 //! - `error`: [`IpcError`].
 
 mod error;
+mod mismatch;
 mod node;
 mod publisher;
 mod request_response;
@@ -32,7 +34,9 @@ mod wire;
 use error::iox_err;
 pub use error::{IpcError, Result};
 pub use node::Ipc;
-pub use publisher::{COALESCING_PERIOD, Pub, Subscribers};
+pub use publisher::{
+    COALESCING_PERIOD, OUTSIDE_GRACE, Pub, STACK_NODES, Subscribers, is_stack_node,
+};
 pub use request_response::SliceServer;
 pub use stack::{StackConfig, remove_dead_nodes, remove_stack_files, shared_memory_files};
 pub use subscriber::{HoldingSub, Received, Sub, Taken};

@@ -2,11 +2,12 @@
 //! wait timeout bounds and a signal cuts short, and the opening of the services behind
 //! every topic.
 
-use super::{IpcError, Result, Service, StackConfig, Wire, iox_err, shutdown, stack};
+use super::{IpcError, Result, Service, StackConfig, Wire, iox_err, mismatch, shutdown, stack};
 use crate::topics::{self, Topic};
 use iceoryx2::node::NodeWaitFailure;
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::publish_subscribe::PortFactory;
+use iceoryx2::service::static_config::message_type_details::{TypeDetail, TypeVariant};
 use std::fmt::Debug;
 use std::time::{Duration, Instant};
 
@@ -143,7 +144,17 @@ impl Ipc {
                 .max_subscribers(topics::MAX_SUBSCRIBERS);
             P::open_service(builder)
         })
-        .map_err(iox_err(format!("open service {name}")))
+        .map_err(|e| {
+            let needed = mismatch::Needed {
+                topic,
+                payload: P::payload_type(),
+                user_header: TypeDetail::new::<H>(TypeVariant::FixedSize),
+            };
+            match mismatch::incompatible(&service_name, self.node.config(), &needed) {
+                Some(reason) => IpcError::Incompatible { reason },
+                None => iox_err(format!("open service {name}"))(e),
+            }
+        })
     }
 
     pub(super) fn event(

@@ -89,15 +89,44 @@ enum Full {
 }
 
 /// How many of a publisher's subscribers are alive, and how many died since the last
-/// look ([`Pub::watch`]).
+/// look ([`Pub::watch`]). The stack's own processes are told from others by their node
+/// names ([`STACK_NODES`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Subscribers {
-    /// Subscribers whose node is alive.
+    /// Subscribers of the stack's own processes whose node is alive.
     pub alive: usize,
-    /// Subscribers whose node was found dead since the last look (killed, crashed: a
-    /// subscriber that leaves is gone, not dead).
+    /// Subscribers of other processes (a viewer, a logger of one's own) whose node is
+    /// alive.
+    pub outside: usize,
+    /// Subscribers of the stack's own processes whose node was found dead since the last
+    /// look (killed, crashed: a subscriber that leaves is gone, not dead).
     pub died: usize,
 }
+
+/// The iceoryx2 node names of the stack's own processes. A process of one's own that
+/// joins a stack takes another name: the stack's processes do not wait for its
+/// subscribers at their end beyond [`OUTSIDE_GRACE`], and the client does not count it
+/// among the stack's processes.
+pub const STACK_NODES: [&str; 8] = [
+    "truth-sim",
+    "odometry-sim",
+    "lidar-sim",
+    "fastslam-service",
+    "client",
+    "replay-mrclam",
+    "replay-victoria-park",
+    "viewer",
+];
+
+/// True when `name` is the node name of one of the stack's own processes.
+pub fn is_stack_node(name: &str) -> bool {
+    STACK_NODES.contains(&name)
+}
+
+/// How long a publisher that has finished waits for the subscribers of processes not of
+/// the stack to leave, once the stack's own have: a reader that keeps up leaves at the
+/// end of its streams; one that never reads is left behind.
+pub const OUTSIDE_GRACE: Duration = Duration::from_secs(2);
 
 /// What a publisher knows of its subscribers' nodes: filled in by [`Pub::watch`], read by
 /// its backpressure handler.
@@ -107,6 +136,8 @@ struct Watch {
     node_of: HashMap<u128, u128>,
     /// Nodes found dead.
     dead: HashSet<u128>,
+    /// Nodes that are not the stack's own processes.
+    outside: HashSet<u128>,
     /// Dead nodes [`Pub::watch`] has reported.
     reported: HashSet<u128>,
 }
@@ -120,23 +151,34 @@ impl Watch {
             return false;
         };
         if look && !self.dead.contains(&node) {
-            self.dead.extend(dead_nodes(config).unwrap_or_default());
+            // A failed look leaves the node as it was known: alive.
+            let _ = self.look(config);
         }
         self.dead.contains(&node)
     }
-}
 
-/// Ids of the stack's nodes whose process died and whose resources nobody removed yet.
-fn dead_nodes(config: &Config) -> Result<Vec<u128>> {
-    let mut dead = Vec::new();
-    Node::<Service>::list(config, |state| {
-        if let NodeState::Dead(view) = state {
-            dead.push(view.id().value());
-        }
-        CallbackProgression::Continue
-    })
-    .map_err(iox_err("list the stack's nodes"))?;
-    Ok(dead)
+    /// Lists the stack's nodes (`config`): those whose process died and whose resources
+    /// nobody removed yet, and those that are not the stack's own processes.
+    fn look(&mut self, config: &Config) -> Result<()> {
+        Node::<Service>::list(config, |state| {
+            let (id, details) = match &state {
+                NodeState::Alive(view) => (view.id().value(), view.details()),
+                NodeState::Dead(view) => {
+                    self.dead.insert(view.id().value());
+                    (view.id().value(), view.details())
+                }
+                _ => return CallbackProgression::Continue,
+            };
+            if details
+                .as_ref()
+                .is_some_and(|d| !is_stack_node(d.name().as_str()))
+            {
+                self.outside.insert(id);
+            }
+            CallbackProgression::Continue
+        })
+        .map_err(iox_err("list the stack's nodes"))
+    }
 }
 
 /// The wake-up period of a [`Pub::coalescing`] publisher. As fast as possible a filter
@@ -218,57 +260,104 @@ where
     /// # Errors
     /// [`IpcError::Iceoryx`] when the stack's nodes cannot be listed.
     pub fn watch(&self) -> Result<Subscribers> {
-        let listed = dead_nodes(&self.config)?;
+        self.look(true)
+    }
+
+    /// The subscribers as [`Pub::watch`] sees them; only with `report` are those that
+    /// died counted as reported.
+    fn look(&self, report: bool) -> Result<Subscribers> {
         let mut guard = self.watch.lock().unwrap_or_else(PoisonError::into_inner);
+        guard.look(&self.config)?;
         let Watch {
             node_of,
             dead,
+            outside,
             reported,
         } = &mut *guard;
-        dead.extend(listed);
         let mut seen = Subscribers::default();
         self.service.dynamic_config().list_subscribers(|d| {
             let node = d.node_id.value();
             node_of.insert(d.subscriber_id.value(), node);
-            seen.alive += usize::from(!dead.contains(&node));
+            match (dead.contains(&node), outside.contains(&node)) {
+                (true, _) => {}
+                (false, true) => seen.outside += 1,
+                (false, false) => seen.alive += 1,
+            }
             CallbackProgression::Continue
         });
         // Also those the backpressure handler found dead, or that were removed since.
         let died: HashSet<u128> = (node_of.values())
-            .filter(|&node| dead.contains(node) && !reported.contains(node))
+            .filter(|&node| dead.contains(node) && !outside.contains(node))
+            .filter(|&node| !reported.contains(node))
             .copied()
             .collect();
         seen.died = died.len();
-        reported.extend(died);
+        if report {
+            reported.extend(died);
+        }
         Ok(seen)
     }
 
-    /// Waits until at least `n` subscribers are connected, so that nothing published
-    /// afterwards is lost on a subscriber that was still starting. (A [`Sub`] connects as
-    /// it is created, see [`Ipc::subscriber`], so every counted subscriber is ready.)
+    /// Waits until at least `n` subscribers of the stack's own processes are connected,
+    /// so that nothing published afterwards is lost on a subscriber that was still
+    /// starting (a subscriber of another process does not count: it may come first). A
+    /// [`Sub`] connects as it is created, see [`Ipc::subscriber`], so every counted
+    /// subscriber is ready.
     ///
     /// # Errors
-    /// [`IpcError::Timeout`] after the wait timeout, [`IpcError::Shutdown`] on a signal.
+    /// [`IpcError::Timeout`] after the wait timeout, [`IpcError::Shutdown`] on a signal,
+    /// [`IpcError::Iceoryx`] when the stack's nodes cannot be listed.
     pub fn wait_for_subscribers(&self, ipc: &Ipc, n: usize) -> Result<()> {
-        ipc.wait_until(
-            || format!("{n} subscriber(s) on {}", self.topic),
-            || self.subscribers() >= n,
+        ipc.wait_for(
+            || format!("{n} subscriber(s) of the stack on {}", self.topic),
+            || Ok((self.look(false)?.alive >= n).then_some(())),
         )
     }
 
-    /// Waits until every subscriber has left (bounded by the wait timeout), for a
-    /// process about to exit. A slice topic's samples live in the publisher's growable
-    /// data segment, which a subscriber maps only when it receives from it: were the
+    /// Waits until every subscriber has left, for a process about to exit: those of the
+    /// stack's own processes (bounded by the wait timeout), then the others for at most
+    /// [`OUTSIDE_GRACE`]. A slice topic's samples live in the publisher's growable data
+    /// segment, which a subscriber maps only when it receives from it: were the
     /// publisher to exit first, samples not yet received would be lost (iceoryx2 logs
-    /// "Lost chunk"). Consumers leave once they have everything, so this wait is short;
-    /// one that never leaves (a viewer) costs the wait timeout, with a warning.
+    /// "Lost chunk"). Consumers leave once they have everything, so this wait is short; a
+    /// process of one's own that never leaves (a viewer) is left behind, with a warning.
     ///
     /// # Errors
-    /// [`IpcError::Shutdown`] on a signal (a timeout is not an error).
+    /// [`IpcError::Shutdown`] on a signal, [`IpcError::Iceoryx`] when the stack's nodes
+    /// cannot be listed (a timeout is not an error).
     pub fn wait_until_unsubscribed(&self, ipc: &Ipc) -> Result<()> {
-        let left = ipc.wait_until(
+        self.wait_until_left(ipc, || self.watch().map(Some))
+    }
+
+    /// As [`Pub::wait_until_unsubscribed`], for a process that watches its subscribers
+    /// itself: `look` gives what it saw ([`Pub::watch`]), or `None` while the process
+    /// has other reasons to stay.
+    ///
+    /// # Errors
+    /// `look`'s error, [`IpcError::Shutdown`] on a signal (a timeout is not an error).
+    pub fn wait_until_left(
+        &self,
+        ipc: &Ipc,
+        mut look: impl FnMut() -> Result<Option<Subscribers>>,
+    ) -> Result<()> {
+        let mut outsiders_since = None;
+        let left = ipc.wait_for(
             || format!("the subscribers of {} to leave", self.topic),
-            || self.subscribers() == 0,
+            || {
+                let seen = look()?.filter(|seen| seen.alive == 0);
+                let Some(Subscribers { outside, .. }) = seen else {
+                    return Ok(None);
+                };
+                let since = *outsiders_since.get_or_insert_with(Instant::now);
+                if outside > 0 && since.elapsed() >= OUTSIDE_GRACE {
+                    tracing::warn!(
+                        outside,
+                        "leaving the subscribers of {} that are not the stack's own behind",
+                        self.topic
+                    );
+                }
+                Ok((outside == 0 || since.elapsed() >= OUTSIDE_GRACE).then_some(()))
+            },
         );
         match left {
             Err(IpcError::Timeout { what, waited }) => {

@@ -28,7 +28,9 @@ impl TestStack {
 }
 
 /// Runs `test` with an `Ipc` on `stack` on a thread of its own and returns what it
-/// returned (errors as text); fails with `hang` if it has not returned within 10 s.
+/// returned (errors as text); fails with `hang` if it has not returned within 10 s. Its
+/// node takes the name of one of the stack's processes (`client`), so publishers wait for
+/// its subscribers.
 pub(super) fn on_thread<T: Send + 'static>(
     stack: StackConfig,
     hang: &str,
@@ -36,7 +38,7 @@ pub(super) fn on_thread<T: Send + 'static>(
 ) -> std::result::Result<T, String> {
     let (done, result) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
-        let run = || test(&Ipc::open(&stack, "test", Duration::from_secs(5))?);
+        let run = || test(&Ipc::open(&stack, "client", Duration::from_secs(5))?);
         let _ = done.send(run().map_err(|e| e.to_string()));
     });
     result.recv_timeout(Duration::from_secs(10)).expect(hang)

@@ -13,6 +13,7 @@ use iceoryx2::service::builder::publish_subscribe::{
     Builder as PubSubBuilder, PublishSubscribeOpenOrCreateError,
 };
 use iceoryx2::service::port_factory::publish_subscribe::PortFactory;
+use iceoryx2::service::static_config::message_type_details::{TypeDetail, TypeVariant};
 use std::fmt::Debug;
 
 /// The iceoryx2 service flavour the stack uses: inter-process, shared memory.
@@ -28,6 +29,9 @@ pub trait Wire: Debug + IceoryxSend + 'static {
     fn open_service<H: Debug + ZeroCopySend + 'static>(
         builder: PubSubBuilder<Self, H, Service>,
     ) -> std::result::Result<PortFactory<Service, Self, H>, PublishSubscribeOpenOrCreateError>;
+
+    /// The payload type as iceoryx2 records it in a service (a slice's: its element).
+    fn payload_type() -> TypeDetail;
 
     /// Creates a publisher (slices: growing by powers of two from the topic's first guess)
     /// that asks `full` what to do when a subscriber's buffer is full.
@@ -50,6 +54,10 @@ pub trait Wire: Debug + IceoryxSend + 'static {
 }
 
 impl<T: Debug + ZeroCopySend + 'static> Wire for T {
+    fn payload_type() -> TypeDetail {
+        TypeDetail::new::<T>(TypeVariant::FixedSize)
+    }
+
     fn open_service<H: Debug + ZeroCopySend + 'static>(
         builder: PubSubBuilder<Self, H, Service>,
     ) -> std::result::Result<PortFactory<Service, Self, H>, PublishSubscribeOpenOrCreateError> {
@@ -76,6 +84,10 @@ impl<T: Debug + ZeroCopySend + 'static> Wire for T {
 }
 
 impl<T: Debug + ZeroCopySend + 'static> Wire for [T] {
+    fn payload_type() -> TypeDetail {
+        TypeDetail::new::<T>(TypeVariant::Dynamic)
+    }
+
     fn open_service<H: Debug + ZeroCopySend + 'static>(
         builder: PubSubBuilder<Self, H, Service>,
     ) -> std::result::Result<PortFactory<Service, Self, H>, PublishSubscribeOpenOrCreateError> {
