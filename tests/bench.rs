@@ -46,12 +46,16 @@ fn bench_prints_the_step_grid_and_every_throughput_round() {
     for round in rounds {
         assert_eq!(
             round.matches('x').count(),
-            2,
-            "each round's streamed and CPU ratios: {round}"
+            3,
+            "each round's streamed, CPU and live-view ratios: {round}"
         );
     }
     assert!(
         stdout.contains("IPC overhead (median [min, max]): streamed "),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("live view (--live, the viewer subscribed"),
         "{stdout}"
     );
     let same = stdout
