@@ -5,25 +5,27 @@
 //!
 //! Decisions the spec leaves open, taken here:
 //! - **One scan, one assignment** (unknown association). Each observation is paired with
-//!   every landmark in its search window. A pair is *assignable* when its normalised
-//!   innovation squared is under `gate_reject` and its likelihood `N(ν; 0, S)` is at least
-//!   that of a new landmark (`log_p_new`): the choice between "re-sighting" and "new" is a
-//!   likelihood ratio, the gate a χ² validation bound. Each observation takes its most
-//!   likely assignable landmark; where two observations of the scan take the same one,
-//!   the scan's pairs are assigned jointly instead — the assignment with the largest total
-//!   log-likelihood, each observation free to be "no mapped landmark" at `log_p_new`
-//!   (Hungarian algorithm, `pathfinding`). Every landmark is thus touched at most once per
-//!   scan, and associating the whole scan before updating any landmark is exact.
-//! - **Unassigned observations** start a landmark when every landmark the scan's other
-//!   observations did not take lies beyond `gate_new`; otherwise they are *ignored*
-//!   (ambiguous) and contribute `max(log N(ν; 0, S) of the most likely such landmark,
-//!   log_p_new)`: the observation is that landmark or a new one, and we do not commit to
-//!   either. A fixed 0 would depend on the units of `S`.
-//! - **Pose uncertainty.** FastSLAM 2.0's proposal associates at the motion prior's mean
-//!   with the prior's covariance added to every `S` ([`Scan::associate_uncertain`]), so
-//!   after a long stretch without landmarks the gate has grown with the drift and a
-//!   re-sighted landmark is recognised instead of duplicated. A FastSLAM 1.0 particle is a
-//!   point: its pose uncertainty is the spread of the cloud.
+//!   every landmark in its search window; every landmark takes at most one observation
+//!   per scan, so associating the whole scan before updating any landmark is exact. A
+//!   pair is *assignable* when its normalised innovation squared is under `gate_reject`
+//!   and, with `likelihood_ratio`, its likelihood `N(ν; 0, S)` is at least that of a new
+//!   landmark (`log_p_new`). [`Assignment::Greedy`] (default): in scan order, each
+//!   observation takes the most likely landmark the earlier ones left, if assignable.
+//!   [`Assignment::Joint`]: each observation takes its most likely assignable landmark;
+//!   where two take the same one, the scan's pairs are assigned jointly — the assignment
+//!   with the largest total log-likelihood, each observation free to be "no mapped
+//!   landmark" at `log_p_new` (Hungarian algorithm, `pathfinding`).
+//! - **Unassigned observations** start a landmark when every landmark not taken by
+//!   another observation (greedy: by an earlier one) lies beyond `gate_new`; otherwise they
+//!   are *ignored* (ambiguous) and contribute `max(log N(ν; 0, S) of the most likely such
+//!   landmark, log_p_new)`: the observation is that landmark or a new one, and we do not
+//!   commit to either. A fixed 0 would depend on the units of `S`.
+//! - **Pose uncertainty.** With `pose_uncertainty`, FastSLAM 2.0's proposal associates at
+//!   the motion prior's mean with the prior's covariance added to every `S`
+//!   (`Scan::associate_uncertain`), so after a long stretch without landmarks the gate
+//!   has grown with the drift and a re-sighted landmark is recognised instead of
+//!   duplicated. A FastSLAM 1.0 particle is a point: its pose uncertainty is the spread of
+//!   the cloud.
 //! - **Known association** updates the landmark with the observation's id without gating
 //!   (the id is trusted); an id not yet in the map creates that landmark.
 //! - **Search window** of unknown association: landmarks within
@@ -82,7 +84,7 @@ pub struct AssociationConfig {
     pub likelihood_ratio: bool,
     /// FastSLAM 2.0: associate at the motion prior's mean with its covariance in every
     /// innovation covariance, so gates widen with the drift since the last update
-    /// ([`Scan::associate_uncertain`]). Off by default.
+    /// (`Scan::associate_uncertain`). Off by default.
     pub pose_uncertainty: bool,
 }
 
