@@ -5,9 +5,9 @@
 //!
 //! FastSLAM 2.0, per particle:
 //! 1. start from the motion prior `N(x̂, P)` ([`MotionPrior`](super::MotionPrior));
-//! 2. associate the scan at `x̂` with the pose uncertainty `P` in every innovation
-//!    covariance (§1 step 3, the filter's own gates;
-//!    `Scan::associate_uncertain`);
+//! 2. associate the scan at `x̂` (§1 step 3, the filter's own gates; with
+//!    `association.pose_uncertainty`, with the pose uncertainty `P` in every innovation
+//!    covariance, `Scan::associate_uncertain`);
 //! 3. for each observation of a matched landmark, in scan order, update the Gaussian like
 //!    an EKF whose state is the pose: with `H_x`, `H_m` the measurement Jacobians at the
 //!    current mean, `S_m = H_m Σ H_mᵀ + R` and `S = H_x P H_xᵀ + S_m`,
