@@ -11,7 +11,8 @@ mod supervisor;
 
 use clap::{Parser, Subcommand};
 use commands::{
-    bench, compare, extraction_report, map_get, monte_carlo, replay, run, scenarios, test, ungm,
+    bench, compare, extraction_report, fit_noise, map_get, monte_carlo, replay, run, scenarios,
+    test, ungm,
 };
 use fastslam_protocol::cli::run_process;
 use fastslam_sensors_sim::processes::{lidar, odometry, truth};
@@ -53,6 +54,10 @@ enum Command {
     /// the tree detections released with the data set (matched fraction both ways,
     /// median centre error).
     ExtractionReport(extraction_report::ReportArgs),
+    /// The noise settings a recording with dense ground truth supports (MRCLAM): odometry
+    /// `sigma_v`, `sigma_omega` from windows of odometry against the truth, and the
+    /// sensor's from range and bearing residuals; prints them as a profile snippet.
+    FitNoise(fit_noise::FitNoiseArgs),
     /// The UNGM benchmark (ICOA paper Table 1's shape) for every optimiser, with a
     /// 20 000-particle bootstrap filter as the reference: RMSE, 90 % coverage, time.
     Ungm(ungm::UngmArgs),
@@ -131,6 +136,7 @@ fn dispatch(command: Command) -> anyhow::Result<u8> {
         }
         Command::MapGet(args) => done(map_get::run(&args)),
         Command::ExtractionReport(args) => done(extraction_report::run(&args)),
+        Command::FitNoise(args) => done(fit_noise::run(&args)),
         Command::Ungm(a) => done(ungm::run(&a)),
         Command::MonteCarlo(a) => done(monte_carlo::run(&a)),
         Command::Bench(a) => {

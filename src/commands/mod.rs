@@ -2,13 +2,14 @@
 //! `replay` (a recorded data set through the stack), `compare` (many runs through the
 //! processes, tabled), `monte-carlo` (many runs in process), `ungm` (the UNGM benchmark),
 //! `bench` (performance figures), `test` (your own publisher through the service and the
-//! client, judged by expectations), `map-get` (a running stack's map), `scenarios` and
-//! `extraction-report`; `launch` holds what `run` and `replay` share, `live` their live
+//! client, judged by expectations), `map-get` (a running stack's map), `scenarios`,
+//! `extraction-report` and `fit-noise` (a robot's noise from a recording); `launch` holds what `run` and `replay` share, `live` their live
 //! view.
 
 pub mod bench;
 pub mod compare;
 pub mod extraction_report;
+pub mod fit_noise;
 pub mod launch;
 pub mod live;
 pub mod map_get;
