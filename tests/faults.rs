@@ -851,7 +851,9 @@ fn poses_until_the_service_ends(
     scans: u64,
 ) -> u64 {
     sim.start("service");
-    let ipc = sim.ipc();
+    // The test stands in for the stack's client, whose pose subscription the service
+    // waits for: it joins under the client's node name.
+    let ipc = Ipc::open(&stack(&sim.stack.prefix), "client", Duration::from_secs(30)).unwrap();
     let pose = ipc.subscriber::<PoseEstimate>(&topics::POSE).unwrap();
     let started = Instant::now();
     let mut poses = 0;
