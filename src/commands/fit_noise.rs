@@ -5,6 +5,8 @@
 //! residuals of range and bearing against the true landmarks seen from the true pose.
 
 use anyhow::{Context, bail};
+use fastslam_client::metrics::interpolate;
+use fastslam_client::recording::StampedPose;
 use fastslam_estimation::Pose2;
 use fastslam_estimation::observation::measure;
 use fastslam_estimation::pose::wrap_angle;
@@ -127,33 +129,26 @@ fn spreads(values: &mut [f64]) -> (f64, f64) {
     (std, 1.4826 * median(&mut deviations))
 }
 
-/// The pose of `track` at `stamp_ns`, interpolated linearly between its neighbours (the
-/// heading along the shorter arc); `None` outside the track.
-fn at(track: &[(u64, Pose2)], stamp_ns: u64) -> Option<Pose2> {
-    let i = track.partition_point(|(t, _)| *t <= stamp_ns);
-    let (t0, a) = *track.get(i.checked_sub(1)?)?;
-    let Some(&(t1, b)) = track.get(i) else {
-        return (t0 == stamp_ns).then_some(a);
-    };
-    let f = (stamp_ns - t0) as f64 / (t1 - t0).max(1) as f64;
-    Some(Pose2::new(
-        a.x + f * (b.x - a.x),
-        a.y + f * (b.y - a.y),
-        a.theta + f * wrap_angle(b.theta - a.theta),
-    ))
-}
-
 /// The fit of `data` with windows of `window_s` seconds.
 ///
 /// # Errors
 /// Too little odometry or ground truth to compare.
 pub fn fit(data: &DataSet, window_s: f64) -> anyhow::Result<NoiseFit> {
-    let odometry: Vec<(u64, Pose2)> = (data.odometry.iter())
-        .map(|o: &Odometry| (o.header.stamp_ns, Pose2::new(o.x, o.y, o.theta)))
+    let stamped = |stamp_ns, x, y, theta| StampedPose {
+        stamp_ns,
+        x,
+        y,
+        theta,
+    };
+    let odometry: Vec<StampedPose> = (data.odometry.iter())
+        .map(|o: &Odometry| stamped(o.header.stamp_ns, o.x, o.y, o.theta))
         .collect();
-    let truth: Vec<(u64, Pose2)> = (data.truth.iter())
-        .map(|t: &GroundTruth| (t.header.stamp_ns, Pose2::new(t.x, t.y, t.theta)))
+    let truth: Vec<StampedPose> = (data.truth.iter())
+        .map(|t: &GroundTruth| stamped(t.header.stamp_ns, t.x, t.y, t.theta))
         .collect();
+    let at = |track: &[StampedPose], stamp_ns| {
+        interpolate(track, stamp_ns).map(|p| Pose2::new(p.x, p.y, p.theta))
+    };
     if odometry.len() < 10 || truth.len() < odometry.len() / 100 {
         bail!(
             "{} odometry records and {} ground-truth poses: the fit needs a dense ground truth with headings",
@@ -163,13 +158,13 @@ pub fn fit(data: &DataSet, window_s: f64) -> anyhow::Result<NoiseFit> {
     }
     let mut periods: Vec<f64> = odometry
         .windows(2)
-        .map(|w| (w[1].0 - w[0].0) as f64 * 1e-9)
+        .map(|w| (w[1].stamp_ns - w[0].stamp_ns) as f64 * 1e-9)
         .filter(|&p| p > 0.0)
         .collect();
     periods.sort_unstable_by(f64::total_cmp);
     let dt_s = periods[periods.len() / 2];
     let window_ns = (window_s * 1e9) as u64;
-    let (first, last) = (odometry[0].0, odometry[odometry.len() - 1].0);
+    let (first, last) = (odometry[0].stamp_ns, odometry[odometry.len() - 1].stamp_ns);
     let (mut distance, mut heading) = (Vec::new(), Vec::new());
     let mut start = first;
     while start + window_ns <= last {
