@@ -315,11 +315,7 @@ pub(crate) fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
     println!("  wall time      {:8.2} s", wall.as_secs_f64());
     // A window above the band now and then is chance; a tenth of the run is the model.
     if !h.nis_suspect.is_empty() && h.nis_high_fraction >= 0.1 {
-        let suspect = if h.nis_suspect == "odometry" {
-            "odometry noise looks larger than the configuration's sigma_v / sigma_omega"
-        } else {
-            "sensor noise looks larger than the configuration's sigma_range / sigma_bearing"
-        };
+        let suspect = fastslam_estimation::fastslam::noise_suspect(h.nis_suspect == "odometry");
         println!(
             "  warning: innovations larger than the noise model explains at {:.0} % of steps: {suspect} (docs/REPLAYS.md, fitting the noise)",
             100.0 * h.nis_high_fraction

@@ -4,7 +4,7 @@
 
 use crate::sequencer::Sequencer;
 use crate::slam::{Slam, Step};
-use fastslam_estimation::fastslam::{NIS_WINDOW_SCANS, NisWindow};
+use fastslam_estimation::fastslam::{NIS_WINDOW_SCANS, NisWindow, noise_suspect};
 use fastslam_protocol::status::{REJECTION_KINDS, RejectionKind, ServiceStatus, flags};
 use std::time::{Duration, Instant};
 
@@ -105,11 +105,7 @@ impl Health {
         let pose = self.nis.motion_share() > 0.5;
         if !self.warned {
             self.warned = true;
-            let suspect = if pose {
-                "odometry noise looks larger than the configuration's sigma_v / sigma_omega"
-            } else {
-                "sensor noise looks larger than the configuration's sigma_range / sigma_bearing"
-            };
+            let suspect = noise_suspect(pose);
             tracing::warn!(
                 nis_per_dof = self.nis.per_dof(),
                 scans = NIS_WINDOW_SCANS,

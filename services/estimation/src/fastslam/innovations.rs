@@ -74,6 +74,17 @@ impl Innovations {
     }
 }
 
+/// What a failed noise check points at, in words for a log or a summary: the odometry
+/// noise when the pose term dominates the innovations (`pose_dominates`), else the
+/// sensor's.
+pub fn noise_suspect(pose_dominates: bool) -> &'static str {
+    if pose_dominates {
+        "odometry noise looks larger than the configuration's sigma_v / sigma_omega"
+    } else {
+        "sensor noise looks larger than the configuration's sigma_range / sigma_bearing"
+    }
+}
+
 /// Where the windowed NIS lies against its χ² band.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NisVerdict {

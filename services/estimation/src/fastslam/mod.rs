@@ -58,7 +58,7 @@ pub use association::{Assignment, AssociationConfig, AssociationMode, Scan};
 pub use config::{FastSlamConfig, PriorFloor};
 pub use estimate::{MapLandmark, PoseEstimate};
 pub use evidence::NegativeEvidence;
-pub use innovations::{Innovations, NIS_WINDOW_SCANS, NisVerdict, NisWindow};
+pub use innovations::{Innovations, NIS_WINDOW_SCANS, NisVerdict, NisWindow, noise_suspect};
 pub use landmarks::{Landmark, LandmarkMap, Slot};
 pub use particle::{MotionPrior, Particle};
 pub use proposal::Proposal;
