@@ -137,7 +137,10 @@ fn a_subscriber_that_never_reads_neither_holds_the_stack_nor_counts_as_its_own()
     // The same figures summed in another order: equal up to rounding (an outsider's CPU
     // would add milliseconds).
     let stack_cpu = num(&m, "/cost/stack_cpu_s");
-    assert!((stack_cpu - own).abs() <= 1e-9 * own.max(1.0), "{stack_cpu} vs {own}");
+    assert!(
+        (stack_cpu - own).abs() <= 1e-9 * own.max(1.0),
+        "{stack_cpu} vs {own}"
+    );
     drop(ipc);
     remove_stack_files(&prefix, Some(&fastslam_stack::stack_root(&prefix)));
     assert_no_leftovers_and_remove(&prefix, &dir);
