@@ -244,10 +244,12 @@ fn seeded_steps(n: usize, seed: u64, lo: u64, hi: u64) -> Vec<u64> {
     steps.into_iter().collect()
 }
 
-/// Runs `bailey-short` as fast as possible through processes started one by one into
-/// the run folder `<dir>/<name>`, SIGKILLing the service as soon as its status reports
-/// each of `kill_at` steps and resuming it from its checkpoint; the run's reproducible
-/// metrics and how many services ran.
+/// Runs `bailey-short` through processes started one by one into the run folder
+/// `<dir>/<name>`, SIGKILLing the service as soon as its status reports each of `kill_at`
+/// steps and resuming it from its checkpoint; the run's reproducible metrics and how many
+/// services ran. The service runs as fast as possible (its result does not depend on
+/// timing); ground truth is paced at ten times real time, so that the route is still
+/// being driven when the test's kill lands, even on a loaded machine.
 fn killed_at(prefix: &str, dir: &Path, name: &str, kill_at: &[u64]) -> (serde_json::Value, u64) {
     let run = dir.join(name);
     let ckpt = dir.join(format!("{name}.ckpt")).display().to_string();
@@ -290,7 +292,9 @@ fn killed_at(prefix: &str, dir: &Path, name: &str, kill_at: &[u64]) -> (serde_js
     stack.start("service", &service);
     stack.start("odometry-sim", &sim("2"));
     stack.start("lidar-sim", &sim("2"));
-    stack.start("truth-sim", &sim("3"));
+    let mut truth = sim("3").to_vec();
+    truth.extend(["--realtime", "--rate", "10"]);
+    stack.start("truth-sim", &truth);
     let mut resumed = service.to_vec();
     resumed.extend(["--resume", &ckpt]);
     for &step in kill_at {

@@ -3,7 +3,7 @@
 
 use crate::player::Pacing;
 use crate::profile::Profile;
-use fastslam_protocol::cli::StackArgs;
+use fastslam_protocol::cli::{PaceArgs, StackArgs};
 use fastslam_protocol::ipc::Ipc;
 use std::time::Duration;
 
@@ -17,12 +17,9 @@ pub struct ReplayArgs {
     /// set's own.
     #[arg(long)]
     pub profile: Option<String>,
-    /// Publish at the data's own pace instead of as fast as the consumers go.
-    #[arg(long)]
-    pub realtime: bool,
-    /// Speed-up factor of `--realtime` (2 = twice as fast as recorded).
-    #[arg(long, default_value_t = 1.0)]
-    pub rate: f64,
+    /// Real time (at a rate) or as fast as possible.
+    #[command(flatten)]
+    pub pace: PaceArgs,
     /// Start once this many processes take the sensor streams (the service alone: 1; the
     /// service and the client: 2), so a consumer that starts late loses nothing.
     #[arg(long, default_value_t = 1)]
@@ -42,18 +39,14 @@ impl ReplayArgs {
     }
 
     /// The pacing the flags ask for.
-    ///
-    /// # Errors
-    /// When `--rate` is not a finite number > 0.
-    pub fn pacing(&self) -> anyhow::Result<Pacing> {
-        if !(self.rate.is_finite() && self.rate > 0.0) {
-            anyhow::bail!("--rate must be > 0, got {}", self.rate);
-        }
-        Ok(if self.realtime {
-            Pacing::RealTime { rate: self.rate }
+    pub fn pacing(&self) -> Pacing {
+        if self.pace.realtime {
+            Pacing::RealTime {
+                rate: self.pace.rate,
+            }
         } else {
             Pacing::AsFastAsPossible
-        })
+        }
     }
 
     /// Joins the stack as node `name`.

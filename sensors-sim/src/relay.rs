@@ -3,11 +3,11 @@
 //! when the ground-truth stream has ended and every subscriber has left.
 //!
 //! A sensor keeps what it sent since the service's last checkpoint (the `checkpoint`
-//! topic says what that covers): when a subscriber dies (its node is dead: killed,
-//! crashed; one that leaves is simply gone), the sensor sends it all again, and its
-//! end-of-stream if it had ended, once the subscribers it waits for are back, so a
-//! service resumed from its checkpoint loses nothing. What it keeps is bounded
-//! ([`HISTORY_BYTES`]).
+//! topic says what that covers): when a resumed service asks, the sensor sends it all
+//! again, and its end-of-stream if it had ended, so a service resumed from its checkpoint
+//! loses nothing. When a subscriber dies (its node is dead: killed, crashed; one that
+//! leaves is simply gone) the sensor holds new messages back until a resumed service has
+//! asked, so that what it keeps stays short. What it keeps is bounded ([`HISTORY_BYTES`]).
 
 use crate::Scenario;
 use crate::args::SimArgs;
@@ -202,7 +202,7 @@ impl SensorProcess {
         output.wait_until_left(&self.ipc, || {
             let mut outbox = outbox.borrow_mut();
             let seen = outbox.tend()?;
-            Ok((!outbox.paused).then_some(seen))
+            Ok((!outbox.paused()).then_some(seen))
         })?;
         Ok(())
     }
@@ -224,9 +224,12 @@ struct Outbox<'a, M: Message> {
     /// Messages forgotten beyond [`HISTORY_BYTES`] that no checkpoint covers yet, and the
     /// newest one's stamp.
     forgotten: (u64, u64),
-    /// A subscriber died: new messages wait until a resumed service asks for what it
-    /// missed, so that they reach it after what it missed.
-    paused: bool,
+    /// Subscribers seen dead, and requests of resumed services answered. While more
+    /// died than asked, new messages wait: a service that died is replaced by one that
+    /// asks. The death and the request may be seen in either order (the resumed service
+    /// can ask before this sensor's next look finds its predecessor dead).
+    deaths: u64,
+    resumes: u64,
     /// Subscribers the stream waited for before it started.
     wanted: usize,
     /// Subscribers at the last look, and when that was.
@@ -257,7 +260,8 @@ impl<'a, M: Message> Outbox<'a, M> {
             kept: VecDeque::new(),
             bytes: 0,
             forgotten: (0, 0),
-            paused: false,
+            deaths: 0,
+            resumes: 0,
             wanted,
             seen: Subscribers {
                 alive: wanted,
@@ -268,22 +272,27 @@ impl<'a, M: Message> Outbox<'a, M> {
         }
     }
 
+    /// True while new messages wait for a resumed service's request.
+    fn paused(&self) -> bool {
+        self.deaths > self.resumes
+    }
+
     /// Sends `m` and keeps it, forgetting the oldest beyond [`HISTORY_BYTES`]. After a
     /// subscriber died, first waits (up to the wait timeout) for the resumed service's
     /// request.
     fn send(&mut self, m: M) -> Result<(), IpcError> {
-        if !self.paused && self.out.subscribers() < self.wanted {
+        if !self.paused() && self.out.subscribers() < self.wanted {
             // One of the subscribers waited for is gone: died, or left. Look now.
             self.looked = None;
             self.tend()?;
         }
-        if self.paused {
+        if self.paused() {
             let ipc = self.ipc;
             ipc.wait_for(
                 || "a resumed service to ask for what it missed".into(),
                 || {
                     self.tend()?;
-                    Ok((!self.paused).then_some(()))
+                    Ok((!self.paused()).then_some(()))
                 },
             )?;
         }
@@ -334,12 +343,14 @@ impl<'a, M: Message> Outbox<'a, M> {
         self.looked = Some(Instant::now());
         let seen = self.out.watch()?;
         self.seen = seen;
-        if seen.died > 0 {
+        self.deaths += seen.died as u64;
+        if seen.died > 0 && self.paused() {
             tracing::warn!(
                 kept = self.kept.len(),
                 "a subscriber died: holding new messages until a resumed service asks for what it missed"
             );
-            self.paused = true;
+        } else if seen.died > 0 {
+            tracing::info!("a subscriber died; a resumed service has already asked");
         }
         Ok(self.seen)
     }
@@ -347,7 +358,7 @@ impl<'a, M: Message> Outbox<'a, M> {
     /// Sends everything kept again, then the end-of-stream if the stream has ended, and
     /// lets new messages go.
     fn resend(&mut self) -> Result<(), IpcError> {
-        self.paused = false;
+        self.resumes += 1;
         if self.forgotten.0 > 0 {
             tracing::warn!(
                 lost = self.forgotten.0,

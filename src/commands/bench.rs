@@ -21,6 +21,7 @@ use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::moves::MoveCorrection;
 use fastslam_estimation::optimise::OptimiserKind;
 use fastslam_estimation::workload::{Workload, machine};
+use fastslam_protocol::cli::PaceArgs;
 use fastslam_sensors_sim::Scenario;
 use fastslam_service::config::{Overrides, ServiceConfig};
 use fastslam_stack::lists::List;
@@ -295,7 +296,10 @@ fn stack_run(
         config: None,
         out: Some(out.clone()),
         runs_dir: args.out.clone(),
-        realtime,
+        pace: PaceArgs {
+            realtime,
+            rate: 1.0,
+        },
         timeout_s: None,
         prefix: None,
         iox_root: None,

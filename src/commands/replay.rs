@@ -7,6 +7,7 @@ use crate::commands::live::LiveArgs;
 use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::Context;
 use fastslam_client::expect::JudgeArgs;
+use fastslam_protocol::cli::PaceArgs;
 use fastslam_replay::dataset::Association;
 use fastslam_replay::profile::Profile;
 use fastslam_service::config::{EstimatorChoice, Overrides, ServiceConfig};
@@ -74,12 +75,9 @@ pub struct ReplayRunArgs {
     /// Where run folders go by default.
     #[arg(long, default_value = "runs")]
     pub runs_dir: PathBuf,
-    /// Play the data at its recorded pace instead of as fast as the stack can go.
-    #[arg(long)]
-    pub realtime: bool,
-    /// Speed-up factor of `--realtime`.
-    #[arg(long, default_value_t = 1.0)]
-    pub rate: f64,
+    /// Real time (at a rate) or as fast as the stack can go.
+    #[command(flatten)]
+    pub pace: PaceArgs,
     /// Stop everything after this many seconds, more than 0 (default: no limit).
     #[arg(long, value_parser = crate::commands::launch::timeout_s)]
     pub timeout_s: Option<f64>,
@@ -206,7 +204,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
     let mut service_flags = stack_flags.clone();
     service_flags.extend(overrides.flags());
     service_flags.extend(["--config".into(), config.display().to_string()]);
-    if !args.realtime {
+    if !args.pace.realtime {
         service_flags.push("--as-fast-as-possible".into());
     }
     let mut client = stack_flags.clone();
@@ -220,13 +218,9 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         std::fs::canonicalize(plan.data)?.display().to_string(),
         "--profile".into(),
         profile_arg_for_child(&profile_arg),
-        "--rate".into(),
-        args.rate.to_string(),
     ]);
     replay.extend(plan.flags.iter().cloned());
-    if args.realtime {
-        replay.push("--realtime".into());
-    }
+    replay.extend(args.pace.flags());
 
     let stop = stop_flag()?;
     let started = Instant::now();

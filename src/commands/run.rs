@@ -7,6 +7,7 @@ use crate::progress;
 use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::{Context, bail};
 use fastslam_client::expect::JudgeArgs;
+use fastslam_protocol::cli::PaceArgs;
 use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::scenario::{BUILT_IN, DEFAULT_SCENARIO};
 use fastslam_service::config::{EstimatorChoice, Overrides};
@@ -40,9 +41,9 @@ pub struct RunArgs {
     /// Where run folders go by default.
     #[arg(long, default_value = "runs")]
     pub runs_dir: PathBuf,
-    /// Pace the simulation in real time instead of as fast as the stack can go.
-    #[arg(long)]
-    pub realtime: bool,
+    /// Real time (at a rate) or as fast as the stack can go.
+    #[command(flatten)]
+    pub pace: PaceArgs,
     /// Stop everything after this many seconds, more than 0 (default: no limit).
     #[arg(long, value_parser = crate::commands::launch::timeout_s)]
     pub timeout_s: Option<f64>,
@@ -126,7 +127,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     if let Some(c) = &service_config {
         service.extend(["--config".into(), c.display().to_string()]);
     }
-    if !args.realtime {
+    if !args.pace.realtime {
         service.push("--as-fast-as-possible".into());
     }
     service.extend(args.service_flags.iter().cloned());
@@ -145,9 +146,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         }
     }
     let mut truth = sim_flags();
-    if args.realtime {
-        truth.push("--realtime".into());
-    }
+    truth.extend(args.pace.flags());
     let own_flags = |name: &str| match name {
         "client" => client.clone(),
         "service" => service.clone(),

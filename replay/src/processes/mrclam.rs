@@ -34,7 +34,7 @@ pub struct Args {
 /// Data, profile or IPC errors, with their reason.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let profile = args.replay.profile("mrclam")?;
-    let pacing = args.replay.pacing()?;
+    let pacing = args.replay.pacing();
     let options = mrclam::Options {
         robot: args.robot,
         association: args.association,

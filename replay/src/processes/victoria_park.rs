@@ -28,7 +28,7 @@ pub struct Args {
 /// Data, profile or IPC errors, with their reason.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let profile = args.replay.profile("victoria-park")?;
-    let pacing = args.replay.pacing()?;
+    let pacing = args.replay.pacing();
     let data = victoria_park::load(&args.data, &profile.sensor)?;
     let ipc = args.replay.join("replay-victoria-park")?;
     player::play(&ipc, &data, pacing, args.replay.wait_subscribers)?;

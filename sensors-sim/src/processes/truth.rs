@@ -3,6 +3,7 @@
 
 use crate::args::SimArgs;
 use crate::ground_truth::{GroundTruthSource, true_map};
+use fastslam_protocol::cli::PaceArgs;
 use fastslam_protocol::ipc::{Ipc, IpcError, shutdown};
 use fastslam_protocol::{
     EndOfStream, GroundTruth, Header, LandmarkMapHeader, MapLandmark, StreamId, topics,
@@ -23,9 +24,9 @@ pub struct Args {
     /// Stack, scenario, seed and start-up flags.
     #[command(flatten)]
     pub sim: SimArgs,
-    /// Publish at the scenario's real rate instead of as fast as the consumers go.
-    #[arg(long)]
-    pub realtime: bool,
+    /// Real time or as fast as possible.
+    #[command(flatten)]
+    pub pace: PaceArgs,
 }
 
 /// Runs the process until the route is finished (or a signal arrives).
@@ -61,7 +62,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
 
     let start = Instant::now();
-    tracing::info!(scenario = %scenario.name, realtime = args.realtime, "driving");
+    tracing::info!(scenario = %scenario.name, realtime = args.pace.realtime, rate = args.pace.rate, "driving");
     let mut last = Header::default();
     for sample in GroundTruthSource::new(&scenario) {
         let header = sample.header;
@@ -73,9 +74,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         truth.send(sample)?;
         last = header;
-        if args.realtime {
+        if args.pace.realtime {
             truth.flush()?;
-            let due = Duration::from_secs_f64(header.stamp_s());
+            let due = Duration::from_secs_f64(header.stamp_s() / args.pace.rate);
             ipc.sleep(due.saturating_sub(start.elapsed()))?;
         } else if shutdown::requested() {
             return Err(IpcError::Shutdown.into());

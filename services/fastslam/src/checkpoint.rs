@@ -240,6 +240,18 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     std::fs::File::open(folder)?.sync_all()
 }
 
+/// What the [`ResumeFloor`] makes of an input.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Floor {
+    /// Not processed yet: take it.
+    New,
+    /// The checkpoint holds it: skip it.
+    Covered,
+    /// Sent before its sensor's resend began: skip it, it comes again (so it does not
+    /// count towards its stream's end yet).
+    ComesAgain,
+}
+
 /// Skips inputs a resumed run has already processed: those stamped at or before the
 /// checkpoint's [`Checkpoint::processed_ns`] on their stream. They are counted, not
 /// treated as errors.
@@ -268,10 +280,11 @@ impl ResumeFloor {
         }
     }
 
-    /// True when the input `h` on `stream` is new; counts it as skipped otherwise.
-    pub fn admits(&mut self, stream: Stream, h: Header) -> bool {
+    /// Whether the input `h` on `stream` is new ([`Floor::New`]); counts it as skipped
+    /// otherwise.
+    pub fn admits(&mut self, stream: Stream, h: Header) -> Floor {
         let Some(floor) = self.floor else {
-            return true;
+            return Floor::New;
         };
         let floor = floor[stream];
         if let Some(first) = self.awaiting[stream] {
@@ -281,12 +294,15 @@ impl ResumeFloor {
             } else {
                 self.awaiting[stream] = Some(first.or(Some(h.seq)));
                 self.skipped += 1;
-                return false;
+                return Floor::ComesAgain;
             }
         }
-        let stale = h.stamp_ns <= floor;
-        self.skipped += u64::from(stale);
-        !stale
+        if h.stamp_ns <= floor {
+            self.skipped += 1;
+            Floor::Covered
+        } else {
+            Floor::New
+        }
     }
 
     /// True when the checkpoint holds the input stamped `stamp_ns` on `stream`.
@@ -402,21 +418,24 @@ mod tests {
         let h = |seq, stamp_ns| Header { stamp_ns, seq };
         let c = checkpoint();
         let mut floor = ResumeFloor::of(Some(&c));
-        assert!(
-            !floor.admits(Stream::Odometry, h(12, 1200)),
+        let mut admits = |stream, seq, stamp| floor.admits(stream, h(seq, stamp));
+        assert_eq!(
+            admits(Stream::Odometry, 12, 1200),
+            Floor::ComesAgain,
             "sent before the resend"
         );
-        assert!(
-            !floor.admits(Stream::Odometry, h(9, 900)),
+        assert_eq!(
+            admits(Stream::Odometry, 9, 900),
+            Floor::Covered,
             "the resend begins"
         );
-        assert!(floor.admits(Stream::Odometry, h(10, 1000)));
-        assert!(!floor.admits(Stream::Lidar, h(5, 1000)));
-        assert!(floor.admits(Stream::Lidar, h(6, 1100)));
+        assert_eq!(admits(Stream::Odometry, 10, 1000), Floor::New);
+        assert_eq!(admits(Stream::Lidar, 5, 1000), Floor::Covered);
+        assert_eq!(admits(Stream::Lidar, 6, 1100), Floor::New);
         assert_eq!(floor.skipped(), 3);
         assert!(floor.covers(Stream::Lidar, 1000) && !floor.covers(Stream::Lidar, 1001));
         let mut fresh = ResumeFloor::of(None);
-        assert!(fresh.admits(Stream::Odometry, h(0, 0)));
+        assert_eq!(fresh.admits(Stream::Odometry, h(0, 0)), Floor::New);
         assert_eq!(fresh.skipped(), 0);
     }
 }

@@ -11,7 +11,7 @@
 //! waits), and no deadline applies.
 
 use crate::admit::Admission;
-use crate::checkpoint::{Checkpoint, ResumeFloor};
+use crate::checkpoint::{Checkpoint, Floor, ResumeFloor};
 use crate::config::ServiceConfig;
 use crate::deadline::{Change, Watchdog};
 use crate::health::Health;
@@ -279,8 +279,9 @@ impl Service {
         Taken::Done
     }
 
-    /// A new message of `stream` with header `h`, logged as `what` if rejected: counted
-    /// towards its stream's end, skipped if the checkpoint covers it, then checked by
+    /// A new message of `stream` with header `h`, logged as `what` if rejected: skipped
+    /// if the checkpoint covers it or it comes again (counted towards its stream's end
+    /// unless it comes again), then checked by
     /// `check`. True when it passed; its stream has then been heard from.
     fn admit(
         &mut self,
@@ -290,9 +291,13 @@ impl Service {
         now: Instant,
         check: impl FnOnce(&mut Admission) -> Result<(), Rejection>,
     ) -> bool {
-        self.ends[stream].saw(h.seq);
-        if !self.floor.admits(stream, h) {
-            return false;
+        match self.floor.admits(stream, h) {
+            Floor::New => self.ends[stream].saw(h.seq),
+            Floor::Covered => {
+                self.ends[stream].saw(h.seq);
+                return false;
+            }
+            Floor::ComesAgain => return false,
         }
         if let Err(r) = check(&mut self.admission) {
             self.core.health.log.reject(now, what, h.seq, r.kind(), &r);

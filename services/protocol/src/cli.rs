@@ -29,6 +29,39 @@ impl StackArgs {
     }
 }
 
+/// How a producer paces what it publishes: as fast as its consumers take it (the
+/// default: nothing is lost and the results do not depend on timing), or at the data's
+/// own rates.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct PaceArgs {
+    /// Publish at the data's own rates instead of as fast as the consumers go.
+    #[arg(long)]
+    pub realtime: bool,
+    /// With `--realtime`: this many times faster than real time (2 = twice as fast, like
+    /// `ros2 bag play --rate`).
+    #[arg(long, default_value_t = 1.0, requires = "realtime", value_parser = positive_rate)]
+    pub rate: f64,
+}
+
+impl PaceArgs {
+    /// The same flags, for a child process.
+    pub fn flags(&self) -> Vec<String> {
+        if self.realtime {
+            vec!["--realtime".into(), "--rate".into(), self.rate.to_string()]
+        } else {
+            Vec::new()
+        }
+    }
+}
+
+/// A `--rate`: a finite number above 0.
+fn positive_rate(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(rate) if rate.is_finite() && rate > 0.0 => Ok(rate),
+        _ => Err(format!("{text:?} is not a rate above 0 (1 = real time)")),
+    }
+}
+
 /// How a process that consumes topics waits for them.
 #[derive(Debug, Clone, Copy, Default, clap::Args)]
 pub struct WaitArgs {
