@@ -251,6 +251,20 @@ fn seeded_steps(n: usize, seed: u64, lo: u64, hi: u64) -> Vec<u64> {
 /// timing); ground truth is paced at ten times real time, so that the route is still
 /// being driven when the test's kill lands, even on a loaded machine.
 fn killed_at(prefix: &str, dir: &Path, name: &str, kill_at: &[u64]) -> (serde_json::Value, u64) {
+    let m = killed_with_history(prefix, dir, name, kill_at, None);
+    assert_eq!(num(&m, "/inputs/rejected_total"), 0.0, "{m}");
+    (reproducible(&dir.join(name)), kill_at.len() as u64 + 1)
+}
+
+/// [`killed_at`] with the sensors keeping at most `history_kib` KiB for a resumed
+/// service (default: theirs); the run's metrics.
+fn killed_with_history(
+    prefix: &str,
+    dir: &Path,
+    name: &str,
+    kill_at: &[u64],
+    history_kib: Option<&str>,
+) -> serde_json::Value {
     let run = dir.join(name);
     let ckpt = dir.join(format!("{name}.ckpt")).display().to_string();
     let service = [
@@ -290,8 +304,12 @@ fn killed_at(prefix: &str, dir: &Path, name: &str, kill_at: &[u64]) -> (serde_js
         .unwrap();
     stack.start("client", &["--out", &run.display().to_string()]);
     stack.start("service", &service);
-    stack.start("odometry-sim", &sim("2"));
-    stack.start("lidar-sim", &sim("2"));
+    let mut sensor = sim("2").to_vec();
+    if let Some(kib) = history_kib {
+        sensor.extend(["--history-kib", kib]);
+    }
+    stack.start("odometry-sim", &sensor);
+    stack.start("lidar-sim", &sensor);
     let mut truth = sim("3").to_vec();
     truth.extend(["--realtime", "--rate", "10"]);
     stack.start("truth-sim", &truth);
@@ -316,9 +334,7 @@ fn killed_at(prefix: &str, dir: &Path, name: &str, kill_at: &[u64]) -> (serde_js
     }
     drop(status);
     drop(watcher);
-    let m = metrics(&run);
-    assert_eq!(num(&m, "/inputs/rejected_total"), 0.0, "{m}");
-    (reproducible(&run), kill_at.len() as u64 + 1)
+    metrics(&run)
 }
 
 #[test]
@@ -336,5 +352,38 @@ fn a_service_sigkilled_at_ten_random_steps_and_resumed_gives_the_uninterrupted_m
         resumed, whole,
         "the resumed run's metrics differ from the uninterrupted run's"
     );
+    assert_no_leftovers_and_remove(&prefix, &dir);
+}
+
+#[test]
+fn what_sensors_no_longer_keep_for_a_resumed_service_is_counted_as_lost() {
+    let prefix = prefix("lost");
+    let dir = folder(&prefix);
+    // 1 KiB holds some 18 odometry messages; ten steps between checkpoints send about 80.
+    let m = killed_with_history(&prefix, &dir, "small", &[105, 207], Some("1"));
+    let logged: u64 = ["odometry-sim", "lidar-sim"]
+        .iter()
+        .map(|sensor| {
+            let log = std::fs::read_to_string(dir.join(format!("small-logs/{sensor}.0.log")));
+            (log.unwrap().split("lost=").skip(1))
+                .map(|rest| {
+                    rest.split_whitespace()
+                        .next()
+                        .unwrap()
+                        .parse::<u64>()
+                        .unwrap()
+                })
+                .sum::<u64>()
+        })
+        .sum();
+    let lost = num(&m, "/inputs/rejected/lost");
+    eprintln!("lost {lost} inputs; the sensors logged {logged}");
+    assert!(lost > 0.0, "nothing lost: {m}");
+    assert_eq!(
+        lost, logged as f64,
+        "the service counts what the sensors lost"
+    );
+    assert_eq!(num(&m, "/inputs/rejected_total"), lost, "{m}");
+    assert!(num(&m, "/estimate/poses") > 0.0);
     assert_no_leftovers_and_remove(&prefix, &dir);
 }

@@ -7,7 +7,10 @@
 //! again, and its end-of-stream if it had ended, so a service resumed from its checkpoint
 //! loses nothing. When a subscriber dies (its node is dead: killed, crashed; one that
 //! leaves is simply gone) the sensor holds new messages back until a resumed service has
-//! asked, so that what it keeps stays short. What it keeps is bounded ([`HISTORY_BYTES`]).
+//! asked, so that what it keeps stays short. What it keeps is bounded ([`ResendArgs`]);
+//! beyond the bound the oldest is forgotten but for the first, the last input the
+//! checkpoint holds, with which a resend starts: the resumed service counts what is
+//! missing after it as lost.
 
 use crate::Scenario;
 use crate::args::SimArgs;
@@ -23,10 +26,25 @@ use std::collections::VecDeque;
 use std::fmt::Debug;
 use std::time::{Duration, Instant};
 
-/// The most a sensor keeps of what it sent since the last checkpoint, in bytes of
-/// payload (64 MiB: a million odometry messages, some 20,000 raw scans of 720 beams).
-/// Beyond it the oldest is forgotten; were it needed again, it is lost, and logged.
-pub const HISTORY_BYTES: usize = 64 << 20;
+/// How much a sensor keeps to send again to a resumed service.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct ResendArgs {
+    /// The most this sensor keeps of what it sent since the service's last checkpoint,
+    /// to send again to a service resumed from it, in KiB of payload (64 MiB: a million
+    /// odometry messages, some 20,000 raw scans of 720 beams; at most 16 GiB). Beyond it
+    /// the oldest is forgotten; if a resumed service needs it, it is lost: logged here and
+    /// counted by the service.
+    #[arg(long, default_value_t = 64 << 10, value_name = "KIB",
+          value_parser = clap::value_parser!(u64).range(1..=16 << 20))]
+    pub history_kib: u64,
+}
+
+impl ResendArgs {
+    /// The bound in bytes.
+    fn bytes(self) -> usize {
+        usize::try_from(self.history_kib << 10).unwrap_or(usize::MAX)
+    }
+}
 
 /// How often a sensor looks whether a subscriber died (listing the stack's nodes reads
 /// the file system).
@@ -131,6 +149,7 @@ pub struct SensorProcess {
     eos: Pub<EndOfStream, ()>,
     stream: StreamId,
     wait_subscribers: usize,
+    history_bytes: usize,
 }
 
 impl SensorProcess {
@@ -140,7 +159,12 @@ impl SensorProcess {
     ///
     /// # Errors
     /// Scenario or IPC errors.
-    pub fn open(args: &SimArgs, name: &str, stream: StreamId) -> anyhow::Result<Self> {
+    pub fn open(
+        args: &SimArgs,
+        resend: ResendArgs,
+        name: &str,
+        stream: StreamId,
+    ) -> anyhow::Result<Self> {
         let (scenario, seed) = args.scenario()?;
         let ipc = Ipc::open(&args.stack.stack(), name, args.wait_timeout())?;
         let eos = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
@@ -152,6 +176,7 @@ impl SensorProcess {
             eos,
             stream,
             wait_subscribers,
+            history_bytes: resend.bytes(),
         })
     }
 
@@ -175,7 +200,8 @@ impl SensorProcess {
         output.wait_for_subscribers(&self.ipc, self.wait_subscribers)?;
         let slot = usize::from(self.stream != StreamId::Odometry);
         let wanted = self.wait_subscribers.max(1);
-        let outbox = Outbox::new(&self.ipc, output, &checkpoints, &self.eos, slot, wanted);
+        let mut outbox = Outbox::new(&self.ipc, output, &checkpoints, &self.eos, slot, wanted);
+        outbox.bound = self.history_bytes;
         let outbox = RefCell::new(outbox);
         let mut last: Option<Header> = None;
         truth.follow(
@@ -219,11 +245,11 @@ struct Outbox<'a, M: Message> {
     slot: usize,
     /// What was sent and no checkpoint covers yet, oldest first.
     kept: VecDeque<M>,
-    /// Their bytes.
+    /// Their bytes, and the most kept.
     bytes: usize,
-    /// Messages forgotten beyond [`HISTORY_BYTES`] that no checkpoint covers yet, and the
-    /// newest one's stamp.
-    forgotten: (u64, u64),
+    bound: usize,
+    /// The sequence number of the newest message sent.
+    newest: Option<u64>,
     /// Subscribers seen dead, and requests of resumed services answered. While more
     /// died than asked, new messages wait: a service that died is replaced by one that
     /// asks. The death and the request may be seen in either order (the resumed service
@@ -259,7 +285,8 @@ impl<'a, M: Message> Outbox<'a, M> {
             slot,
             kept: VecDeque::new(),
             bytes: 0,
-            forgotten: (0, 0),
+            bound: usize::MAX,
+            newest: None,
             deaths: 0,
             resumes: 0,
             wanted,
@@ -277,7 +304,8 @@ impl<'a, M: Message> Outbox<'a, M> {
         self.deaths > self.resumes
     }
 
-    /// Sends `m` and keeps it, forgetting the oldest beyond [`HISTORY_BYTES`]. After a
+    /// Sends `m` and keeps it, forgetting the oldest but the first beyond the bound (the
+    /// first is the mark a resend starts with). After a
     /// subscriber died, first waits (up to the wait timeout) for the resumed service's
     /// request.
     fn send(&mut self, m: M) -> Result<(), IpcError> {
@@ -297,29 +325,26 @@ impl<'a, M: Message> Outbox<'a, M> {
             )?;
         }
         m.send(self.out)?;
+        self.newest = Some(m.header().seq);
         self.bytes += m.bytes();
         self.kept.push_back(m);
-        while self.bytes > HISTORY_BYTES
-            && let Some(old) = self.kept.pop_front()
+        while self.bytes > self.bound
+            && self.kept.len() > 1
+            && let Some(old) = self.kept.remove(1)
         {
             self.bytes -= old.bytes();
-            self.forgotten = (self.forgotten.0 + 1, old.header().stamp_ns);
         }
         Ok(())
     }
 
     /// Forgets what a checkpoint covering stamps up to `covered_ns` holds, but for its
-    /// last input: a resend starts with it, which tells the resumed service that the
-    /// resend has begun.
+    /// last input (the newest kept at or before `covered_ns`): a resend starts with it,
+    /// which tells the resumed service that the resend has begun.
     fn forget(&mut self, covered_ns: u64) {
-        while let Some(old) = self.kept.front()
-            && old.header().stamp_ns < covered_ns
+        while (self.kept.get(1)).is_some_and(|next| next.header().stamp_ns <= covered_ns)
+            && let Some(old) = self.kept.pop_front()
         {
             self.bytes -= old.bytes();
-            self.kept.pop_front();
-        }
-        if self.forgotten.1 <= covered_ns {
-            self.forgotten = (0, 0);
         }
     }
 
@@ -355,13 +380,27 @@ impl<'a, M: Message> Outbox<'a, M> {
         Ok(self.seen)
     }
 
+    /// Messages forgotten after the first kept (the resend's mark) that a resend would
+    /// have to start with: the gap in sequence numbers after the mark.
+    fn lost(&self) -> u64 {
+        let Some(mark) = self.kept.front() else {
+            return 0;
+        };
+        let next = match self.kept.get(1) {
+            Some(next) => next.header().seq,
+            None => self.newest.map_or(0, |seq| seq + 1),
+        };
+        next.saturating_sub(mark.header().seq + 1)
+    }
+
     /// Sends everything kept again, then the end-of-stream if the stream has ended, and
     /// lets new messages go.
     fn resend(&mut self) -> Result<(), IpcError> {
         self.resumes += 1;
-        if self.forgotten.0 > 0 {
+        let lost = self.lost();
+        if lost > 0 {
             tracing::warn!(
-                lost = self.forgotten.0,
+                lost,
                 "messages beyond the history's bound cannot be sent again: lost"
             );
         }

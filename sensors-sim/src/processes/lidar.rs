@@ -6,7 +6,7 @@ use crate::args::{SimArgs, streams};
 use crate::ground_truth::observation_due;
 use crate::landmark_sensor::LandmarkSensor;
 use crate::lidar_sensor::Lidar;
-use crate::relay::{ObservationsMessage, ScanMessage, SensorProcess};
+use crate::relay::{ObservationsMessage, ResendArgs, ScanMessage, SensorProcess};
 use crate::scenario::LidarSpec;
 use crate::vehicle::State;
 use fastslam_estimation::rng::stream;
@@ -21,6 +21,9 @@ pub struct Args {
     /// Stack, scenario, seed and start-up flags.
     #[command(flatten)]
     pub sim: SimArgs,
+    /// What it keeps for a resumed service.
+    #[command(flatten)]
+    pub resend: ResendArgs,
 }
 
 /// Runs the process until its stream is finished (or a signal arrives).
@@ -37,7 +40,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
 /// Raw scans on `scan`.
 fn run_scans(args: &Args, spec: LidarSpec) -> anyhow::Result<()> {
-    let process = SensorProcess::open(&args.sim, "lidar-sim", StreamId::Scan)?;
+    let process = SensorProcess::open(&args.sim, args.resend, "lidar-sim", StreamId::Scan)?;
     let scans = process
         .ipc
         .slice_publisher::<LaserScanHeader, f32>(&topics::SCAN)?
@@ -60,7 +63,7 @@ fn run_scans(args: &Args, spec: LidarSpec) -> anyhow::Result<()> {
 
 /// Landmark observations on `observations`.
 fn run_features(args: &Args) -> anyhow::Result<()> {
-    let process = SensorProcess::open(&args.sim, "lidar-sim", StreamId::Observations)?;
+    let process = SensorProcess::open(&args.sim, args.resend, "lidar-sim", StreamId::Observations)?;
     let observations = process
         .ipc
         .slice_publisher::<ObservationsHeader, Observation>(&topics::OBSERVATIONS)?

@@ -2,7 +2,7 @@
 
 use crate::args::SimArgs;
 use crate::odometry_sensor::OdometrySensor;
-use crate::relay::SensorProcess;
+use crate::relay::{ResendArgs, SensorProcess};
 use fastslam_protocol::{Odometry, StreamId, topics};
 
 /// What `--help` says about this process.
@@ -14,6 +14,9 @@ pub struct Args {
     /// Stack, scenario, seed and start-up flags.
     #[command(flatten)]
     pub sim: SimArgs,
+    /// What it keeps for a resumed service.
+    #[command(flatten)]
+    pub resend: ResendArgs,
 }
 
 /// Runs the process until its stream is finished (or a signal arrives).
@@ -21,7 +24,7 @@ pub struct Args {
 /// # Errors
 /// Scenario, IPC or timeout errors, with their reason.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let process = SensorProcess::open(&args.sim, "odometry-sim", StreamId::Odometry)?;
+    let process = SensorProcess::open(&args.sim, args.resend, "odometry-sim", StreamId::Odometry)?;
     let odometry = process
         .ipc
         .publisher::<Odometry>(&topics::ODOMETRY)?

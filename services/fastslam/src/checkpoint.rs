@@ -20,6 +20,7 @@ use fastslam_estimation::fastslam::FilterState;
 use fastslam_estimation::fastslam::NisWindow;
 use fastslam_estimation::graph::Feed;
 use fastslam_protocol::Header;
+use fastslam_protocol::status::REJECTION_KINDS;
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -27,7 +28,7 @@ use std::path::{Path, PathBuf};
 /// The first bytes of every checkpoint file.
 pub const MAGIC: [u8; 8] = *b"FSLMCKPT";
 /// The payload layout written by this build; bumped whenever [`Checkpoint`] changes.
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
 /// Bytes before the payload: magic, version, length, hash.
 const HEADER_LEN: usize = 28;
 
@@ -104,6 +105,8 @@ pub struct Checkpoint {
     pub smoother_feed: Vec<Feed>,
     /// The noise check's window, and whether its warning was logged.
     pub noise_check: (NisWindow, bool),
+    /// Inputs rejected so far, by [`fastslam_protocol::status::RejectionKind`].
+    pub rejections: [u64; REJECTION_KINDS],
 }
 
 /// FNV-1a, 64 bits: a cheap hash that catches flipped or lost bytes.
@@ -243,8 +246,12 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 /// What the [`ResumeFloor`] makes of an input.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Floor {
-    /// Not processed yet: take it.
-    New,
+    /// Not processed yet: take it. `lost` inputs are missing between it and the last
+    /// one the checkpoint holds: its sensor no longer had them to send again.
+    New {
+        /// Inputs missing before it.
+        lost: u64,
+    },
     /// The checkpoint holds it: skip it.
     Covered,
     /// Sent before its sensor's resend began: skip it, it comes again (so it does not
@@ -266,6 +273,9 @@ pub struct ResumeFloor {
     floor: Option<PerInput<u64>>,
     /// Per stream: the first sequence number seen while its resend had not begun.
     awaiting: PerInput<Option<Option<u64>>>,
+    /// Per stream: the sequence number of the last input taken as covered since the last
+    /// new one (the resend's mark), to count what is missing after it.
+    covered_seq: PerInput<Option<u64>>,
     skipped: u64,
 }
 
@@ -276,6 +286,7 @@ impl ResumeFloor {
         Self {
             floor: checkpoint.map(|c| c.processed_ns),
             awaiting: PerInput::from_fn(|_| resumed.then_some(None)),
+            covered_seq: PerInput::default(),
             skipped: 0,
         }
     }
@@ -284,7 +295,7 @@ impl ResumeFloor {
     /// otherwise.
     pub fn admits(&mut self, stream: Stream, h: Header) -> Floor {
         let Some(floor) = self.floor else {
-            return Floor::New;
+            return Floor::New { lost: 0 };
         };
         let floor = floor[stream];
         if let Some(first) = self.awaiting[stream] {
@@ -299,9 +310,11 @@ impl ResumeFloor {
         }
         if h.stamp_ns <= floor {
             self.skipped += 1;
+            self.covered_seq[stream] = Some(h.seq);
             Floor::Covered
         } else {
-            Floor::New
+            let lost = (self.covered_seq[stream].take()).map_or(0, |c| h.seq.saturating_sub(c + 1));
+            Floor::New { lost }
         }
     }
 
@@ -347,6 +360,7 @@ mod tests {
             last_seq: [Some(0), Some(0), None, Some(0), None, None],
             smoother_feed: Vec::new(),
             noise_check: (NisWindow::new(10), true),
+            rejections: [3; REJECTION_KINDS],
         }
     }
 
@@ -429,13 +443,21 @@ mod tests {
             Floor::Covered,
             "the resend begins"
         );
-        assert_eq!(admits(Stream::Odometry, 10, 1000), Floor::New);
+        assert_eq!(admits(Stream::Odometry, 10, 1000), Floor::New { lost: 0 });
         assert_eq!(admits(Stream::Lidar, 5, 1000), Floor::Covered);
-        assert_eq!(admits(Stream::Lidar, 6, 1100), Floor::New);
+        assert_eq!(
+            admits(Stream::Lidar, 9, 1400),
+            Floor::New { lost: 3 },
+            "6, 7 and 8 are missing after the mark"
+        );
+        assert_eq!(admits(Stream::Lidar, 11, 1600), Floor::New { lost: 0 });
         assert_eq!(floor.skipped(), 3);
         assert!(floor.covers(Stream::Lidar, 1000) && !floor.covers(Stream::Lidar, 1001));
         let mut fresh = ResumeFloor::of(None);
-        assert_eq!(fresh.admits(Stream::Odometry, h(0, 0)), Floor::New);
+        assert_eq!(
+            fresh.admits(Stream::Odometry, h(0, 0)),
+            Floor::New { lost: 0 }
+        );
         assert_eq!(fresh.skipped(), 0);
     }
 }

@@ -2,6 +2,7 @@
 //! a log that says why an input was skipped without flooding the log when a publisher
 //! keeps sending garbage.
 
+use crate::checkpoint::Checkpoint;
 use crate::sequencer::Sequencer;
 use crate::slam::{Slam, Step};
 use fastslam_estimation::fastslam::{NIS_WINDOW_SCANS, NisWindow, noise_suspect};
@@ -39,11 +40,13 @@ impl Health {
         }
     }
 
-    /// Continues the counters and the noise check of a run resumed from a checkpoint.
-    pub fn resume(&mut self, steps: u64, resamplings: u64, noise_check: &(NisWindow, bool)) {
-        self.steps = steps;
-        self.resamplings = resamplings;
-        (self.nis, self.warned) = noise_check.clone();
+    /// Continues the counters (steps, resamplings, rejections) and the noise check of a
+    /// run resumed from `checkpoint`.
+    pub fn resume(&mut self, checkpoint: &Checkpoint) {
+        self.steps = checkpoint.steps;
+        self.resamplings = checkpoint.resamplings;
+        (self.nis, self.warned) = checkpoint.noise_check.clone();
+        self.log.counts = checkpoint.rejections;
     }
 
     /// The noise check's state, for a checkpoint.
@@ -194,6 +197,17 @@ impl RejectionLog {
         self.last_logged[k] = Some(now);
         tracing::warn!(seq, %reason, kind = kind.name(), "{what} skipped");
         true
+    }
+
+    /// Counts `count` inputs of `what` lost before the one numbered `seq`: a resumed
+    /// service needed them and their sensor no longer had them. Always logged.
+    pub fn lost(&mut self, what: &str, seq: u64, count: u64) {
+        self.counts[RejectionKind::Lost as usize] += count;
+        tracing::warn!(
+            count,
+            before_seq = seq,
+            "{what} lost while the service was down: its sensor no longer had them to send again"
+        );
     }
 
     /// Logs the summary of every kind whose interval has passed with rejections left

@@ -292,7 +292,12 @@ impl Service {
         check: impl FnOnce(&mut Admission) -> Result<(), Rejection>,
     ) -> bool {
         match self.floor.admits(stream, h) {
-            Floor::New => self.ends[stream].saw(h.seq),
+            Floor::New { lost } => {
+                self.ends[stream].saw(h.seq);
+                if lost > 0 {
+                    self.core.health.log.lost(what, h.seq, lost);
+                }
+            }
             Floor::Covered => {
                 self.ends[stream].saw(h.seq);
                 return false;
@@ -410,7 +415,7 @@ impl Core {
     ) -> Self {
         let mut health = Health::new(Duration::from_secs_f64(config.input.log_interval_s));
         if let Some(c) = resumed {
-            health.resume(c.steps, c.resamplings, &c.noise_check);
+            health.resume(c);
         }
         Self {
             slam,
@@ -436,6 +441,7 @@ impl Core {
             last_seq: self.out.last_seq(),
             smoother_feed: self.slam.smoother_feed(),
             noise_check: self.health.noise_check(),
+            rejections: self.health.log.counts(),
         }
     }
 

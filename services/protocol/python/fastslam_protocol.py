@@ -234,7 +234,7 @@ class ServiceStatus(ctypes.Structure):
         ("last_input_ns", ctypes.c_uint64 * 2),  # ns: newest accepted stamp: odometry, observations
         ("flags", ctypes.c_uint32),  # —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline); bit 2: odometry quiet; bit 3: lidar quiet; bit 4: final status, sent at shutdown (not a step); bit 5: noise check failed (NIS above its χ² band for a whole window); bit 6: with bit 5, the pose term dominates (odometry noise suspected; else the sensor's)
         ("nis_dof", ctypes.c_uint32),  # —: degrees of freedom in the noise check's window (2 per matched observation)
-        ("rejections", ctypes.c_uint64 * 16),  # —: rejected inputs by reason: 0 non-finite, 1 out of range, 2 bad count, 3 stamp backwards, 4 refused by the filter, 5 duplicate seq, 6 stamp jump, 7 teleporting odometry, 8 queue overflow (oldest dropped), 9 late (after a quiet stream)
+        ("rejections", ctypes.c_uint64 * 16),  # —: rejected inputs by reason: 0 non-finite, 1 out of range, 2 bad count, 3 stamp backwards, 4 refused by the filter, 5 duplicate seq, 6 stamp jump, 7 teleporting odometry, 8 queue overflow (oldest dropped), 9 late (after a quiet stream), 10 lost (sent while the service was down, no longer kept by its sensor for the resumed service)
         ("nis", ctypes.c_double),  # —: noise check: NIS per degree of freedom over the last 50 scans, predicted from the motion prior (1 when the noise model fits; NaN before any match; docs/ALGORITHMS.md)
     ]
 

@@ -33,11 +33,14 @@ pub enum RejectionKind {
     /// The input arrived after the other stream had been released past its stamp
     /// (possible only while a stream was quiet beyond its deadline).
     Late = 9,
+    /// Sent while the service was down and no longer kept by its sensor when the resumed
+    /// service asked for it (the sensor's history bound).
+    Lost = 10,
 }
 
 impl RejectionKind {
     /// Every kind, in index order.
-    pub const ALL: [Self; 10] = [
+    pub const ALL: [Self; 11] = [
         Self::NonFinite,
         Self::OutOfRange,
         Self::BadCount,
@@ -48,6 +51,7 @@ impl RejectionKind {
         Self::Teleport,
         Self::Overflow,
         Self::Late,
+        Self::Lost,
     ];
 
     /// A short snake_case name, for logs and metrics.
@@ -63,6 +67,7 @@ impl RejectionKind {
             Self::Teleport => "teleport",
             Self::Overflow => "overflow",
             Self::Late => "late",
+            Self::Lost => "lost",
         }
     }
 }
