@@ -86,6 +86,11 @@ pub struct AssociationConfig {
     /// innovation covariance, so gates widen with the drift since the last update
     /// (`Scan::associate_uncertain`). Off by default.
     pub pose_uncertainty: bool,
+    /// Unknown association: after a scan's updates, a landmark it touched is merged
+    /// with another of the same particle whose position it matches, `(μ₁ − μ₂)ᵀ (Σ₁ +
+    /// Σ₂)⁻¹ (μ₁ − μ₂) < merge_gate` (χ², 2 dof), into their fused Gaussian
+    /// (`merge::merge_touched`). 0 (default): never.
+    pub merge_gate: f64,
 }
 
 /// How the observations of one scan share the landmarks under unknown association
@@ -115,6 +120,7 @@ impl Default for AssociationConfig {
             assignment: Assignment::Greedy,
             likelihood_ratio: false,
             pose_uncertainty: false,
+            merge_gate: 0.0,
         }
     }
 }
@@ -141,6 +147,16 @@ impl AssociationConfig {
         require(self.log_p_new.is_finite(), "association.log_p_new", || {
             format!("must be finite, got {}", self.log_p_new)
         })?;
+        require(
+            self.merge_gate.is_finite() && self.merge_gate >= 0.0,
+            "association.merge_gate",
+            || {
+                format!(
+                    "must be a finite number >= 0 (0: off), got {}",
+                    self.merge_gate
+                )
+            },
+        )?;
         positive("association.search_radius", self.search_radius)?;
         positive("association.cell_size", self.cell_size)
     }

@@ -44,6 +44,7 @@ mod estimate;
 pub mod evidence;
 pub mod innovations;
 pub mod landmarks;
+mod merge;
 mod particle;
 pub mod proposal;
 pub mod refine;
@@ -695,6 +696,29 @@ impl FastSlam {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn merging_fuses_a_landmark_mapped_twice_into_one() {
+        let seen = Observation {
+            range: 5.0,
+            bearing: 0.1,
+            id: None,
+        };
+        let landmarks_after = |merge_gate| {
+            let mut config = FastSlamConfig {
+                particles: 5,
+                ..FastSlamConfig::default()
+            };
+            config.association.merge_gate = merge_gate;
+            let mut slam = FastSlam::new(config, Pose2::default()).unwrap();
+            // One point detected twice in a scan: each detection starts a landmark, and
+            // the two Gaussians coincide.
+            slam.update(&[seen, seen]).unwrap();
+            slam.best().map.len()
+        };
+        assert_eq!(landmarks_after(0.0), 2, "no merging by default");
+        assert_eq!(landmarks_after(9.21), 1);
+    }
 
     #[test]
     fn reanchoring_moves_poses_and_maps_and_takes_the_solved_landmarks() {

@@ -1,10 +1,11 @@
 //! One FastSLAM particle: a pose hypothesis, its log-weight and its own landmark map
 //! (docs/ALGORITHMS.md §1), with the map update that applies a scan's association decisions.
 
-use super::association::{Decision, Scan, ScanAssociation};
+use super::association::{AssociationMode, Decision, Scan, ScanAssociation};
 use super::ekf;
 use super::evidence::NegativeEvidence;
 use super::landmarks::LandmarkMap;
+use super::merge;
 use super::trail::Trail;
 use crate::motion::{Control, MotionModel};
 use crate::pose::{Pose2, wrap_angle};
@@ -133,6 +134,9 @@ impl Particle {
     ) -> MapChanges {
         let noise = scan.sensor().noise();
         let mut changes = MapChanges::default();
+        let config = scan.config();
+        let merging = config.mode == AssociationMode::Unknown && config.merge_gate > 0.0;
+        let mut touched = Vec::new();
         for (obs, decision) in scan.observations().iter().zip(&association.decisions) {
             match *decision {
                 Decision::Update {
@@ -151,17 +155,27 @@ impl Particle {
                         landmark.hits = landmark.hits.saturating_add(1);
                     });
                     changes.matched += 1;
+                    if merging {
+                        touched.push(slot.id());
+                    }
                 }
                 Decision::New { id } => {
                     let id = id.unwrap_or_else(|| self.map.allocate_id());
                     self.map
                         .insert(LandmarkMap::landmark_from(id, &self.pose, &obs.z(), &noise));
                     changes.created += 1;
+                    if merging {
+                        touched.push(id);
+                    }
                 }
                 Decision::Ignore => changes.ignored += 1,
             }
         }
         changes.removed = evidence.apply(&mut self.map, &self.pose, scan.sensor());
+        if merging {
+            let (gate, radius) = (config.merge_gate, config.search_radius);
+            changes.removed += merge::merge_touched(&mut self.map, &touched, gate, radius);
+        }
         changes
     }
 }
