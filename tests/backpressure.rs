@@ -5,7 +5,6 @@
 mod common;
 
 use common::*;
-use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -13,60 +12,14 @@ use std::process::Command;
 const KEPT_S: f64 = 400.0;
 const BLIND_S: std::ops::Range<f64> = 50.0..350.0;
 
-/// The text of MRCLAM file `name` (plain or gzipped) in the repository's data set.
-fn mrclam_file(name: &str) -> String {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/mrclam7");
-    if let Ok(text) = std::fs::read_to_string(dir.join(name)) {
-        return text;
-    }
-    let gz = std::fs::File::open(dir.join(format!("{name}.gz"))).unwrap();
-    let mut text = String::new();
-    flate2::read::GzDecoder::new(gz)
-        .read_to_string(&mut text)
-        .unwrap();
-    text
-}
-
-/// The rows of `text` whose time (first column, seconds after `t0`) `keep` accepts,
-/// comment lines included.
-fn rows(text: &str, t0: f64, keep: impl Fn(f64) -> bool) -> String {
-    let kept = text.lines().filter(|line| {
-        let time = line
-            .split_whitespace()
-            .next()
-            .and_then(|t| t.parse::<f64>().ok());
-        time.is_none_or(|t| keep(t - t0))
-    });
-    kept.map(|l| format!("{l}\n")).collect()
-}
-
 /// The first 400 s of MRCLAM robot 1, whose camera sees nothing from 50 s to 350 s (some
 /// 30,000 odometry records between two observations), written as a data set in `dir`.
 fn blind_stretch(dir: &Path) -> PathBuf {
-    let data = dir.join("blind");
-    std::fs::create_dir_all(&data).unwrap();
-    for name in ["Barcodes.dat", "Landmark_Groundtruth.dat"] {
-        std::fs::write(data.join(name), mrclam_file(name)).unwrap();
-    }
-    let odometry = mrclam_file("Robot1_Odometry.dat");
-    let t0 = odometry
-        .lines()
-        .find_map(|l| l.split_whitespace().next()?.parse::<f64>().ok())
-        .expect("odometry records");
-    let within = |t: f64| t < KEPT_S;
-    let write = |name: &str, text: String| std::fs::write(data.join(name), text).unwrap();
-    write("Robot1_Odometry.dat", rows(&odometry, t0, within));
-    write(
-        "Robot1_Groundtruth.dat",
-        rows(&mrclam_file("Robot1_Groundtruth.dat"), t0, within),
-    );
-    write(
-        "Robot1_Measurement.dat",
-        rows(&mrclam_file("Robot1_Measurement.dat"), t0, |t| {
-            within(t) && !BLIND_S.contains(&t)
-        }),
-    );
-    data
+    mrclam_clip(
+        &dir.join("blind"),
+        |t| t < KEPT_S,
+        |t| !BLIND_S.contains(&t),
+    )
 }
 
 #[test]

@@ -7,6 +7,7 @@ mod common;
 
 use common::*;
 use std::net::TcpListener;
+use std::path::Path;
 use std::process::{Command, Stdio};
 
 /// The WebSocket client release the test speaks Foxglove's protocol with.
@@ -67,30 +68,19 @@ fn free_port() -> u16 {
     listener.local_addr().unwrap().port()
 }
 
-#[test]
-fn foxglove_receives_poses_and_the_map_while_the_stack_runs() {
+/// Starts the launcher with `command` (`run …` or `replay …`) and `--live` on a free
+/// port into `out`, connects the WebSocket client while it runs, and checks that both
+/// succeeded; what the client saw (its JSON).
+fn watched(prefix: &str, out: &Path, command: &[&str]) -> serde_json::Value {
     let python = python_venv("websockets-15.0.1", WEBSOCKETS)
         .join("bin")
         .join("python3");
-    let prefix = prefix("live_view");
-    let dir = folder(&prefix);
-    let out = dir.join("run");
     let port = free_port().to_string();
-    // A real-time drive of about 12 s: time for a client to connect and see the map grow.
-    let scenario = short_scenario(&dir);
     let launcher = Command::new(LAUNCHER)
-        .args([
-            "run",
-            "--prefix",
-            &prefix,
-            "--realtime",
-            "--timeout-s",
-            "300",
-        ])
-        .args(["--live", "--live-port", &port, "--scenario"])
-        .arg(&scenario)
-        .arg("--out")
-        .arg(&out)
+        .args(command)
+        .args(["--prefix", prefix, "--timeout-s", "300"])
+        .args(["--live", "--live-port", &port, "--out"])
+        .arg(out)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -108,8 +98,13 @@ fn foxglove_receives_poses_and_the_map_while_the_stack_runs() {
         "the WebSocket client failed: {}",
         String::from_utf8_lossy(&client.stderr)
     );
-    let seen: serde_json::Value =
-        serde_json::from_slice(&client.stdout).expect("the client prints JSON");
+    serde_json::from_slice(&client.stdout).expect("the client prints JSON")
+}
+
+/// Checks that `seen` holds Foxglove's schemas for the stack's channels, at least one
+/// pose and a map with landmarks in it, and that the run in `out` is complete with the
+/// viewer's log beside the others.
+fn assert_poses_and_a_map(seen: &serde_json::Value, out: &Path) {
     assert_eq!(seen["server"], "fastslam", "{seen}");
     let advertised = |topic: &str| seen["advertised"][topic].as_str().unwrap_or("").to_string();
     assert_eq!(advertised("/pose"), "foxglove.Odometry/protobuf", "{seen}");
@@ -130,8 +125,46 @@ fn foxglove_receives_poses_and_the_map_while_the_stack_runs() {
     let map_bytes = seen["sizes"]["/map"].as_u64().unwrap_or(0);
     assert!(map_bytes > 200, "an empty map: {seen}");
     // The run itself is complete and the viewer left with the stack.
-    assert_eq!(metrics(&out)["complete"], true);
+    assert_eq!(metrics(out)["complete"], true);
     assert!(out.join("logs").join("viewer.log").is_file());
+}
+
+#[test]
+fn foxglove_receives_poses_and_the_map_while_the_stack_runs() {
+    let prefix = prefix("live_view");
+    let dir = folder(&prefix);
+    let out = dir.join("run");
+    // A real-time drive of about 12 s: time for a client to connect and see the map grow.
+    let scenario = short_scenario(&dir);
+    let scenario = scenario.to_str().unwrap();
+    let seen = watched(
+        &prefix,
+        &out,
+        &["run", "--realtime", "--scenario", scenario],
+    );
+    assert_poses_and_a_map(&seen, &out);
+    assert_no_leftovers_and_remove(&prefix, &dir);
+}
+
+#[test]
+fn foxglove_receives_poses_and_the_map_while_a_recording_is_replayed() {
+    let prefix = prefix("live_replay");
+    let dir = folder(&prefix);
+    let out = dir.join("run");
+    // The first 60 s of MRCLAM robot 1, played at five times its pace: some 12 s.
+    let data = mrclam_clip(&dir.join("data"), |t| t < 60.0, |_| true);
+    let data = data.to_str().unwrap();
+    let command = [
+        "replay",
+        "mrclam",
+        "--data",
+        data,
+        "--realtime",
+        "--rate",
+        "5",
+    ];
+    let seen = watched(&prefix, &out, &command);
+    assert_poses_and_a_map(&seen, &out);
     assert_no_leftovers_and_remove(&prefix, &dir);
 }
 

@@ -467,3 +467,60 @@ pub fn assert_zero_copy(out: &Path) {
         "only {direct} of {scans} scans went to the filter straight from shared memory"
     );
 }
+
+/// The text of MRCLAM file `name` (plain or gzipped) in the repository's data set.
+fn mrclam_file(name: &str) -> String {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/mrclam7");
+    if let Ok(text) = std::fs::read_to_string(dir.join(name)) {
+        return text;
+    }
+    let gz = std::fs::File::open(dir.join(format!("{name}.gz"))).unwrap();
+    let mut text = String::new();
+    std::io::Read::read_to_string(&mut flate2::read::GzDecoder::new(gz), &mut text).unwrap();
+    text
+}
+
+/// The rows of `text` whose time (first column, seconds after `t0`) `keep` accepts,
+/// comment lines included.
+fn rows(text: &str, t0: f64, keep: impl Fn(f64) -> bool) -> String {
+    let kept = text.lines().filter(|line| {
+        let time = line
+            .split_whitespace()
+            .next()
+            .and_then(|t| t.parse::<f64>().ok());
+        time.is_none_or(|t| keep(t - t0))
+    });
+    kept.map(|l| format!("{l}\n")).collect()
+}
+
+/// MRCLAM robot 1 written as a data set in `data`: the records at the times (seconds
+/// from its first odometry record) `within` accepts, and of the camera's only those
+/// `seen` accepts too.
+pub fn mrclam_clip(
+    data: &Path,
+    within: impl Fn(f64) -> bool,
+    seen: impl Fn(f64) -> bool,
+) -> PathBuf {
+    std::fs::create_dir_all(data).unwrap();
+    for name in ["Barcodes.dat", "Landmark_Groundtruth.dat"] {
+        std::fs::write(data.join(name), mrclam_file(name)).unwrap();
+    }
+    let odometry = mrclam_file("Robot1_Odometry.dat");
+    let t0 = odometry
+        .lines()
+        .find_map(|l| l.split_whitespace().next()?.parse::<f64>().ok())
+        .expect("odometry records");
+    let write = |name: &str, text: String| std::fs::write(data.join(name), text).unwrap();
+    write("Robot1_Odometry.dat", rows(&odometry, t0, &within));
+    write(
+        "Robot1_Groundtruth.dat",
+        rows(&mrclam_file("Robot1_Groundtruth.dat"), t0, &within),
+    );
+    write(
+        "Robot1_Measurement.dat",
+        rows(&mrclam_file("Robot1_Measurement.dat"), t0, |t| {
+            within(t) && seen(t)
+        }),
+    );
+    data.to_path_buf()
+}
