@@ -71,7 +71,7 @@ fn free_port() -> u16 {
 /// Starts the launcher with `command` (`run …` or `replay …`) and `--live` on a free
 /// port into `out`, connects the WebSocket client while it runs, and checks that both
 /// succeeded; what the client saw (its JSON).
-fn watched(prefix: &str, out: &Path, command: &[&str]) -> serde_json::Value {
+fn watched(prefix: &str, out: &Path, command: &[String]) -> serde_json::Value {
     let python = python_venv("websockets-15.0.1", WEBSOCKETS)
         .join("bin")
         .join("python3");
@@ -129,43 +129,47 @@ fn assert_poses_and_a_map(seen: &serde_json::Value, out: &Path) {
     assert!(out.join("logs").join("viewer.log").is_file());
 }
 
-#[test]
-fn foxglove_receives_poses_and_the_map_while_the_stack_runs() {
-    let prefix = prefix("live_view");
+/// Runs `command` (given the test's folder) with `--live` under a fresh prefix named
+/// after `name`, and checks what a Foxglove client saw ([`assert_poses_and_a_map`]).
+fn serves_poses_and_a_map(name: &str, command: impl FnOnce(&Path) -> Vec<String>) {
+    let prefix = prefix(name);
     let dir = folder(&prefix);
     let out = dir.join("run");
-    // A real-time drive of about 12 s: time for a client to connect and see the map grow.
-    let scenario = short_scenario(&dir);
-    let scenario = scenario.to_str().unwrap();
-    let seen = watched(
-        &prefix,
-        &out,
-        &["run", "--realtime", "--scenario", scenario],
-    );
+    let seen = watched(&prefix, &out, &command(&dir));
     assert_poses_and_a_map(&seen, &out);
     assert_no_leftovers_and_remove(&prefix, &dir);
 }
 
 #[test]
+fn foxglove_receives_poses_and_the_map_while_the_stack_runs() {
+    serves_poses_and_a_map("live_view", |dir| {
+        // A real-time drive of about 12 s: time for a client to connect and see the map
+        // grow.
+        let scenario = short_scenario(dir).display().to_string();
+        ["run", "--realtime", "--scenario", &scenario]
+            .map(String::from)
+            .to_vec()
+    });
+}
+
+#[test]
 fn foxglove_receives_poses_and_the_map_while_a_recording_is_replayed() {
-    let prefix = prefix("live_replay");
-    let dir = folder(&prefix);
-    let out = dir.join("run");
-    // The first 60 s of MRCLAM robot 1, played at five times its pace: some 12 s.
-    let data = mrclam_clip(&dir.join("data"), |t| t < 60.0, |_| true);
-    let data = data.to_str().unwrap();
-    let command = [
-        "replay",
-        "mrclam",
-        "--data",
-        data,
-        "--realtime",
-        "--rate",
-        "5",
-    ];
-    let seen = watched(&prefix, &out, &command);
-    assert_poses_and_a_map(&seen, &out);
-    assert_no_leftovers_and_remove(&prefix, &dir);
+    serves_poses_and_a_map("live_replay", |dir| {
+        // The first 60 s of MRCLAM robot 1, played at five times its pace: some 12 s.
+        let data = mrclam_clip(&dir.join("data"), |t| t < 60.0, |_| true);
+        let data = data.display().to_string();
+        [
+            "replay",
+            "mrclam",
+            "--data",
+            &data,
+            "--realtime",
+            "--rate",
+            "5",
+        ]
+        .map(String::from)
+        .to_vec()
+    });
 }
 
 #[test]
