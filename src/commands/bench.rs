@@ -11,6 +11,7 @@
 //!    against the run without it.
 //! 4. Optionally, peak memory of the service over runs of growing length.
 
+use crate::commands::launch::LaunchArgs;
 use crate::commands::live::LiveArgs;
 use crate::commands::run::{self, RunArgs};
 use anyhow::{Context, bail};
@@ -295,21 +296,23 @@ fn stack_run(
         particles: Some(particles),
         config: None,
         out: Some(out.clone()),
-        runs_dir: args.out.clone(),
-        pace: PaceArgs {
-            realtime,
-            rate: 1.0,
+        launch: LaunchArgs {
+            runs_dir: args.out.clone(),
+            pace: PaceArgs {
+                realtime,
+                rate: 1.0,
+            },
+            timeout_s: None,
+            prefix: None,
+            iox_root: None,
+            judge: Default::default(),
+            // Any free port: the bench measures the viewer's cost to the stack, with no
+            // Foxglove connected.
+            live: LiveArgs { live, live_port: 0 },
         },
-        timeout_s: None,
-        prefix: None,
-        iox_root: None,
-        judge: Default::default(),
         service_flags: Vec::new(),
         busy_poll,
         spin_us,
-        // Any free port: the bench measures the viewer's cost to the stack, with no
-        // Foxglove connected.
-        live: LiveArgs { live, live_port: 0 },
     };
     let started = Instant::now();
     let code = run::run(run_args)?;

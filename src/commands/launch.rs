@@ -2,16 +2,47 @@
 //! iceoryx2 root), its run folder, and the report when it has ended — the summary, the
 //! expectations' verdict, or what went wrong.
 
+use crate::commands::live::LiveArgs;
 use crate::supervisor::Outcome;
 use anyhow::{Context, bail};
 use fastslam_client::Metrics;
 use fastslam_client::expect::{Expectations, JudgeArgs};
+use fastslam_protocol::cli::PaceArgs;
 use fastslam_protocol::ipc::{self, StackConfig};
 use std::fs::{File, OpenOptions, TryLockError};
 use std::io::{Read, Write};
 use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
+
+/// The flags `run` and `replay` share: where the stack runs and its run folder goes, how
+/// fast, for how long, what is judged, and the live view.
+#[derive(Debug, Clone, clap::Args)]
+pub struct LaunchArgs {
+    /// Where run folders go by default.
+    #[arg(long, default_value = "runs")]
+    pub runs_dir: PathBuf,
+    /// Real time (at a rate) or as fast as the stack can go.
+    #[command(flatten)]
+    pub pace: PaceArgs,
+    /// Stop everything after this many seconds, more than 0 (default: no limit).
+    #[arg(long, value_parser = timeout_s)]
+    pub timeout_s: Option<f64>,
+    /// Stack prefix, to let your own processes join (default: a fresh one per run,
+    /// removed with its shared-memory files at the end).
+    #[arg(long)]
+    pub prefix: Option<String>,
+    /// iceoryx2 root directory of the stack (default: $TMPDIR/fsl/<prefix>, removed at the
+    /// end; a root you name is kept).
+    #[arg(long)]
+    pub iox_root: Option<PathBuf>,
+    /// Expectations on the metrics and a JUnit report, passed on to the client.
+    #[command(flatten)]
+    pub judge: JudgeArgs,
+    /// The live view in Foxglove.
+    #[command(flatten)]
+    pub live: LiveArgs,
+}
 
 /// Where a launcher's stack lives: its prefix and iceoryx2 root, owned by this launcher
 /// for as long as the value lives.

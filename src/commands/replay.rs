@@ -2,12 +2,9 @@
 //! data set's replay process, the FastSLAM service and the metrics client, each its own
 //! process — under a fresh stack prefix, with a run folder at the end.
 
-use crate::commands::launch::{Ended, Place, conclude, prepare};
-use crate::commands::live::LiveArgs;
+use crate::commands::launch::{Ended, LaunchArgs, Place, conclude, prepare};
 use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::Context;
-use fastslam_client::expect::JudgeArgs;
-use fastslam_protocol::cli::PaceArgs;
 use fastslam_replay::dataset::Association;
 use fastslam_replay::profile::Profile;
 use fastslam_service::config::{EstimatorChoice, Overrides, ServiceConfig};
@@ -72,28 +69,9 @@ pub struct ReplayRunArgs {
     /// names it).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Where run folders go by default.
-    #[arg(long, default_value = "runs")]
-    pub runs_dir: PathBuf,
-    /// Real time (at a rate) or as fast as the stack can go.
+    /// Where the stack runs, how fast, for how long, what is judged, the live view.
     #[command(flatten)]
-    pub pace: PaceArgs,
-    /// Stop everything after this many seconds, more than 0 (default: no limit).
-    #[arg(long, value_parser = crate::commands::launch::timeout_s)]
-    pub timeout_s: Option<f64>,
-    /// Stack prefix (default: a fresh one per run, removed with its shared memory).
-    #[arg(long)]
-    pub prefix: Option<String>,
-    /// iceoryx2 root directory of the stack (default: $TMPDIR/fsl/<prefix>, removed at the
-    /// end; a root you name is kept).
-    #[arg(long)]
-    pub iox_root: Option<PathBuf>,
-    /// Expectations on the metrics and a JUnit report, passed on to the client.
-    #[command(flatten)]
-    pub judge: JudgeArgs,
-    /// The live view in Foxglove.
-    #[command(flatten)]
-    pub live: LiveArgs,
+    pub launch: LaunchArgs,
 }
 
 /// What the replay process needs beyond the common flags: its subcommand, run-folder
@@ -167,13 +145,16 @@ impl DataSet {
 pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
     let plan = data_set.plan()?;
     let args = plan.run;
-    let expectations = args.judge.expectations()?;
+    let expectations = args.launch.judge.expectations()?;
     let profile_arg = args
         .profile
         .clone()
         .unwrap_or_else(|| plan.default_profile.to_string());
     let profile = Profile::load(&profile_arg)?;
-    let place = Place::claim(args.prefix.as_deref(), args.iox_root.as_deref())?;
+    let place = Place::claim(
+        args.launch.prefix.as_deref(),
+        args.launch.iox_root.as_deref(),
+    )?;
     let (prefix, root) = (place.prefix.clone(), place.root.clone());
     // The service's settings, checked here so a bad value fails before anything starts.
     let table = settings::replay_service_table(args.config.as_deref(), &profile, plan.association)?;
@@ -187,7 +168,8 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         .context("service settings")?
         .method();
     let out = args.out.clone().unwrap_or_else(|| {
-        args.runs_dir
+        args.launch
+            .runs_dir
             .join(format!("{}_{method}_seed{}", plan.label, args.seed))
     });
     let logs = prepare(&out)?;
@@ -204,14 +186,14 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
     let mut service_flags = stack_flags.clone();
     service_flags.extend(overrides.flags());
     service_flags.extend(["--config".into(), config.display().to_string()]);
-    if !args.pace.realtime {
+    if !args.launch.pace.realtime {
         service_flags.push("--as-fast-as-possible".into());
     }
     let mut client = stack_flags.clone();
     client.extend(["--out".into(), out.display().to_string()]);
     client.extend(["--service-config".into(), config.display().to_string()]);
     client.extend(profile.client.flags.iter().cloned());
-    client.extend(args.judge.flags());
+    client.extend(args.launch.judge.flags());
     let mut replay = stack_flags.clone();
     replay.extend([
         "--data".into(),
@@ -220,7 +202,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         profile_arg_for_child(&profile_arg),
     ]);
     replay.extend(plan.flags.iter().cloned());
-    replay.extend(args.pace.flags());
+    replay.extend(args.launch.pace.flags());
 
     let stop = stop_flag()?;
     let started = Instant::now();
@@ -230,7 +212,9 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         plan.label, profile.name
     );
     place.announce();
-    args.live.spawn(&mut stack, &exe, &stack_flags, &logs)?;
+    args.launch
+        .live
+        .spawn(&mut stack, &exe, &stack_flags, &logs)?;
     for role in &topology::REPLAY {
         let (name, flags) = match role.name {
             "client" => ("client", client.clone()),
@@ -239,10 +223,10 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         };
         let mut argv = vec![name.to_string()];
         argv.extend(flags);
-        argv.extend(role.wait_flags(args.live.live));
+        argv.extend(role.wait_flags(args.launch.live.live));
         stack.spawn(name, &exe, &argv, &logs.join(format!("{name}.log")))?;
     }
-    let outcome = stack.wait(&stop, args.timeout_s.map(Duration::from_secs_f64));
+    let outcome = stack.wait(&stop, args.launch.timeout_s.map(Duration::from_secs_f64));
     drop(stack);
     place.remove();
     let ended = Ended {
@@ -251,7 +235,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         logs: &logs,
         wall: started.elapsed(),
     };
-    conclude(ended, &args.judge, &expectations)
+    conclude(ended, &args.launch.judge, &expectations)
 }
 
 /// A built-in profile is passed by name, a file by absolute path.

@@ -1,13 +1,10 @@
 //! `fastslam-stack run`: the whole stack on one scenario, under a fresh stack prefix, with
 //! a run folder at the end.
 
-use crate::commands::launch::{Ended, Place, conclude, prepare};
-use crate::commands::live::LiveArgs;
+use crate::commands::launch::{Ended, LaunchArgs, Place, conclude, prepare};
 use crate::progress;
 use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::{Context, bail};
-use fastslam_client::expect::JudgeArgs;
-use fastslam_protocol::cli::PaceArgs;
 use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::scenario::{BUILT_IN, DEFAULT_SCENARIO};
 use fastslam_service::config::{EstimatorChoice, Overrides};
@@ -38,26 +35,9 @@ pub struct RunArgs {
     /// the optimiser with +fastslam2, +proposal or +resample-move when they apply).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Where run folders go by default.
-    #[arg(long, default_value = "runs")]
-    pub runs_dir: PathBuf,
-    /// Real time (at a rate) or as fast as the stack can go.
+    /// Where the stack runs, how fast, for how long, what is judged, the live view.
     #[command(flatten)]
-    pub pace: PaceArgs,
-    /// Stop everything after this many seconds, more than 0 (default: no limit).
-    #[arg(long, value_parser = crate::commands::launch::timeout_s)]
-    pub timeout_s: Option<f64>,
-    /// Stack prefix, to let your own processes join (default: a fresh one per run,
-    /// removed with its shared-memory files at the end).
-    #[arg(long)]
-    pub prefix: Option<String>,
-    /// iceoryx2 root directory of the stack (default: $TMPDIR/fsl/<prefix>, removed at the
-    /// end; a root you name is kept).
-    #[arg(long)]
-    pub iox_root: Option<PathBuf>,
-    /// Expectations on the metrics and a JUnit report, passed on to the client.
-    #[command(flatten)]
-    pub judge: JudgeArgs,
+    pub launch: LaunchArgs,
     /// An extra flag for the FastSLAM service, passed through as is (repeatable), e.g.
     /// `--service-flag=--save-map=map.csv` or `--service-flag=--checkpoint=run.ckpt`.
     #[arg(long = "service-flag", value_name = "FLAG", allow_hyphen_values = true)]
@@ -73,9 +53,6 @@ pub struct RunArgs {
     /// polling").
     #[arg(long, default_value_t = 0, value_name = "US")]
     pub spin_us: u64,
-    /// The live view in Foxglove.
-    #[command(flatten)]
-    pub live: LiveArgs,
 }
 
 /// Runs the stack; returns the process exit code (0 finished, 1 failed, 130 interrupted).
@@ -83,10 +60,13 @@ pub struct RunArgs {
 /// # Errors
 /// When the scenario is invalid or the processes cannot be started.
 pub fn run(args: RunArgs) -> anyhow::Result<u8> {
-    let expectations = args.judge.expectations()?;
+    let expectations = args.launch.judge.expectations()?;
     let scenario = Scenario::load(&args.scenario)?;
     let seed = args.seed.unwrap_or(scenario.seed);
-    let place = Place::claim(args.prefix.as_deref(), args.iox_root.as_deref())?;
+    let place = Place::claim(
+        args.launch.prefix.as_deref(),
+        args.launch.iox_root.as_deref(),
+    )?;
     let (prefix, root) = (place.prefix.clone(), place.root.clone());
     // The service's settings, checked here so a bad value fails before anything starts.
     let overrides = Overrides {
@@ -96,7 +76,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     };
     let method = settings::service_config(&scenario, args.config.as_deref(), &overrides)?.method();
     let out = args.out.clone().unwrap_or_else(|| {
-        args.runs_dir
+        args.launch
+            .runs_dir
             .join(format!("{}_{method}_seed{seed}", scenario.name))
     });
     let logs = prepare(&out)?;
@@ -127,7 +108,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     if let Some(c) = &service_config {
         service.extend(["--config".into(), c.display().to_string()]);
     }
-    if !args.pace.realtime {
+    if !args.launch.pace.realtime {
         service.push("--as-fast-as-possible".into());
     }
     service.extend(args.service_flags.iter().cloned());
@@ -136,7 +117,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     if let Some(c) = &service_config {
         client.extend(["--service-config".into(), c.display().to_string()]);
     }
-    client.extend(args.judge.flags());
+    client.extend(args.launch.judge.flags());
     for flags in [&mut service, &mut client] {
         if args.busy_poll {
             flags.push("--busy-poll".into());
@@ -146,7 +127,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         }
     }
     let mut truth = sim_flags();
-    truth.extend(args.pace.flags());
+    truth.extend(args.launch.pace.flags());
     let own_flags = |name: &str| match name {
         "client" => client.clone(),
         "service" => service.clone(),
@@ -157,7 +138,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         .iter()
         .map(|role| {
             let mut flags = own_flags(role.name);
-            flags.extend(role.wait_flags(args.live.live));
+            flags.extend(role.wait_flags(args.launch.live.live));
             (role.name, flags)
         })
         .collect();
@@ -167,7 +148,9 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     );
     place.announce();
     let total_s = progress::simulated_duration_s(&scenario);
-    args.live.spawn(&mut stack, &exe, &stack_flags, &logs)?;
+    args.launch
+        .live
+        .spawn(&mut stack, &exe, &stack_flags, &logs)?;
     let mut live_view = None;
     for (name, flags) in &processes {
         let mut argv = vec![name.to_string()];
@@ -186,7 +169,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
             stack.spawn(name, &exe, &argv, &log)?;
         }
     }
-    let outcome = stack.wait(&stop, args.timeout_s.map(Duration::from_secs_f64));
+    let outcome = stack.wait(&stop, args.launch.timeout_s.map(Duration::from_secs_f64));
     drop(stack);
     if let Some(view) = live_view {
         let _ = view.join();
@@ -198,7 +181,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         logs: &logs,
         wall: started.elapsed(),
     };
-    conclude(ended, &args.judge, &expectations)
+    conclude(ended, &args.launch.judge, &expectations)
 }
 
 /// A built-in scenario is passed by name, a file by absolute path.
