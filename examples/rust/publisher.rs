@@ -24,7 +24,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let true_map =
         ipc.slice_publisher::<LandmarkMapHeader, MapLandmark>(&topics::TRUE_LANDMARKS)?;
     let eos = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
+    // The service subscribes to its inputs one after the other: wait for both.
     odometry.wait_for_subscribers(&ipc, 1)?; // the service
+    scans.wait_for_subscribers(&ipc, 1)?; // the service
     truth.wait_for_subscribers(&ipc, 1)?; // the client
     let landmark = |(id, &(x, y)): (usize, &(f64, f64))| MapLandmark {
         id: id as u64,
