@@ -15,6 +15,8 @@
 //!   where two take the same one, the scan's pairs are assigned jointly — the assignment
 //!   with the largest total log-likelihood, each observation free to be "no mapped
 //!   landmark" at `log_p_new` (Hungarian algorithm, `pathfinding`).
+//!   [`Assignment::Sampled`]: each particle draws its association from the likelihoods
+//!   (Montemerlo's data-association sampling); no gate, no ignored observation.
 //! - **Unassigned observations** start a landmark when every landmark not taken by
 //!   another observation (greedy: by an earlier one) lies beyond `gate_new`; otherwise they
 //!   are *ignored* (ambiguous) and contribute `max(log N(ν; 0, S) of the most likely such
@@ -41,7 +43,9 @@ use crate::Result;
 use crate::check::{positive, require};
 use crate::observation::{self, Observation, Sensor};
 use crate::pose::Pose2;
+use crate::rng::SimRng;
 use nalgebra::{Matrix2, Matrix3};
+use rand::RngExt;
 use serde::{Deserialize, Serialize};
 
 /// How observations find their landmarks.
@@ -77,7 +81,7 @@ pub struct AssociationConfig {
     /// Side of the spatial index's square cells (m); of the order of `search_radius`.
     pub cell_size: f64,
     /// How a scan's observations share the landmarks (unknown association): `greedy`
-    /// (default) or `joint`.
+    /// (default), `joint` or `sampled`.
     pub assignment: Assignment,
     /// Unknown association: a landmark is assignable only when its likelihood is at
     /// least a new landmark's (`log_p_new`), beside the gate. Off by default.
@@ -106,6 +110,12 @@ pub enum Assignment {
     /// same one, the scan's assignment with the largest total log-likelihood (Hungarian
     /// algorithm).
     Joint,
+    /// Each particle draws its association (Montemerlo's data-association sampling): in
+    /// scan order, each observation takes a landmark the earlier ones left with
+    /// probability proportional to its likelihood, or starts a new one with probability
+    /// proportional to `exp(log_p_new)`; the weight takes the sum of them all. Not with
+    /// FastSLAM 2.0, whose weight is its proposal's marginal (there, as `greedy`).
+    Sampled,
 }
 
 impl Default for AssociationConfig {
@@ -202,6 +212,9 @@ pub(crate) enum Decision {
 pub(crate) struct ScanAssociation {
     pub decisions: Vec<Decision>,
     pub log_likelihood: f64,
+    /// The particle's stream for [`Assignment::Sampled`] (set by the filter for its
+    /// final association; without it, sampling falls back to `greedy`).
+    pub sampler: Option<SimRng>,
     scratch: Scratch,
 }
 
@@ -413,6 +426,17 @@ impl<'a> Scan<'a> {
             self.pairs_of(map, pose, pose_covariance, obs, &noise, &mut scratch.pairs);
         }
         scratch.starts.push(scratch.pairs.len());
+        if self.config.assignment == Assignment::Sampled
+            && let Some(rng) = out.sampler.as_mut()
+        {
+            self.sample(
+                &mut out.scratch,
+                rng,
+                &mut out.decisions,
+                &mut out.log_likelihood,
+            );
+            return;
+        }
         self.choose(scratch);
         let log_p_new = self.config.log_p_new;
         out.decisions.clear();
@@ -505,6 +529,50 @@ impl<'a> Scan<'a> {
                 || pair.innovation.log_likelihood >= self.config.log_p_new)
     }
 
+    /// [`Assignment::Sampled`]: in scan order, each observation draws a landmark the
+    /// earlier ones left (probability ∝ its likelihood) or a new landmark (∝
+    /// `exp(log_p_new)`) with `rng`; its contribution is the log of the sum of them all
+    /// (the proposal's normaliser, so the weight stays the importance weight).
+    fn sample(
+        &self,
+        scratch: &mut Scratch,
+        rng: &mut SimRng,
+        decisions: &mut Vec<Decision>,
+        log_likelihood: &mut f64,
+    ) {
+        let log_p_new = self.config.log_p_new;
+        decisions.clear();
+        *log_likelihood = 0.0;
+        scratch.chosen.clear();
+        for index in 0..scratch.starts.len() - 1 {
+            let free = || {
+                (scratch.starts[index]..scratch.starts[index + 1])
+                    .filter(|&at| !scratch.taken_before(scratch.pairs[at].slot, index))
+            };
+            let most = free()
+                .map(|at| scratch.pairs[at].innovation.log_likelihood)
+                .fold(log_p_new, f64::max);
+            let total: f64 = (log_p_new - most).exp()
+                + free()
+                    .map(|at| (scratch.pairs[at].innovation.log_likelihood - most).exp())
+                    .sum::<f64>();
+            let mut u = rng.random::<f64>() * total - (log_p_new - most).exp();
+            let chosen = if u < 0.0 {
+                None
+            } else {
+                free().find(|&at| {
+                    u -= (scratch.pairs[at].innovation.log_likelihood - most).exp();
+                    u < 0.0
+                })
+            };
+            scratch.chosen.push(chosen);
+            decisions.push(chosen.map_or(Decision::New { id: None }, |at| {
+                scratch.pairs[at].decision()
+            }));
+            *log_likelihood += most + total.ln();
+        }
+    }
+
     /// Fills `scratch.chosen` as [`Assignment`] says: greedily in scan order, or jointly
     /// where two observations want one landmark.
     fn choose(&self, scratch: &mut Scratch) {
@@ -525,13 +593,13 @@ impl<'a> Scan<'a> {
         for index in 0..n {
             let best = match self.config.assignment {
                 // The most likely landmark the earlier observations left, if assignable.
-                Assignment::Greedy => most_likely(scratch, index, false)
+                Assignment::Greedy | Assignment::Sampled => most_likely(scratch, index, false)
                     .filter(|&at| self.assignable(&scratch.pairs[at])),
                 Assignment::Joint => most_likely(scratch, index, true),
             };
             scratch.chosen.push(best);
         }
-        if self.config.assignment == Assignment::Greedy {
+        if self.config.assignment != Assignment::Joint {
             return;
         }
         let conflict = scratch.chosen.iter().enumerate().any(|(i, a)| {
@@ -700,6 +768,57 @@ mod tests {
             + config.log_p_new
             + ignored.log_likelihood.max(config.log_p_new);
         assert!((a.log_likelihood - expected).abs() < 1e-12);
+    }
+
+    #[test]
+    fn sampled_association_draws_in_proportion_to_the_likelihoods_and_weighs_by_their_sum() {
+        let map = map_with(&[(1, 10.0, 0.0)]);
+        let pose = Pose2::default();
+        let sensor = Sensor::default();
+        let config = AssociationConfig {
+            assignment: Assignment::Sampled,
+            // A new landmark about as likely as the re-sighting below.
+            log_p_new: 1.5,
+            ..AssociationConfig::default()
+        };
+        let obs = [seen(&pose, 10.3, 0.0, None)];
+        let scan = Scan::new(&obs, &sensor, &config, 0);
+        let landmark = map.get(1).unwrap();
+        let p = observation::predict(&pose, &landmark.mean).unwrap();
+        let resighting = ekf::innovate(&obs[0].z(), &p, &landmark.covariance, &sensor.noise())
+            .unwrap()
+            .log_likelihood;
+        let (a, b) = (resighting.exp(), config.log_p_new.exp());
+        let expected = a / (a + b);
+        assert!((0.2..0.8).contains(&expected), "{expected}");
+        let draws = 4000;
+        let mut updates = 0;
+        for seed in 0..draws {
+            let mut out = ScanAssociation {
+                sampler: Some(crate::rng::seeded(seed)),
+                ..ScanAssociation::default()
+            };
+            scan.associate_into(&map, &pose, &mut out);
+            updates += u32::from(matches!(out.decisions[0], Decision::Update { .. }));
+            assert!((out.log_likelihood - (a + b).ln()).abs() < 1e-12);
+        }
+        let frequency = f64::from(updates) / draws as f64;
+        let sigma = (expected * (1.0 - expected) / draws as f64).sqrt();
+        assert!(
+            (frequency - expected).abs() < 4.0 * sigma,
+            "drawn {frequency}, expected {expected}"
+        );
+        // Without a stream it associates as greedy does.
+        let greedy = AssociationConfig {
+            assignment: Assignment::Greedy,
+            ..config.clone()
+        };
+        assert_eq!(
+            scan.associate(&map, &pose).decisions,
+            Scan::new(&obs, &sensor, &greedy, 0)
+                .associate(&map, &pose)
+                .decisions
+        );
     }
 
     #[test]

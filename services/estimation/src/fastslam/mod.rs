@@ -93,6 +93,8 @@ pub(crate) const PURPOSE_CHAOS: u64 = 4;
 pub(crate) const PURPOSE_REJUVENATE: u64 = 5;
 /// Stream label for a deferred particle's draw from its motion prior.
 const PURPOSE_PRIOR_DRAW: u64 = 6;
+/// Stream label for a particle's sampled association of one step.
+const PURPOSE_ASSOCIATION: u64 = 7;
 
 /// Step 2 of docs/ALGORITHMS.md §1: an optimiser that moves or draws the predicted poses.
 /// `None` in [`FastSlam::update_with`] runs no optimiser (plain FastSLAM 1.0 with the

@@ -175,6 +175,16 @@ impl FastSlam {
     fn associate(&mut self, scan: &Scan<'_>, parallel: bool, only: Option<&[bool]>) {
         let steps = &mut self.scratch.particles;
         steps.resize_with(self.particles.len(), ParticleStep::default);
+        // FastSLAM 2.0 weighs by its proposal's marginal, which a sampled association
+        // would not enter: it associates as `greedy`.
+        if self.config.association.assignment == Assignment::Sampled
+            && self.config.proposal != Proposal::FastSlam2
+        {
+            let streams = Streams::new(self.config.seed, &[scan.step()]);
+            for (i, s) in steps.iter_mut().enumerate() {
+                s.association.sampler = Some(streams.stream(&[i as u64, PURPOSE_ASSOCIATION]));
+            }
+        }
         match only {
             None => parallel::zip_mut(parallel, &mut self.particles, steps, |p, s| {
                 scan.associate_into(&p.map, &p.pose, &mut s.association);
