@@ -200,15 +200,22 @@ impl SensorProcess {
         output.wait_for_subscribers(&self.ipc, self.wait_subscribers)?;
         let slot = usize::from(self.stream != StreamId::Odometry);
         let wanted = self.wait_subscribers.max(1);
-        let mut outbox = Outbox::new(&self.ipc, output, &checkpoints, &self.eos, slot, wanted);
-        outbox.bound = self.history_bytes;
+        let bound = self.history_bytes;
+        let outbox = Outbox::new(
+            &self.ipc,
+            output,
+            &checkpoints,
+            &self.eos,
+            slot,
+            wanted,
+            bound,
+        );
         let outbox = RefCell::new(outbox);
-        let mut last: Option<Header> = None;
+        let next_seq = || outbox.borrow().newest.map_or(0, |h| h.seq + 1);
         truth.follow(
             &self.ipc,
             |gt| {
-                if let Some(m) = each(gt, last.map_or(0, |h| h.seq + 1))? {
-                    last = Some(m.header());
+                if let Some(m) = each(gt, next_seq())? {
                     outbox.borrow_mut().send(m)?;
                 }
                 Ok(())
@@ -219,10 +226,10 @@ impl SensorProcess {
                 Ok(())
             },
         )?;
-        let end = EndOfStream::new(self.stream, last);
+        let end = EndOfStream::new(self.stream, outbox.borrow().newest);
         self.eos.send(end)?;
         outbox.borrow_mut().end = Some(end);
-        tracing::info!(messages = last.map_or(0, |h| h.seq + 1), stream = ?self.stream, "finished");
+        tracing::info!(messages = next_seq(), stream = ?self.stream, "finished");
         // Samples of a slice topic live in this process: stay until every subscriber has
         // them, sending again to a service that died and resumed.
         output.wait_until_left(&self.ipc, || {
@@ -248,8 +255,8 @@ struct Outbox<'a, M: Message> {
     /// Their bytes, and the most kept.
     bytes: usize,
     bound: usize,
-    /// The sequence number of the newest message sent.
-    newest: Option<u64>,
+    /// The header of the newest message sent.
+    newest: Option<Header>,
     /// Subscribers seen dead, and requests of resumed services answered. While more
     /// died than asked, new messages wait: a service that died is replaced by one that
     /// asks. The death and the request may be seen in either order (the resumed service
@@ -268,7 +275,7 @@ struct Outbox<'a, M: Message> {
 impl<'a, M: Message> Outbox<'a, M> {
     /// An empty history of `out`, whose stream has slot `slot` in the checkpoint
     /// notices `checkpoints` and whose end goes out on `eos`; `wanted` subscribers were
-    /// waited for.
+    /// waited for; it keeps at most `bound` bytes.
     fn new(
         ipc: &'a Ipc,
         out: &'a Pub<M::Payload, M::UserHeader>,
@@ -276,6 +283,7 @@ impl<'a, M: Message> Outbox<'a, M> {
         eos: &'a Pub<EndOfStream, ()>,
         slot: usize,
         wanted: usize,
+        bound: usize,
     ) -> Self {
         Self {
             ipc,
@@ -285,7 +293,7 @@ impl<'a, M: Message> Outbox<'a, M> {
             slot,
             kept: VecDeque::new(),
             bytes: 0,
-            bound: usize::MAX,
+            bound,
             newest: None,
             deaths: 0,
             resumes: 0,
@@ -325,7 +333,7 @@ impl<'a, M: Message> Outbox<'a, M> {
             )?;
         }
         m.send(self.out)?;
-        self.newest = Some(m.header().seq);
+        self.newest = Some(m.header());
         self.bytes += m.bytes();
         self.kept.push_back(m);
         while self.bytes > self.bound
@@ -388,7 +396,7 @@ impl<'a, M: Message> Outbox<'a, M> {
         };
         let next = match self.kept.get(1) {
             Some(next) => next.header().seq,
-            None => self.newest.map_or(0, |seq| seq + 1),
+            None => self.newest.map_or(0, |h| h.seq + 1),
         };
         next.saturating_sub(mark.header().seq + 1)
     }

@@ -552,16 +552,16 @@ impl<'a> Scan<'a> {
             let most = free()
                 .map(|at| scratch.pairs[at].innovation.log_likelihood)
                 .fold(log_p_new, f64::max);
-            let total: f64 = (log_p_new - most).exp()
-                + free()
-                    .map(|at| (scratch.pairs[at].innovation.log_likelihood - most).exp())
-                    .sum::<f64>();
-            let mut u = rng.random::<f64>() * total - (log_p_new - most).exp();
+            // Likelihoods relative to the largest (no overflow), a new landmark's first.
+            let relative = |at: usize| (scratch.pairs[at].innovation.log_likelihood - most).exp();
+            let new = (log_p_new - most).exp();
+            let total = new + free().map(relative).sum::<f64>();
+            let mut u = rng.random::<f64>() * total - new;
             let chosen = if u < 0.0 {
                 None
             } else {
                 free().find(|&at| {
-                    u -= (scratch.pairs[at].innovation.log_likelihood - most).exp();
+                    u -= relative(at);
                     u < 0.0
                 })
             };
