@@ -11,6 +11,7 @@ pub mod fastslam;
 pub mod features;
 pub mod graph;
 pub mod grid;
+pub mod gridslam;
 
 pub mod motion;
 pub mod moves;

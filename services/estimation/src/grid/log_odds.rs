@@ -58,13 +58,6 @@ impl LogOddsGrid {
         inside.then(|| j as usize * self.width + i as usize)
     }
 
-    fn cell_of(&self, x: f64, y: f64) -> (i64, i64) {
-        (
-            ((x - self.origin[0]) / self.resolution).floor() as i64,
-            ((y - self.origin[1]) / self.resolution).floor() as i64,
-        )
-    }
-
     /// Applies `delta` to cell (i, j) unless this scan already changed it.
     fn update(&mut self, i: i64, j: i64, delta: f64, config: &GridConfig) {
         if let Some(k) = self.index(i, j)
@@ -76,30 +69,14 @@ impl LogOddsGrid {
         }
     }
 
-    /// Integrates one scan's `beams` seen from `pose`: obstacle cells first (so a cell
-    /// both hit and crossed in one scan counts as occupied), then the free cells along
-    /// every beam.
+    /// Integrates one scan's `beams` seen from `pose` ([`trace_scan`]).
     pub fn integrate(&mut self, pose: &Pose2, beams: &[KeptBeam], config: &GridConfig) {
         self.scans += 1;
-        let start = self.cell_of(pose.x, pose.y);
-        let end = |b: &KeptBeam| {
-            let a = pose.theta + f64::from(b.angle);
-            let l = f64::from(b.length);
-            self.cell_of(pose.x + l * a.cos(), pose.y + l * a.sin())
-        };
-        let ends: Vec<((i64, i64), bool)> = beams.iter().map(|b| (end(b), b.hit)).collect();
-        for &((i, j), hit) in &ends {
-            if hit {
-                self.update(i, j, config.l_occupied, config);
-            }
-        }
-        for &(stop, hit) in &ends {
-            bresenham(start, stop, |i, j| {
-                if (i, j) != stop || !hit {
-                    self.update(i, j, config.l_free, config);
-                }
-            });
-        }
+        let (origin, resolution) = (self.origin, self.resolution);
+        let cell_of = |x: f64, y: f64| cell_of(origin, resolution, x, y);
+        trace_scan(pose, beams, config, cell_of, |i, j, delta| {
+            self.update(i, j, delta, config);
+        });
     }
 
     /// The grid as occupancy percentages: −1 for cells never updated, else
@@ -125,6 +102,50 @@ impl LogOddsGrid {
             height: self.height,
             cells,
         }
+    }
+}
+
+/// The cell `(i, j)` holding map point `(x, y)` on the lattice of side `resolution` (m)
+/// whose cell (0, 0) has its lower-left corner at `origin`.
+pub(crate) fn cell_of(origin: [f64; 2], resolution: f64, x: f64, y: f64) -> (i64, i64) {
+    (
+        ((x - origin[0]) / resolution).floor() as i64,
+        ((y - origin[1]) / resolution).floor() as i64,
+    )
+}
+
+/// The inverse sensor model of one scan: calls `update(i, j, delta)` for the cells of
+/// `beams` seen from `pose` (`cell_of` maps a point to its cell) — obstacle cells first
+/// with `l_occupied`, then the cells along every beam with `l_free`, the end cell of a
+/// hit left out. A grid that lets each cell change at most once per scan thus counts a
+/// cell both hit and crossed as occupied.
+pub(crate) fn trace_scan(
+    pose: &Pose2,
+    beams: &[KeptBeam],
+    config: &GridConfig,
+    cell_of: impl Fn(f64, f64) -> (i64, i64),
+    mut update: impl FnMut(i64, i64, f64),
+) {
+    let start = cell_of(pose.x, pose.y);
+    let ends: Vec<((i64, i64), bool)> = beams
+        .iter()
+        .map(|b| {
+            let a = pose.theta + f64::from(b.angle);
+            let l = f64::from(b.length);
+            (cell_of(pose.x + l * a.cos(), pose.y + l * a.sin()), b.hit)
+        })
+        .collect();
+    for &((i, j), hit) in &ends {
+        if hit {
+            update(i, j, config.l_occupied);
+        }
+    }
+    for &(stop, hit) in &ends {
+        bresenham(start, stop, |i, j| {
+            if (i, j) != stop || !hit {
+                update(i, j, config.l_free);
+            }
+        });
     }
 }
 

@@ -25,6 +25,7 @@
 mod log_odds;
 
 pub use log_odds::LogOddsGrid;
+pub(crate) use log_odds::{cell_of, trace_scan};
 
 use crate::Result;
 use crate::check::{positive, require};
@@ -82,6 +83,29 @@ impl Default for GridConfig {
 }
 
 impl GridConfig {
+    /// The beams of `scan` a grid integrates: every `beam_stride`-th, cut at `max_range`
+    /// (a hit beyond it becomes a free beam of that length), beams without a return kept
+    /// as free beams only with `clear_no_return`, invalid ones left out.
+    pub fn kept_beams(&self, scan: &RangeScan<'_>) -> Vec<KeptBeam> {
+        let reach_limit = self.max_range.min(scan.range_max);
+        (0..scan.len())
+            .step_by(self.beam_stride)
+            .filter_map(|i| {
+                let (length, hit) = match scan.beam(i) {
+                    Beam::Hit(r) if r <= reach_limit => (r, true),
+                    Beam::Hit(_) => (reach_limit, false),
+                    Beam::NoReturn if self.clear_no_return => (reach_limit, false),
+                    Beam::NoReturn | Beam::Invalid => return None,
+                };
+                Some(KeptBeam {
+                    angle: scan.angle(i) as f32,
+                    length: length as f32,
+                    hit,
+                })
+            })
+            .collect()
+    }
+
     /// Checks every value.
     ///
     /// # Errors
@@ -189,23 +213,7 @@ impl GridMapper {
                 return None;
             }
         }
-        let reach_limit = self.config.max_range.min(scan.range_max);
-        let beams: Vec<KeptBeam> = (0..scan.len())
-            .step_by(self.config.beam_stride)
-            .filter_map(|i| {
-                let (length, hit) = match scan.beam(i) {
-                    Beam::Hit(r) if r <= reach_limit => (r, true),
-                    Beam::Hit(_) => (reach_limit, false),
-                    Beam::NoReturn if self.config.clear_no_return => (reach_limit, false),
-                    Beam::NoReturn | Beam::Invalid => return None,
-                };
-                Some(KeptBeam {
-                    angle: scan.angle(i) as f32,
-                    length: length as f32,
-                    hit,
-                })
-            })
-            .collect();
+        let beams = self.config.kept_beams(scan);
         let reach = beams
             .iter()
             .map(|b| f64::from(b.length))

@@ -3,7 +3,7 @@
 
 use super::chaos::CircleMap;
 use super::{
-    Ba, BaConfig, Coa, Gwo, GwoConfig, Iba, IbaConfig, Icoa, IcoaConfig, Optimiser, Pso, PsoConfig,
+    Ba, BaConfig, Coa, Gwo, GwoConfig, HillClimb, Iba, IbaConfig, Icoa, IcoaConfig, Optimiser, Pso, PsoConfig,
     Qpso, QpsoConfig,
 };
 use crate::check::require;
@@ -35,11 +35,13 @@ pub enum OptimiserKind {
     Qpso,
     /// Canonical particle swarm (§4.5).
     Pso,
+    /// Hill climbing, GMapping's scan matcher (§4.6): the baseline.
+    Hill,
 }
 
 impl OptimiserKind {
     /// Every choice, in the order of docs/ALGORITHMS.md.
-    pub const ALL: [Self; 8] = [
+    pub const ALL: [Self; 9] = [
         Self::None,
         Self::Coa,
         Self::Icoa,
@@ -48,6 +50,7 @@ impl OptimiserKind {
         Self::Gwo,
         Self::Qpso,
         Self::Pso,
+        Self::Hill,
     ];
 
     /// The lower-case name (`"icoa"`), as in config files.
@@ -61,6 +64,7 @@ impl OptimiserKind {
             Self::Gwo => "gwo",
             Self::Qpso => "qpso",
             Self::Pso => "pso",
+            Self::Hill => "hill",
         }
     }
 }
@@ -188,6 +192,7 @@ impl OptimiserConfig {
             OptimiserKind::Gwo => Some(Box::new(Gwo::new(self.gwo.clone())?)),
             OptimiserKind::Qpso => Some(Box::new(Qpso::new(self.qpso.clone())?)),
             OptimiserKind::Pso => Some(Box::new(Pso::new(self.pso.clone())?)),
+            OptimiserKind::Hill => Some(Box::new(HillClimb::new())),
         })
     }
 }

@@ -1,0 +1,266 @@
+//! A particle's occupancy grid in copy-on-write tiles.
+//!
+//! The map frame is cut into square tiles of [`TILE`] × [`TILE`] cells. A grid holds a
+//! dense index of shared tiles over the rectangle it has reached; cloning a grid (a
+//! resampled copy of a particle) clones only the index, and a tile is copied the first time
+//! one of the copies changes it (`Arc::make_mut`). Tiles nobody touched since two particles
+//! parted stay shared, so N particles cost one map plus what each changed since they parted.
+
+use crate::grid::{GridConfig, KeptBeam, OccupancyGrid, cell_of, trace_scan};
+use crate::pose::Pose2;
+use std::sync::Arc;
+
+/// Cells along a tile's side.
+pub const TILE: usize = 32;
+const CELLS: usize = TILE * TILE;
+
+/// One tile: log-odds per cell, and per cell the number (mod 2¹⁶, from 1) of the last
+/// scan that changed it, 0 for never.
+#[derive(Debug, Clone, PartialEq)]
+struct Tile {
+    log_odds: [f32; CELLS],
+    stamp: [u16; CELLS],
+}
+
+impl Tile {
+    fn unknown() -> Self {
+        Self {
+            log_odds: [0.0; CELLS],
+            stamp: [0; CELLS],
+        }
+    }
+}
+
+/// Bytes of one tile.
+pub const TILE_BYTES: usize = std::mem::size_of::<Tile>();
+
+/// A log-odds occupancy grid of copy-on-write tiles; cell `(i, j)` covers
+/// `[i·r, (i+1)·r) × [j·r, (j+1)·r)` of the map frame (`r` the resolution).
+#[derive(Debug, Clone)]
+pub struct TiledGrid {
+    resolution: f64,
+    /// Tile coordinates of the index's first entry.
+    corner: (i64, i64),
+    /// Tiles along x and y the index spans.
+    span: (usize, usize),
+    tiles: Vec<Option<Arc<Tile>>>,
+    /// Scans integrated so far (mod 2¹⁶, skipping 0).
+    scans: u16,
+}
+
+impl TiledGrid {
+    /// An unknown grid of cells of side `resolution` (m).
+    pub fn new(resolution: f64) -> Self {
+        Self {
+            resolution,
+            corner: (0, 0),
+            span: (0, 0),
+            tiles: Vec::new(),
+            scans: 0,
+        }
+    }
+
+    /// Side of a cell (m).
+    pub fn resolution(&self) -> f64 {
+        self.resolution
+    }
+
+    /// The cell holding map point `(x, y)`.
+    pub fn cell(&self, x: f64, y: f64) -> (i64, i64) {
+        cell_of([0.0, 0.0], self.resolution, x, y)
+    }
+
+    fn slot(&self, ti: i64, tj: i64) -> Option<usize> {
+        let (di, dj) = (ti - self.corner.0, tj - self.corner.1);
+        let inside = (0..self.span.0 as i64).contains(&di) && (0..self.span.1 as i64).contains(&dj);
+        inside.then(|| dj as usize * self.span.0 + di as usize)
+    }
+
+    fn split(i: i64, j: i64) -> ((i64, i64), usize) {
+        let t = TILE as i64;
+        let local = j.rem_euclid(t) as usize * TILE + i.rem_euclid(t) as usize;
+        ((i.div_euclid(t), j.div_euclid(t)), local)
+    }
+
+    /// Log-odds of cell `(i, j)`; 0 (p = ½) where nothing was seen.
+    pub fn log_odds(&self, i: i64, j: i64) -> f32 {
+        let ((ti, tj), local) = Self::split(i, j);
+        match self.slot(ti, tj).and_then(|s| self.tiles[s].as_ref()) {
+            Some(tile) => tile.log_odds[local],
+            None => 0.0,
+        }
+    }
+
+    /// Grows the index to hold cells `lo..=hi` (inclusive corners).
+    fn cover(&mut self, lo: (i64, i64), hi: (i64, i64)) {
+        let ((a0, b0), _) = Self::split(lo.0, lo.1);
+        let ((a1, b1), _) = Self::split(hi.0, hi.1);
+        let (c0, c1) = (self.corner, (
+            self.corner.0 + self.span.0 as i64 - 1,
+            self.corner.1 + self.span.1 as i64 - 1,
+        ));
+        let empty = self.tiles.is_empty();
+        if !empty && a0 >= c0.0 && b0 >= c0.1 && a1 <= c1.0 && b1 <= c1.1 {
+            return;
+        }
+        let (n0, n1) = if empty {
+            ((a0, b0), (a1, b1))
+        } else {
+            ((a0.min(c0.0), b0.min(c0.1)), (a1.max(c1.0), b1.max(c1.1)))
+        };
+        let span = ((n1.0 - n0.0 + 1) as usize, (n1.1 - n0.1 + 1) as usize);
+        let mut tiles = vec![None; span.0 * span.1];
+        for dj in 0..self.span.1 {
+            for di in 0..self.span.0 {
+                let (ti, tj) = (self.corner.0 + di as i64, self.corner.1 + dj as i64);
+                let to = (tj - n0.1) as usize * span.0 + (ti - n0.0) as usize;
+                tiles[to] = self.tiles[dj * self.span.0 + di].take();
+            }
+        }
+        self.corner = n0;
+        self.span = span;
+        self.tiles = tiles;
+    }
+
+    /// Applies `delta` to cell `(i, j)` unless this scan already changed it; log-odds stay
+    /// within `[l_min, l_max]`. The cell must be covered.
+    fn update(&mut self, i: i64, j: i64, delta: f64, config: &GridConfig) {
+        let ((ti, tj), local) = Self::split(i, j);
+        let Some(slot) = self.slot(ti, tj) else {
+            return;
+        };
+        let tile = Arc::make_mut(self.tiles[slot].get_or_insert_with(|| Arc::new(Tile::unknown())));
+        if tile.stamp[local] != self.scans {
+            tile.stamp[local] = self.scans;
+            let l = f64::from(tile.log_odds[local]) + delta;
+            tile.log_odds[local] = l.clamp(config.l_min, config.l_max) as f32;
+        }
+    }
+
+    /// Integrates one scan's `beams` seen from `pose` with the inverse sensor model
+    /// (`crate::grid`'s, each cell changed at most once per scan).
+    pub fn integrate(&mut self, pose: &Pose2, beams: &[KeptBeam], config: &GridConfig) {
+        self.scans = self.scans.checked_add(1).unwrap_or(1);
+        let reach = beams.iter().map(|b| f64::from(b.length)).fold(0.0, f64::max);
+        let lo = self.cell(pose.x - reach, pose.y - reach);
+        let hi = self.cell(pose.x + reach, pose.y + reach);
+        self.cover(lo, hi);
+        let resolution = self.resolution;
+        let cell = |x: f64, y: f64| cell_of([0.0, 0.0], resolution, x, y);
+        trace_scan(pose, beams, config, cell, |i, j, delta| {
+            self.update(i, j, delta, config);
+        });
+    }
+
+    /// Tiles this grid holds, each once, as addresses: equal addresses in two grids are
+    /// one shared tile (for counting memory).
+    pub fn tile_addresses(&self) -> impl Iterator<Item = usize> + '_ {
+        self.tiles
+            .iter()
+            .flatten()
+            .map(|t| Arc::as_ptr(t) as usize)
+    }
+
+    /// Bytes of the tile index (the part a copy does not share).
+    pub fn index_bytes(&self) -> usize {
+        self.tiles.capacity() * std::mem::size_of::<Option<Arc<Tile>>>()
+    }
+
+    /// The grid as occupancy percentages over the rectangle of its tiles (−1 unknown, else
+    /// round(100 · p)); `None` before anything was integrated.
+    pub fn occupancy(&self) -> Option<OccupancyGrid> {
+        if self.tiles.iter().all(Option::is_none) {
+            return None;
+        }
+        let (width, height) = (self.span.0 * TILE, self.span.1 * TILE);
+        let (i0, j0) = (self.corner.0 * TILE as i64, self.corner.1 * TILE as i64);
+        let mut cells = vec![-1i8; width * height];
+        for (slot, tile) in self.tiles.iter().enumerate() {
+            let Some(tile) = tile else { continue };
+            let (di, dj) = (slot % self.span.0 * TILE, slot / self.span.0 * TILE);
+            for local in 0..CELLS {
+                if tile.stamp[local] != 0 {
+                    let p = 1.0 - 1.0 / (1.0 + f64::from(tile.log_odds[local]).exp());
+                    let k = (dj + local / TILE) * width + di + local % TILE;
+                    cells[k] = (100.0 * p).round() as i8;
+                }
+            }
+        }
+        Some(OccupancyGrid {
+            resolution: self.resolution,
+            origin: [i0 as f64 * self.resolution, j0 as f64 * self.resolution],
+            width,
+            height,
+            cells,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::LogOddsGrid;
+
+    fn beams() -> Vec<KeptBeam> {
+        (0..90)
+            .map(|k| KeptBeam {
+                angle: (k as f32 * 4.0).to_radians(),
+                length: 2.0 + (k % 7) as f32 * 0.9,
+                hit: k % 5 != 0,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn matches_the_dense_grid_cell_for_cell() {
+        let config = GridConfig::default();
+        // Both lattices put cell (0, 0) at the origin, so cells round alike.
+        let poses = [Pose2::new(10.3, 9.8, 0.1), Pose2::new(6.0, 13.0, 2.0)];
+        let mut tiled = TiledGrid::new(config.resolution);
+        let mut dense = LogOddsGrid::new(config.resolution, [0.0, 0.0], 400, 400);
+        for pose in &poses {
+            tiled.integrate(pose, &beams(), &config);
+            dense.integrate(pose, &beams(), &config);
+        }
+        let (a, b) = (tiled.occupancy().unwrap(), dense.occupancy());
+        let mut compared = 0;
+        for j in 0..b.height {
+            for i in 0..b.width {
+                let x = b.origin[0] + (i as f64 + 0.5) * b.resolution;
+                let y = b.origin[1] + (j as f64 + 0.5) * b.resolution;
+                let ti = ((x - a.origin[0]) / a.resolution).floor() as usize;
+                let tj = ((y - a.origin[1]) / a.resolution).floor() as usize;
+                let tiled_cell = if ti < a.width && tj < a.height {
+                    a.cells[tj * a.width + ti]
+                } else {
+                    -1
+                };
+                assert_eq!(tiled_cell, b.cells[j * b.width + i], "cell ({i}, {j})");
+                compared += usize::from(tiled_cell != -1);
+            }
+        }
+        assert!(compared > 1000, "{compared} known cells");
+    }
+
+    #[test]
+    fn copies_share_tiles_until_one_changes_them() {
+        let config = GridConfig::default();
+        let mut first = TiledGrid::new(config.resolution);
+        first.integrate(&Pose2::default(), &beams(), &config);
+        let mut second = first.clone();
+        let shared = |a: &TiledGrid, b: &TiledGrid| {
+            let theirs: Vec<usize> = b.tile_addresses().collect();
+            a.tile_addresses().filter(|t| theirs.contains(t)).count()
+        };
+        let all = first.tile_addresses().count();
+        assert_eq!(shared(&first, &second), all);
+        let far = [KeptBeam {
+            angle: 0.0,
+            length: 1.0,
+            hit: true,
+        }];
+        second.integrate(&Pose2::new(5.0, 5.0, 0.0), &far, &config);
+        let after = shared(&first, &second);
+        assert!(after < all && after > all - 4, "{after} of {all} still shared");
+    }
+}
