@@ -97,7 +97,7 @@ mod tests {
         );
         assert_eq!(cli.methods.particles_or(&[5]), [30, 100]);
         let all = Cli::parse_from(["x"]).methods;
-        assert_eq!(all.methods().len(), 1 + 7 * 3);
+        assert_eq!(all.methods().len(), 1 + 8 * 3);
         assert_eq!(all.particles_or(&[5]), [5]);
         let err = Cli::try_parse_from(["x", "--optimizers", "magic"])
             .err()

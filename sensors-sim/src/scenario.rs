@@ -15,6 +15,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         include_str!("../scenarios/bailey-loop-biased.toml"),
     ),
     (
+        "office-corridors",
+        include_str!("../scenarios/office-corridors.toml"),
+    ),
+    (
         "bailey-short",
         include_str!("../scenarios/bailey-short.toml"),
     ),

@@ -42,6 +42,7 @@ use fastslam_estimation::fastslam::{FastSlamConfig, Proposal, ResamplingScheme};
 use fastslam_estimation::features::ExtractorConfig;
 use fastslam_estimation::graph::SmootherConfig;
 use fastslam_estimation::grid::GridConfig;
+use fastslam_estimation::gridslam::ScanMatchConfig;
 use fastslam_estimation::moves::{MoveConfig, MoveCorrection};
 use fastslam_estimation::optimise::{OptimiserConfig, OptimiserKind};
 use serde::{Deserialize, Serialize};
@@ -99,6 +100,58 @@ pub struct ServiceConfig {
     pub grid: GridConfig,
     /// The smoothing back-end beside the filter (docs/ALGORITHMS.md §8.1).
     pub smoother: SmootherConfig,
+    /// What each particle maps: landmarks, or an occupancy grid (docs/ALGORITHMS.md §9).
+    pub map: MapConfig,
+}
+
+/// What each particle maps (`[map]`).
+///
+/// ```toml
+/// kind = "grid"
+/// [matching]
+/// sigma = 0.05
+/// ```
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MapConfig {
+    /// `landmarks` (the default) or `grid`.
+    pub kind: MapKind,
+    /// Grid FastSLAM's scan likelihood.
+    pub matching: ScanMatchConfig,
+}
+
+/// What each particle maps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MapKind {
+    /// Point landmarks: observations, or poles extracted from raw scans (FastSLAM 1.0 /
+    /// 2.0). The occupancy grid is drawn afterwards along the best particle's path.
+    #[default]
+    Landmarks,
+    /// An occupancy grid per particle, matched against each raw scan to build the
+    /// particle's proposal (grid FastSLAM, as GMapping). Raw scans only.
+    Grid,
+}
+
+impl MapKind {
+    /// The names, as in config files and on the command line.
+    pub const NAMES: [&'static str; 2] = ["landmarks", "grid"];
+
+    /// The kind named `name`.
+    ///
+    /// # Errors
+    /// [`ConfigError::Invalid`] naming the choices.
+    pub fn parse(name: &str) -> Result<Self, ConfigError> {
+        match name {
+            "landmarks" => Ok(Self::Landmarks),
+            "grid" => Ok(Self::Grid),
+            _ => Err(fastslam_estimation::Error::InvalidParameter {
+                name: "map.kind",
+                reason: format!("`{name}` is not one of: {}", Self::NAMES.join(", ")),
+            }
+            .into()),
+        }
+    }
 }
 
 /// Which lidar input the service takes, and how it judges its inputs.
@@ -255,6 +308,11 @@ pub struct EstimatorChoice {
     /// moves of every resampled copy); default: the config's, else none.
     #[arg(long, value_parser = correction_names())]
     pub move_correction: Option<String>,
+    /// What each particle maps: landmarks (point landmarks, poles from raw scans) or grid
+    /// (an occupancy grid per particle, the scan matched against it; raw scans only);
+    /// default: the config's, else landmarks.
+    #[arg(long, value_parser = PossibleValuesParser::new(MapKind::NAMES))]
+    pub map: Option<String>,
 }
 
 /// Command-line values that replace the file's (flags win). Names are checked against the
@@ -282,6 +340,7 @@ impl Overrides {
             ("--optimizer", c.optimizer.clone()),
             ("--proposal", c.proposal.clone()),
             ("--move-correction", c.move_correction.clone()),
+            ("--map", c.map.clone()),
         ];
         numbers
             .into_iter()
@@ -305,6 +364,9 @@ impl Overrides {
         let c = &self.choice;
         if let Some(name) = &c.optimizer {
             config.optimizer.kind = name.parse::<OptimiserKind>()?;
+        }
+        if let Some(name) = &c.map {
+            config.map.kind = MapKind::parse(name)?;
         }
         if let Some(name) = &c.proposal {
             config.filter.proposal = name.parse::<Proposal>()?;
@@ -366,13 +428,18 @@ impl ServiceConfig {
         self.moves.validate()?;
         self.input.validate()?;
         self.smoother.validate()?;
+        self.map.matching.validate()?;
         Ok(())
     }
 
     /// A short name of the estimator: the optimiser, then `+fastslam2` for FastSLAM 2.0's
     /// proposal and `+proposal` or `+resample-move` for the corrected optimiser modes
-    /// (`none`, `coa+proposal`, `none+fastslam2`).
+    /// (`none`, `coa+proposal`, `none+fastslam2`); `grid-` and the scan matcher for grid
+    /// FastSLAM (`grid-hill`).
     pub fn method(&self) -> String {
+        if self.map.kind == MapKind::Grid {
+            return format!("grid-{}", self.optimizer.kind);
+        }
         let mut name = self.optimizer.kind.to_string();
         if self.filter.proposal == Proposal::FastSlam2 {
             name.push_str("+fastslam2");

@@ -4,7 +4,7 @@
 //! and [`crate::map_file`].
 
 use crate::checkpoint::Checkpoint;
-use crate::config::ServiceConfig;
+use crate::config::{MapKind, ServiceConfig};
 use crate::map_file;
 use crate::slam::Slam;
 use anyhow::{Context, bail};
@@ -46,6 +46,13 @@ impl PersistArgs {
     pub fn start(&self, config: &ServiceConfig) -> anyhow::Result<(Slam, Option<Checkpoint>)> {
         if self.localise_only && self.load_map.is_none() && self.resume.is_none() {
             bail!("--localise-only needs a map: give --load-map or --resume");
+        }
+        let saved = self.checkpoint.is_some() || self.resume.is_some() || self.load_map.is_some();
+        if config.map.kind == MapKind::Grid && (saved || self.localise_only) {
+            bail!(
+                "[map] kind = \"grid\" keeps a grid per particle that is not saved: \
+                 --checkpoint, --resume, --load-map and --localise-only need kind = \"landmarks\""
+            );
         }
         let (mut slam, checkpoint) = if let Some(path) = &self.resume {
             let checkpoint = Checkpoint::read(path)?;

@@ -2,7 +2,7 @@
 //! Raw scans go through pole extraction first and are kept (at keyframes) for the
 //! occupancy grid. No IPC here, so it is testable on its own.
 
-use crate::config::ServiceConfig;
+use crate::config::{MapKind, ServiceConfig};
 use crate::sequencer::Input;
 use crate::smoothing::Backend;
 use fastslam_estimation::Pose2;
@@ -11,7 +11,8 @@ use fastslam_estimation::fastslam::{
 };
 use fastslam_estimation::features::{ExtractorConfig, extract};
 use fastslam_estimation::graph::{Feed, NoiseModel, Solution};
-use fastslam_estimation::grid::GridMapper;
+use fastslam_estimation::grid::{GridMapper, OccupancyGrid};
+use fastslam_estimation::gridslam::GridFastSlam;
 use fastslam_estimation::motion::Control;
 use fastslam_estimation::moves::MoveStats;
 use fastslam_estimation::observation::{Observation, Sensor};
@@ -28,6 +29,9 @@ use std::f64::consts::TAU;
 #[derive(Debug)]
 pub struct Slam {
     filter: FastSlam,
+    /// Grid FastSLAM, when `[map] kind = "grid"`: it then takes every input, and the
+    /// landmark filter above stays empty.
+    grid_filter: Option<GridFastSlam>,
     refiner: Option<OptimiserRefiner>,
     last_odometry_ns: Option<u64>,
     /// The last odometry's control, for coasting.
@@ -176,7 +180,11 @@ impl Slam {
         config: &ServiceConfig,
         feed: Vec<Feed>,
     ) -> anyhow::Result<()> {
-        if config.smoother.enabled {
+        if config.smoother.enabled && self.grid_filter.is_some() {
+            tracing::warn!(
+                "the smoothing back-end needs landmarks: it stays off with [map] kind = \"grid\""
+            );
+        } else if config.smoother.enabled {
             let noise = NoiseModel::of(&config.filter_config());
             self.backend = Some(Backend::start(config.smoother.clone(), noise, feed)?);
             let delay = config.smoother.reanchor_delay_scans;
@@ -215,8 +223,22 @@ impl Slam {
 
     fn around(config: &ServiceConfig, filter: FastSlam) -> fastslam_estimation::Result<Self> {
         config.features.validate()?;
-        let refiner =
-            OptimiserRefiner::new(&config.optimizer, config.moves.clone(), config.filter.seed)?;
+        let grid_filter = match config.map.kind {
+            MapKind::Landmarks => None,
+            MapKind::Grid => Some(GridFastSlam::new(
+                config.filter_config(),
+                config.grid.clone(),
+                config.map.matching.clone(),
+                &config.optimizer,
+                config.moves.clone(),
+            )?),
+        };
+        let refiner = match grid_filter {
+            Some(_) => None,
+            None => {
+                OptimiserRefiner::new(&config.optimizer, config.moves.clone(), config.filter.seed)?
+            }
+        };
         // Plain FastSLAM 1.0 never reads the motion prior: skip propagating it. An
         // optimiser in a corrected mode targets the Gaussian prior: sampling is deferred.
         let filter = if refiner.is_none() && filter.config().proposal == Proposal::Motion {
@@ -228,6 +250,7 @@ impl Slam {
         };
         Ok(Self {
             filter,
+            grid_filter,
             refiner,
             last_odometry_ns: None,
             last_control: None,
@@ -302,6 +325,14 @@ impl Slam {
         observations: &[fastslam_protocol::Observation],
         publish: PoseSink<'_>,
     ) -> fastslam_estimation::Result<Step> {
+        if self.grid_filter.is_some() {
+            return Err(fastslam_estimation::Error::InvalidInput {
+                what: "observations",
+                reason: "[map] kind = \"grid\" maps raw scans (topic `scan`), not landmark \
+                         observations"
+                    .into(),
+            });
+        }
         self.coast_to(header.header.stamp_ns)?;
         let mut buffer = std::mem::take(&mut self.observations);
         buffer.clear();
@@ -346,7 +377,11 @@ impl Slam {
         to: u64,
     ) -> fastslam_estimation::Result<bool> {
         let dt = to.saturating_sub(from) as f64 * 1e-9;
-        if dt > 0.0 {
+        if let Some(grid_filter) = &mut self.grid_filter {
+            if dt > 0.0 {
+                grid_filter.predict(control, dt)?;
+            }
+        } else if dt > 0.0 {
             self.filter.predict(control, dt)?;
             if let Some(backend) = &mut self.backend {
                 backend.send(Feed::Control {
@@ -380,6 +415,9 @@ impl Slam {
             range_max: h.range_max.into(),
             ranges,
         };
+        if let Some(grid_filter) = &mut self.grid_filter {
+            return Self::grid_step(grid_filter, h.header, &scan, publish);
+        }
         // 1. Poles in the scan.
         let observations: Vec<Observation> = extract(&scan, &self.extractor)
             .iter()
@@ -401,6 +439,35 @@ impl Slam {
         Ok(step)
     }
 
+    /// Grid FastSLAM's step on a raw scan: matched and mapped when it is a keyframe; the
+    /// pose (the predicted cloud's mixture) published either way.
+    fn grid_step(
+        grid_filter: &mut GridFastSlam,
+        header: Header,
+        scan: &RangeScan<'_>,
+        publish: PoseSink<'_>,
+    ) -> fastslam_estimation::Result<Step> {
+        let step = grid_filter.observe(scan)?;
+        let pose = message(header, &grid_filter.estimate());
+        publish(pose);
+        let report = StepReport {
+            neff: step.ess,
+            resampled: step.resampled,
+            distinct: step.distinct,
+            matched: 0,
+            new_landmarks: 0,
+            ignored: 0,
+            removed: 0,
+            rejected: 0,
+            innovations: Default::default(),
+        };
+        Ok(Step {
+            pose,
+            report,
+            observations: 0,
+        })
+    }
+
     fn update(
         &mut self,
         header: Header,
@@ -413,14 +480,7 @@ impl Slam {
         let report = self
             .filter
             .update_publishing(observations, sensor, refiner, |estimate| {
-                let c = estimate.covariance;
-                pose = PoseEstimate {
-                    header,
-                    x: estimate.mean.x,
-                    y: estimate.mean.y,
-                    theta: estimate.mean.theta,
-                    covariance: std::array::from_fn(|k| c[(k / 3, k % 3)]),
-                };
+                pose = message(header, estimate);
                 publish(pose);
             })?;
         if let Some(backend) = &mut self.backend {
@@ -491,7 +551,10 @@ impl Slam {
     /// raw scans; `None` before the first raw scan. See `fastslam_estimation::grid` for
     /// the cost.
     pub fn grid(&mut self, header: Header) -> Option<(OccupancyGridHeader, Vec<i8>)> {
-        let grid = self.mapper.grid(self.filter.best().trail())?;
+        let grid: OccupancyGrid = match &self.grid_filter {
+            Some(grid_filter) => grid_filter.occupancy()?,
+            None => self.mapper.grid(self.filter.best().trail())?,
+        };
         let h = OccupancyGridHeader {
             header,
             resolution: grid.resolution,
@@ -506,12 +569,24 @@ impl Slam {
 
     /// What the optimiser's moves did so far (`None` without an optimiser).
     pub fn move_stats(&self) -> Option<MoveStats> {
-        self.refiner.as_ref().map(OptimiserRefiner::stats)
+        match &self.grid_filter {
+            Some(grid_filter) => grid_filter.move_stats(),
+            None => self.refiner.as_ref().map(OptimiserRefiner::stats),
+        }
     }
 
     /// Number of particles.
     pub fn particles(&self) -> usize {
-        self.filter.particles().len()
+        match &self.grid_filter {
+            Some(grid_filter) => grid_filter.particles().len(),
+            None => self.filter.particles().len(),
+        }
+    }
+
+    /// Grid FastSLAM's particle grids in memory (bytes; shared tiles once), `None` for the
+    /// landmark filter.
+    pub fn grid_bytes(&self) -> Option<usize> {
+        self.grid_filter.as_ref().map(GridFastSlam::grid_bytes)
     }
 
     /// Landmarks in the published map (the best particle's, provisional ones left out).
@@ -543,6 +618,19 @@ impl Slam {
             },
             map,
         )
+    }
+}
+
+/// The filter's estimate as the `pose` message, stamped with `header` (`seq` left to
+/// the publisher).
+fn message(header: Header, estimate: &fastslam::PoseEstimate) -> PoseEstimate {
+    let c = estimate.covariance;
+    PoseEstimate {
+        header,
+        x: estimate.mean.x,
+        y: estimate.mean.y,
+        theta: estimate.mean.theta,
+        covariance: std::array::from_fn(|k| c[(k / 3, k % 3)]),
     }
 }
 

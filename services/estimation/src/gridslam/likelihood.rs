@@ -19,7 +19,7 @@ use crate::scan::{Beam, RangeScan};
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use serde::{Deserialize, Serialize};
 
-/// Scan-to-map likelihood and matching settings (`[map]` of the service).
+/// Scan-to-map likelihood settings (`[map.matching]` of the service).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ScanMatchConfig {
@@ -65,19 +65,19 @@ impl ScanMatchConfig {
     /// # Errors
     /// [`crate::Error::InvalidParameter`] naming the first bad value.
     pub fn validate(&self) -> Result<()> {
-        positive("map.sigma", self.sigma)?;
-        in_range("map.z_hit", self.z_hit, 0.0, 1.0)?;
-        require(self.z_hit > 0.0 && self.z_hit < 1.0, "map.z_hit", || {
+        positive("map.matching.sigma", self.sigma)?;
+        in_range("map.matching.z_hit", self.z_hit, 0.0, 1.0)?;
+        require(self.z_hit > 0.0 && self.z_hit < 1.0, "map.matching.z_hit", || {
             format!("must lie in (0, 1), got {}", self.z_hit)
         })?;
         require(
             (1..=MAX_WINDOW).contains(&self.window),
-            "map.window",
+            "map.matching.window",
             || format!("must lie in 1..={MAX_WINDOW}, got {}", self.window),
         )?;
-        require(self.stride >= 1, "map.stride", || "must be >= 1".into())?;
-        positive("map.hessian_step_m", self.hessian_step_m)?;
-        positive("map.hessian_step_rad", self.hessian_step_rad)
+        require(self.stride >= 1, "map.matching.stride", || "must be >= 1".into())?;
+        positive("map.matching.hessian_step_m", self.hessian_step_m)?;
+        positive("map.matching.hessian_step_rad", self.hessian_step_rad)
     }
 
     /// The end points of `scan`'s returns in the sensor frame (m): every `stride`-th

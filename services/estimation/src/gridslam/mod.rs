@@ -33,7 +33,7 @@ pub use tiles::{TILE, TILE_BYTES, TiledGrid};
 use crate::fastslam::{FastSlamConfig, PoseEstimate};
 use crate::grid::{GridConfig, OccupancyGrid};
 use crate::motion::Control;
-use crate::moves::{MoveConfig, MoveStats, Mover};
+use crate::moves::{LocalTarget, MoveConfig, MoveStats, Mover};
 use crate::optimise::OptimiserConfig;
 use crate::pose::{Pose2, wrap_angle};
 use crate::rng::{SimRng, Streams, seeded};
@@ -61,6 +61,12 @@ pub struct GridParticle {
     pub predicted: Pose2,
     /// The motion prior's covariance `P` since the last keyframe.
     pub covariance: Matrix3<f64>,
+    /// The covariance of the particle's pose given its past at the last keyframe: the
+    /// Laplace covariance of its target there, `(I + P⁻¹)⁻¹` (zero before the first).
+    /// The published estimate is the mixture of `N(x̂ᵢ, spreadᵢ + Pᵢ)`: the
+    /// Rao-Blackwellised spread of the current pose, which does not collapse when
+    /// resampling leaves copies of one particle.
+    pub spread: Matrix3<f64>,
     /// The particle's map.
     pub grid: TiledGrid,
 }
@@ -74,6 +80,8 @@ pub struct GridStep {
     pub ess: f64,
     /// The particles were resampled.
     pub resampled: bool,
+    /// Distinct particles after the step (N when not resampled).
+    pub distinct: usize,
 }
 
 /// Grid FastSLAM: particles with their own grids, scan matching as the proposal.
@@ -114,6 +122,7 @@ impl GridFastSlam {
         let particle = GridParticle {
             predicted: Pose2::default(),
             covariance: Matrix3::zeros(),
+            spread: Matrix3::zeros(),
             grid: TiledGrid::new(grid.resolution),
         };
         let n = filter.particles;
@@ -187,6 +196,7 @@ impl GridFastSlam {
                 keyframe: false,
                 ess: self.filter.particles as f64,
                 resampled: false,
+                distinct: self.filter.particles,
             });
         }
         let beams = self.grid.kept_beams(scan);
@@ -200,11 +210,16 @@ impl GridFastSlam {
         ));
         let first = self.keyframes == 0;
         let (matcher, mover) = (&self.matcher, self.mover.as_ref());
-        let drawn: Vec<Result<(Pose2, f64, MoveStats)>> = (self.particles.par_iter())
+        let drawn: Vec<Result<Drawn>> = (self.particles.par_iter())
             .enumerate()
             .map(|(i, p)| {
                 if first {
-                    return Ok((p.predicted, 0.0, MoveStats::default()));
+                    return Ok(Drawn {
+                        pose: p.predicted,
+                        log_weight: 0.0,
+                        spread: Matrix3::zeros(),
+                        stats: MoveStats::default(),
+                    });
                 }
                 let covariance = p.covariance + floor;
                 let target = ScanTarget {
@@ -213,57 +228,62 @@ impl GridFastSlam {
                     points: &points,
                     config: matcher,
                 };
-                match mover {
-                    None => {
-                        let mut rng = streams.stream(&[i as u64, PURPOSE_MOTION]);
-                        let o = draw_gaussian(&covariance, &mut rng)?;
-                        let pose = target.pose(&o);
-                        let l = matcher.log_likelihood(&p.grid, &pose, &points);
-                        Ok((pose, l, MoveStats::default()))
-                    }
-                    Some(mover) => {
-                        let mut rng = streams.stream(&[i as u64, PURPOSE_MATCH]);
-                        let laplace = mover.laplace(&target, &covariance, &[], &mut rng)?;
-                        let (o, correction) = laplace.draw(&mut rng);
-                        let pose = target.pose(&o);
-                        let l = matcher.log_likelihood(&p.grid, &pose, &points);
-                        let stats = MoveStats {
-                            steps: 0,
-                            proposed: 1,
-                            accepted: 1,
-                            evaluations: laplace.evaluations + 1,
-                        };
-                        Ok((pose, l + correction, stats))
-                    }
-                }
+                let Some(mover) = mover else {
+                    let mut rng = streams.stream(&[i as u64, PURPOSE_MOTION]);
+                    let o = draw_gaussian(&covariance, &mut rng)?;
+                    let information = target.information(&o) + inverse(&covariance)?;
+                    return Ok(Drawn {
+                        pose: target.pose(&o),
+                        log_weight: target.log_likelihood(&o),
+                        spread: inverse(&information)?,
+                        stats: MoveStats::default(),
+                    });
+                };
+                let mut rng = streams.stream(&[i as u64, PURPOSE_MATCH]);
+                let laplace = mover.laplace(&target, &covariance, &[], &mut rng)?;
+                let (o, correction) = laplace.draw(&mut rng);
+                Ok(Drawn {
+                    pose: target.pose(&o),
+                    log_weight: target.log_likelihood(&o) + correction,
+                    spread: *laplace.covariance(),
+                    stats: MoveStats {
+                        steps: 0,
+                        proposed: 1,
+                        accepted: 1,
+                        evaluations: laplace.evaluations + 1,
+                    },
+                })
             })
             .collect();
-        let drawn: Vec<(Pose2, f64, MoveStats)> = drawn.into_iter().collect::<Result<_>>()?;
+        let drawn: Vec<Drawn> = drawn.into_iter().collect::<Result<_>>()?;
         let log_weights: Vec<f64> = (self.weights.log_weights().iter())
             .zip(&drawn)
-            .map(|(w, d)| w + d.1)
+            .map(|(w, d)| w + d.log_weight)
             .collect();
         let weights = Weights::from_log(&log_weights)?;
         let ess = weights.ess();
         let grid = &self.grid;
         (self.particles.par_iter_mut())
             .zip(&drawn)
-            .for_each(|(p, (pose, _, _))| {
-                p.predicted = *pose;
+            .for_each(|(p, d)| {
+                p.predicted = d.pose;
                 p.covariance = Matrix3::zeros();
-                p.grid.integrate(pose, &beams, grid);
+                p.spread = d.spread;
+                p.grid.integrate(&d.pose, &beams, grid);
             });
         if mover.is_some() && !first {
             self.stats.steps += 1;
         }
-        for (_, _, s) in &drawn {
-            self.stats += *s;
+        for d in &drawn {
+            self.stats += d.stats;
         }
         let resampled = self.filter.resampling.due(&weights);
         self.weights = weights;
+        let mut distinct = self.particles.len();
         if resampled {
             let mut rng = streams.stream(&[0, PURPOSE_RESAMPLE]);
             let drawn = self.filter.resampling.draw(&self.weights, &mut rng);
+            distinct = drawn.distinct();
             self.particles = (drawn.ancestors.iter())
                 .map(|&a| self.particles[a].clone())
                 .collect();
@@ -275,14 +295,15 @@ impl GridFastSlam {
             keyframe: true,
             ess,
             resampled,
+            distinct,
         })
     }
 
-    /// The weighted estimate of the predictions, each with its motion prior (a Gaussian
-    /// mixture): between keyframes the uncertainty grows with the odometry.
+    /// The weighted estimate of the predictions, each with its spread and motion prior (a
+    /// Gaussian mixture): between keyframes the uncertainty grows with the odometry.
     pub fn estimate(&self) -> PoseEstimate {
         PoseEstimate::from_mixture(
-            self.particles.iter().map(|p| (p.predicted, p.covariance)),
+            (self.particles.iter()).map(|p| (p.predicted, p.spread + p.covariance)),
             self.weights.as_slice(),
         )
     }
@@ -307,6 +328,25 @@ impl GridFastSlam {
         }
         tiles.len() * TILE_BYTES + index
     }
+}
+
+/// One particle's outcome of a keyframe.
+struct Drawn {
+    pose: Pose2,
+    /// The log-weight increment.
+    log_weight: f64,
+    spread: Matrix3<f64>,
+    stats: MoveStats,
+}
+
+/// `m⁻¹` of a symmetric positive definite `m`.
+fn inverse(m: &Matrix3<f64>) -> Result<Matrix3<f64>> {
+    m.cholesky()
+        .map(|c| c.inverse())
+        .ok_or_else(|| Error::InvalidInput {
+            what: "motion prior",
+            reason: format!("covariance not positive definite: {m:?}"),
+        })
 }
 
 /// A draw `o ~ N(0, covariance)`.
