@@ -10,7 +10,9 @@ use crate::lists::List;
 use crate::methods::Methods;
 use crate::settings;
 use anyhow::Context;
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 use fastslam_client::metrics::{AlignMode, ScoreAt, fit_alignment, scored_at};
+use fastslam_client::occupancy::OCCUPIED_THRESH;
 use fastslam_client::reference::NoiseModel;
 use fastslam_client::{Metrics, Recording};
 use fastslam_estimation::fastslam::Proposal;
@@ -25,7 +27,7 @@ use fastslam_replay::profile::Profile;
 use fastslam_replay::{mrclam, victoria_park};
 use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::offline::{Message, OfflineRun};
-use fastslam_service::config::{Overrides, ServiceConfig};
+use fastslam_service::config::{MapKind, Overrides, ServiceConfig};
 use fastslam_service::sequencer::{RawScan, Scan, Sequencer};
 use fastslam_service::slam::{Slam, Smoothed};
 use std::time::{Duration, Instant};
@@ -44,6 +46,35 @@ pub struct RunOutcome {
     /// CPU time of the whole run, every thread of the process counted (simulation and
     /// scoring included).
     pub cpu: Duration,
+    /// The final occupancy grid's precision and recall against the scenario's walls and
+    /// poles ([`GRID_TOLERANCE_M`]), for a simulated world with walls seen by raw scans.
+    pub grid: Option<(f64, f64)>,
+}
+
+/// How far an occupied cell may lie from a wall or pole and still draw it (m), in the
+/// grid precision and recall of [`RunOutcome::grid`].
+pub const GRID_TOLERANCE_M: f64 = 0.2;
+
+/// `slam`'s final grid scored against `source`'s walls, where it has walls and a grid.
+fn grid_score(source: &Source, slam: &mut Slam) -> Option<(f64, f64)> {
+    let Source::Simulation(scenario) = source else {
+        return None;
+    };
+    if scenario.world.walls.is_empty() {
+        return None;
+    }
+    let (h, cells) = slam.grid(Header::default())?;
+    let width = h.width as usize;
+    let occupied: Vec<[f64; 2]> = (cells.iter().enumerate())
+        .filter(|(_, c)| f64::from(**c) >= 100.0 * OCCUPIED_THRESH)
+        .map(|(k, _)| {
+            [
+                h.origin_x + ((k % width) as f64 + 0.5) * h.resolution,
+                h.origin_y + ((k / width) as f64 + 0.5) * h.resolution,
+            ]
+        })
+        .collect();
+    Some((scenario.world).map_precision_recall(&occupied, h.resolution, GRID_TOLERANCE_M))
 }
 
 /// CPU time the process has used so far, user and system, every thread counted.
@@ -311,6 +342,7 @@ pub fn run_in_process(
         recording.set_smoothed(&smoothed.trajectory.0, &smoothed.trajectory.1);
         recording.smoothed_map = smoothed.map.1;
     }
+    let grid = grid_score(source, &mut slam);
     let (align, score_at) = source.scoring();
     let alignment = fit_alignment(&scored_at(&recording, score_at), align);
     let mut recording = alignment.apply(&recording);
@@ -323,6 +355,7 @@ pub fn run_in_process(
         simulated: Duration::from_nanos(stamp_ns),
         moves: slam.move_stats(),
         cpu: process_cpu().saturating_sub(cpu_start),
+        grid,
     })
 }
 
@@ -373,6 +406,13 @@ pub struct Row {
     pub cpu: Summary,
     /// The optimiser's moves summed over the runs (`None` without an optimiser).
     pub moves: Option<MoveStats>,
+    /// What the particles map.
+    pub map: MapKind,
+    /// The final grid's precision per run against the true walls ([`RunOutcome::grid`];
+    /// not a number without one).
+    pub grid_precision: Summary,
+    /// Its recall per run.
+    pub grid_recall: Summary,
 }
 
 /// The settings of one comparison: which estimators, particle counts and seeds.
@@ -385,6 +425,11 @@ pub struct Comparison {
     /// configuration's).
     #[arg(long, value_delimiter = ',')]
     pub proposals: Vec<Proposal>,
+    /// What particles map, comma-separated: landmarks and/or grid (default: the
+    /// configuration's). Grid rows ignore the move correction (the matcher is always a
+    /// per-particle proposal) and appear once per optimiser.
+    #[arg(long, value_delimiter = ',', value_parser = PossibleValuesParser::new(MapKind::NAMES).map(|s| MapKind::parse(&s).expect("a listed name")))]
+    pub maps: Vec<MapKind>,
     /// Seeds of simulation and filter (as `run --seed`): an inclusive range `a..b` or a
     /// comma-separated list.
     #[arg(long, default_value = "1..10")]
@@ -412,7 +457,16 @@ pub fn compare(
     } else {
         comparison.proposals.clone()
     };
-    for proposal in proposals {
+    let maps = if comparison.maps.is_empty() {
+        vec![configured.map.kind]
+    } else {
+        comparison.maps.clone()
+    };
+    let mut done = std::collections::HashSet::new();
+    for (map, proposal) in maps
+        .into_iter()
+        .flat_map(|m| proposals.iter().map(move |&p| (m, p)))
+    {
         for (kind, correction) in comparison.methods.methods() {
             for &particles in &particles {
                 let mut runs = Vec::with_capacity(comparison.seeds.0.len());
@@ -427,13 +481,21 @@ pub fn compare(
                     config.filter.proposal = proposal;
                     config.optimizer.kind = kind;
                     config.moves.correction = correction;
+                    config.map.kind = map;
                     method = config.method();
+                    if !done.insert((method.clone(), particles, seed)) {
+                        break;
+                    }
                     runs.push(run_in_process(source, seed, &config)?);
+                }
+                if runs.is_empty() {
+                    continue;
                 }
                 let row = Row {
                     optimizer: kind,
                     correction,
                     proposal,
+                    map,
                     ..summarise(method, particles, &runs)
                 };
                 row_done(&row);
@@ -467,6 +529,8 @@ fn summarise(method: String, particles: usize, runs: &[RunOutcome]) -> Row {
         landmark: column(&|r| r.metrics.map.rmse_m),
         landmarks: column(&|r| r.metrics.map.estimated as f64),
         true_landmarks: runs.first().map_or(0, |r| r.metrics.map.truth),
+        grid_precision: column(&|r| r.grid.map_or(f64::NAN, |g| g.0)),
+        grid_recall: column(&|r| r.grid.map_or(f64::NAN, |g| g.1)),
         nees: column(&|r| r.metrics.consistency.nees_mean),
         nees_within: column(&|r| r.metrics.consistency.nees_within_95),
         singular: column(&|r| {
@@ -476,5 +540,6 @@ fn summarise(method: String, particles: usize, runs: &[RunOutcome]) -> Row {
         seconds: column(&|r| r.filter_time.as_secs_f64()),
         cpu: column(&|r| r.cpu.as_secs_f64()),
         moves,
+        map: MapKind::Landmarks,
     }
 }

@@ -76,6 +76,7 @@ fn in_process_run_gives_the_metrics_of_the_run_through_the_processes() {
             optimizer: Some("icoa".into()),
             proposal: Some("fastslam2".into()),
             move_correction: Some("proposal".into()),
+            map: None,
         },
     };
     let outcome =
@@ -95,6 +96,25 @@ fn in_process_raw_scans_give_the_metrics_of_the_run_through_the_processes() {
     let outcome =
         assert_in_process_equals_processes("offline_raw", "indoor-loop", &flags, &overrides);
     assert!(outcome.metrics.estimate.poses > 100);
+}
+
+#[test]
+fn in_process_grid_fastslam_gives_the_metrics_of_the_run_through_the_processes() {
+    let overrides = Overrides {
+        particles: Some(10),
+        seed: Some(4),
+        choice: EstimatorChoice {
+            optimizer: Some("hill".into()),
+            map: Some("grid".into()),
+            ..EstimatorChoice::default()
+        },
+    };
+    let flags = overrides.flags();
+    let flags: Vec<&str> = flags.iter().map(String::as_str).collect();
+    let outcome =
+        assert_in_process_equals_processes("offline_grid", "indoor-loop", &flags, &overrides);
+    assert!(outcome.moves.is_some_and(|m| m.proposed > 0));
+    assert!(outcome.metrics.estimate.ate_rmse_m < 0.5 * outcome.metrics.dead_reckoning.ate_rmse_m);
 }
 
 #[test]

@@ -43,8 +43,9 @@ pub struct MonteCarloArgs {
     /// Also write the rows to this CSV file, one per method, with the columns
     /// scenario,optimizer,correction,proposal,particles,seeds,ate_mean_m,ate_std_m,
     /// nees_within_95,singular_fraction,cpu_s_per_run,smoothed_ate_mean_m,smoothed_ate_std_m,
-    /// ate_max_m,landmarks_mean,true_landmarks (docs/CSV.md; correction: none, proposal or
-    /// resample-move, empty without an optimiser; proposal: motion or fastslam2).
+    /// ate_max_m,landmarks_mean,true_landmarks,map,grid_precision,grid_recall (docs/CSV.md;
+    /// correction: none, proposal or resample-move, empty without an optimiser; proposal:
+    /// motion or fastslam2; map: landmarks or grid).
     #[arg(long)]
     pub csv: Option<PathBuf>,
 }
@@ -52,7 +53,8 @@ pub struct MonteCarloArgs {
 /// The header of `monte-carlo --csv`; tools outside the project read these names.
 pub const CSV_HEADER: &str = "scenario,optimizer,correction,proposal,particles,seeds,\
 ate_mean_m,ate_std_m,nees_within_95,singular_fraction,cpu_s_per_run,\
-smoothed_ate_mean_m,smoothed_ate_std_m,ate_max_m,landmarks_mean,true_landmarks";
+smoothed_ate_mean_m,smoothed_ate_std_m,ate_max_m,landmarks_mean,true_landmarks,\
+map,grid_precision,grid_recall";
 
 /// One line of `monte-carlo --csv`.
 fn csv_row(scenario: &str, row: &Row) -> String {
@@ -62,7 +64,7 @@ fn csv_row(scenario: &str, row: &Row) -> String {
         row.correction.name()
     };
     format!(
-        "{scenario},{},{correction},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+        "{scenario},{},{correction},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
         row.optimizer,
         row.proposal,
         row.particles,
@@ -76,7 +78,10 @@ fn csv_row(scenario: &str, row: &Row) -> String {
         row.smoothed.std,
         row.ate.max,
         row.landmarks.mean,
-        row.true_landmarks
+        row.true_landmarks,
+        row.map.name(),
+        row.grid_precision.mean,
+        row.grid_recall.mean
     )
 }
 
@@ -164,6 +169,17 @@ fn print_row(row: &Row) {
     } else {
         String::new()
     };
+    let grid = if row.grid_precision.n > 0 {
+        format!(
+            " · grid precision {:.3} ± {:.3}, recall {:.3} ± {:.3}",
+            row.grid_precision.mean,
+            row.grid_precision.std,
+            row.grid_recall.mean,
+            row.grid_recall.std
+        )
+    } else {
+        String::new()
+    };
     let moves = row.moves.map_or(String::new(), |m| {
         format!(
             " · {}/{} ({:.1} %)",
@@ -173,7 +189,7 @@ fn print_row(row: &Row) {
         )
     });
     println!(
-        "  {:<28} {:>5}  {:>30}  {:>30}  {:>30}  {:>10.3}  {:>8.3}  {:>7.2} ± {:<4.2}  {:>8.2}  {:.3} / {:.3}  {:.1} ± {:.1} · {:.3} · {:.1} ± {:.1} / {}{moves}{smoothed}",
+        "  {:<28} {:>5}  {:>30}  {:>30}  {:>30}  {:>10.3}  {:>8.3}  {:>7.2} ± {:<4.2}  {:>8.2}  {:.3} / {:.3}  {:.1} ± {:.1} · {:.3} · {:.1} ± {:.1} / {}{moves}{smoothed}{grid}",
         row.method,
         row.particles,
         cell(&row.ate),

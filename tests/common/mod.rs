@@ -6,6 +6,7 @@
 
 pub use fastslam_protocol::ipc::remove_stack_files;
 use fastslam_protocol::ipc::shared_memory_files;
+use fastslam_sensors_sim::Scenario;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
@@ -402,25 +403,83 @@ impl Drop for HandStack {
     }
 }
 
-/// A short real-time drive (the start of `bailey-short` at 6 m/s: about 12 s simulated),
-/// written to `dir`.
-pub fn short_scenario(dir: &Path) -> PathBuf {
-    let text = include_str!("../../sensors-sim/scenarios/bailey-short.toml");
-    let start = text
-        .find("waypoints = [")
-        .expect("bailey-short has waypoints");
+/// The built-in scenario `name` with its route replaced by `waypoints` (a TOML array),
+/// renamed `renamed`: a scenario file may not take the name of a built-in it differs from.
+pub fn rerouted(name: &str, renamed: &str, waypoints: &str) -> String {
+    let text = (fastslam_sensors_sim::scenario::BUILT_IN.iter())
+        .find(|(n, _)| *n == name)
+        .expect("a built-in scenario")
+        .1;
+    let start = text.find("waypoints = [").expect("a route");
     let end = start
         + text[start..]
             .find("\n]")
             .expect("the list ends on its own line")
         + 2;
-    let text = format!(
-        "{}waypoints = [[12.649533, -41.588785], [44.736760, -54.984424]]{}",
-        &text[..start],
-        &text[end..]
+    format!("{}waypoints = {waypoints}{}", &text[..start], &text[end..]).replace(
+        &format!("name = \"{name}\""),
+        &format!("name = \"{renamed}\""),
     )
-    .replace("speed_mps = 3.0", "speed_mps = 6.0")
-    .replace("name = \"bailey-short\"", "name = \"short-drive\"");
+}
+
+/// The occupied cells of a run folder's map (`map.yaml` + `map.pgm`, map_server format),
+/// as cell-centre coordinates (m), and the resolution.
+pub fn occupied_cells(out: &Path) -> (Vec<[f64; 2]>, f64) {
+    let yaml = std::fs::read_to_string(out.join("map.yaml")).expect("map.yaml");
+    let value = |key: &str| -> String {
+        let line = yaml.lines().find(|l| l.starts_with(key)).unwrap();
+        line[key.len()..].trim().to_string()
+    };
+    let resolution: f64 = value("resolution:").parse().unwrap();
+    let origin: Vec<f64> = value("origin:")
+        .trim_matches(['[', ']'])
+        .split(',')
+        .map(|v| v.trim().parse().unwrap())
+        .collect();
+    let pgm = std::fs::read(out.join("map.pgm")).expect("map.pgm");
+    let text = String::from_utf8_lossy(&pgm[..20]).to_string();
+    let mut fields = text.split_whitespace();
+    assert_eq!(fields.next(), Some("P5"));
+    let width: usize = fields.next().unwrap().parse().unwrap();
+    let height: usize = fields.next().unwrap().parse().unwrap();
+    let pixels = &pgm[pgm.len() - width * height..];
+    let cells = pixels
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| **p == 0)
+        .map(|(k, _)| {
+            let (column, row) = (k % width, k / width);
+            let j = height - 1 - row; // image row 0 is the top of the map
+            [
+                origin[0] + (column as f64 + 0.5) * resolution,
+                origin[1] + (j as f64 + 0.5) * resolution,
+            ]
+        })
+        .collect();
+    (cells, resolution)
+}
+
+/// Precision and recall of a run folder's map against `scenario`'s walls and poles
+/// ([`fastslam_sensors_sim::scenario::World::map_precision_recall`]), from the map files.
+pub fn precision_recall(out: &Path, scenario: &Scenario, tolerance: f64) -> (f64, f64) {
+    let (cells, resolution) = occupied_cells(out);
+    assert!(
+        cells.len() > 100,
+        "an almost empty grid: {} cells",
+        cells.len()
+    );
+    (scenario.world).map_precision_recall(&cells, resolution, tolerance)
+}
+
+/// A short real-time drive (the start of `bailey-short` at 6 m/s: about 12 s simulated),
+/// written to `dir`.
+pub fn short_scenario(dir: &Path) -> PathBuf {
+    let text = rerouted(
+        "bailey-short",
+        "short-drive",
+        "[[12.649533, -41.588785], [44.736760, -54.984424]]",
+    )
+    .replace("speed_mps = 3.0", "speed_mps = 6.0");
     let path = dir.join("short-drive.toml");
     std::fs::write(&path, text).unwrap();
     path

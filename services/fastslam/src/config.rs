@@ -137,6 +137,14 @@ impl MapKind {
     /// The names, as in config files and on the command line.
     pub const NAMES: [&'static str; 2] = ["landmarks", "grid"];
 
+    /// The name, as in config files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Landmarks => "landmarks",
+            Self::Grid => "grid",
+        }
+    }
+
     /// The kind named `name`.
     ///
     /// # Errors
@@ -534,14 +542,18 @@ mod tests {
                 optimizer: Some("gwo".into()),
                 proposal: Some("motion".into()),
                 move_correction: Some("resample-move".into()),
+                map: Some("grid".into()),
             },
         };
         overrides.apply(&mut c).unwrap();
         let flags = overrides.flags().join(" ");
         assert_eq!(
             flags,
-            "--particles 30 --seed 4 --optimizer gwo --proposal motion --move-correction resample-move"
+            "--particles 30 --seed 4 --optimizer gwo --proposal motion --move-correction resample-move --map grid"
         );
+        assert_eq!(c.map.kind, MapKind::Grid);
+        assert_eq!(c.method(), "grid-gwo");
+        c.map.kind = MapKind::Landmarks;
         assert_eq!((c.filter.particles, c.filter.seed), (30, 4));
         assert_eq!(c.optimizer.kind, OptimiserKind::Gwo);
         assert_eq!(c.filter.proposal, Proposal::Motion);
@@ -555,6 +567,17 @@ mod tests {
             "none+fastslam2",
             "no optimiser, nothing to correct"
         );
+    }
+
+    #[test]
+    fn a_map_kind_is_named_and_an_unknown_one_refused_with_the_choices() {
+        let c: ServiceConfig = toml::from_str("[map]\nkind = \"grid\"").unwrap();
+        assert_eq!(c.map.kind, MapKind::Grid);
+        assert!(toml::from_str::<ServiceConfig>("[map]\nkind = \"voxels\"").is_err());
+        let err = MapKind::parse("voxels").unwrap_err().to_string();
+        assert!(err.contains("landmarks, grid"), "{err}");
+        let c: ServiceConfig = toml::from_str("[map.matching]\nwindow = 0").unwrap();
+        assert!(c.validate().is_err());
     }
 
     #[test]

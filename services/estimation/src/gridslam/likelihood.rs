@@ -1,14 +1,14 @@
 //! How well a scan fits a particle's grid: a likelihood field evaluated on the fly
-//! (docs/ALGORITHMS.md §9.2).
+//! (docs/ALGORITHMS.md §9).
 //!
 //! Every `stride`-th beam with a return ends at a point `e` of the map frame. Around the
-//! cell of `e` the grid is searched `window` cells each way for occupied cells (log-odds
-//! > 0); `d` is the distance from `e` to the nearest one's centre. The beam's likelihood
-//! is `z_hit · exp(−d² / 2σ²) + z_rand`, the second term standing for everything the
-//! field does not explain (a spurious return, a wall not yet mapped, a person walking
-//! by); with no occupied cell in the window only `z_rand` remains. GMapping evaluates its
-//! grid the same way (a small search kernel instead of a precomputed distance map), which
-//! keeps a particle's map cheap to change.
+//! cell of `e` the grid is searched `window` cells each way for occupied cells (positive
+//! log-odds); `d` is the distance from `e` to the nearest one's centre. The beam's
+//! likelihood is `z_hit · exp(−d² / 2σ²) + z_rand`, the second term standing for
+//! everything the field does not explain (a spurious return, a wall not yet mapped, a
+//! person walking by); with no occupied cell in the window only `z_rand` remains.
+//! GMapping evaluates its grid the same way (a small search kernel instead of a
+//! precomputed distance map), which keeps a particle's map cheap to change.
 
 use super::tiles::TiledGrid;
 use crate::Result;
@@ -67,15 +67,19 @@ impl ScanMatchConfig {
     pub fn validate(&self) -> Result<()> {
         positive("map.matching.sigma", self.sigma)?;
         in_range("map.matching.z_hit", self.z_hit, 0.0, 1.0)?;
-        require(self.z_hit > 0.0 && self.z_hit < 1.0, "map.matching.z_hit", || {
-            format!("must lie in (0, 1), got {}", self.z_hit)
-        })?;
+        require(
+            self.z_hit > 0.0 && self.z_hit < 1.0,
+            "map.matching.z_hit",
+            || format!("must lie in (0, 1), got {}", self.z_hit),
+        )?;
         require(
             (1..=MAX_WINDOW).contains(&self.window),
             "map.matching.window",
             || format!("must lie in 1..={MAX_WINDOW}, got {}", self.window),
         )?;
-        require(self.stride >= 1, "map.matching.stride", || "must be >= 1".into())?;
+        require(self.stride >= 1, "map.matching.stride", || {
+            "must be >= 1".into()
+        })?;
         positive("map.matching.hessian_step_m", self.hessian_step_m)?;
         positive("map.matching.hessian_step_rad", self.hessian_step_rad)
     }
@@ -244,7 +248,10 @@ mod tests {
         assert!(truth > at(0.0, -0.1, 0.0) + 10.0);
         assert!(truth > at(0.0, 0.0, 0.03) + 10.0);
         let floor = points.len() as f64 * (1.0 - config.z_hit).ln();
-        assert!((at(50.0, 50.0, 0.0) - floor).abs() < 1e-9, "nothing mapped there");
+        assert!(
+            (at(50.0, 50.0, 0.0) - floor).abs() < 1e-9,
+            "nothing mapped there"
+        );
     }
 
     #[test]

@@ -95,10 +95,13 @@ impl TiledGrid {
     fn cover(&mut self, lo: (i64, i64), hi: (i64, i64)) {
         let ((a0, b0), _) = Self::split(lo.0, lo.1);
         let ((a1, b1), _) = Self::split(hi.0, hi.1);
-        let (c0, c1) = (self.corner, (
-            self.corner.0 + self.span.0 as i64 - 1,
-            self.corner.1 + self.span.1 as i64 - 1,
-        ));
+        let (c0, c1) = (
+            self.corner,
+            (
+                self.corner.0 + self.span.0 as i64 - 1,
+                self.corner.1 + self.span.1 as i64 - 1,
+            ),
+        );
         let empty = self.tiles.is_empty();
         if !empty && a0 >= c0.0 && b0 >= c0.1 && a1 <= c1.0 && b1 <= c1.1 {
             return;
@@ -141,7 +144,10 @@ impl TiledGrid {
     /// (`crate::grid`'s, each cell changed at most once per scan).
     pub fn integrate(&mut self, pose: &Pose2, beams: &[KeptBeam], config: &GridConfig) {
         self.scans = self.scans.checked_add(1).unwrap_or(1);
-        let reach = beams.iter().map(|b| f64::from(b.length)).fold(0.0, f64::max);
+        let reach = beams
+            .iter()
+            .map(|b| f64::from(b.length))
+            .fold(0.0, f64::max);
         let lo = self.cell(pose.x - reach, pose.y - reach);
         let hi = self.cell(pose.x + reach, pose.y + reach);
         self.cover(lo, hi);
@@ -155,10 +161,7 @@ impl TiledGrid {
     /// Tiles this grid holds, each once, as addresses: equal addresses in two grids are
     /// one shared tile (for counting memory).
     pub fn tile_addresses(&self) -> impl Iterator<Item = usize> + '_ {
-        self.tiles
-            .iter()
-            .flatten()
-            .map(|t| Arc::as_ptr(t) as usize)
+        self.tiles.iter().flatten().map(|t| Arc::as_ptr(t) as usize)
     }
 
     /// Bytes of the tile index (the part a copy does not share).
@@ -261,6 +264,9 @@ mod tests {
         }];
         second.integrate(&Pose2::new(5.0, 5.0, 0.0), &far, &config);
         let after = shared(&first, &second);
-        assert!(after < all && after > all - 4, "{after} of {all} still shared");
+        assert!(
+            after < all && after > all - 4,
+            "{after} of {all} still shared"
+        );
     }
 }

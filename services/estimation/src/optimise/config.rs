@@ -3,8 +3,8 @@
 
 use super::chaos::CircleMap;
 use super::{
-    Ba, BaConfig, Coa, Gwo, GwoConfig, HillClimb, Iba, IbaConfig, Icoa, IcoaConfig, Optimiser, Pso, PsoConfig,
-    Qpso, QpsoConfig,
+    Ba, BaConfig, Coa, Gwo, GwoConfig, HillClimb, Iba, IbaConfig, Icoa, IcoaConfig, Optimiser, Pso,
+    PsoConfig, Qpso, QpsoConfig,
 };
 use crate::check::require;
 use crate::moves::MoveCorrection;

@@ -118,6 +118,9 @@ mod tests {
             .unwrap();
         assert_eq!(population.position(0), &[0.0, 0.0]);
         assert_eq!(hill.steps[0], 0.5 * first[0]);
-        assert!(population.fitness()[1] < 2500.0, "the second member went downhill");
+        assert!(
+            population.fitness()[1] < 2500.0,
+            "the second member went downhill"
+        );
     }
 }
