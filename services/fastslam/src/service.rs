@@ -386,6 +386,10 @@ impl Service {
             skipped_before_checkpoint = self.floor.skipped(),
             "inputs finished"
         );
+        if let Some(bytes) = core.slam.grid_bytes() {
+            let mib = bytes as f64 / (1024.0 * 1024.0);
+            tracing::info!(particles = core.slam.particles(), "particle grids hold {mib:.1} MiB");
+        }
         Ok(())
     }
 }
