@@ -388,7 +388,10 @@ impl Service {
         );
         if let Some(bytes) = core.slam.grid_bytes() {
             let mib = bytes as f64 / (1024.0 * 1024.0);
-            tracing::info!(particles = core.slam.particles(), "particle grids hold {mib:.1} MiB");
+            tracing::info!(
+                particles = core.slam.particles(),
+                "particle grids hold {mib:.1} MiB"
+            );
         }
         Ok(())
     }

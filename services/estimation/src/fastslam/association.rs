@@ -95,6 +95,12 @@ pub struct AssociationConfig {
     /// Σ₂)⁻¹ (μ₁ − μ₂) < merge_gate` (χ², 2 dof), into their fused Gaussian
     /// (`merge::merge_touched`). 0 (default): never.
     pub merge_gate: f64,
+    /// Unknown association: the published map — not the filter — shows landmarks of the
+    /// best particle that match within this χ² gate (2 dof) once, fused
+    /// (`merge::merge_all`): duplicates a particle keeps apart while it is not sure are
+    /// drawn as one point, and its hypotheses stay as they are. 0 (default): the map is
+    /// published as the particle holds it.
+    pub map_merge_gate: f64,
 }
 
 /// How the observations of one scan share the landmarks under unknown association
@@ -131,6 +137,7 @@ impl Default for AssociationConfig {
             likelihood_ratio: false,
             pose_uncertainty: false,
             merge_gate: 0.0,
+            map_merge_gate: 0.0,
         }
     }
 }
@@ -157,16 +164,14 @@ impl AssociationConfig {
         require(self.log_p_new.is_finite(), "association.log_p_new", || {
             format!("must be finite, got {}", self.log_p_new)
         })?;
-        require(
-            self.merge_gate.is_finite() && self.merge_gate >= 0.0,
-            "association.merge_gate",
-            || {
-                format!(
-                    "must be a finite number >= 0 (0: off), got {}",
-                    self.merge_gate
-                )
-            },
-        )?;
+        for (name, gate) in [
+            ("association.merge_gate", self.merge_gate),
+            ("association.map_merge_gate", self.map_merge_gate),
+        ] {
+            require(gate.is_finite() && gate >= 0.0, name, || {
+                format!("must be a finite number >= 0 (0: off), got {gate}")
+            })?;
+        }
         positive("association.search_radius", self.search_radius)?;
         positive("association.cell_size", self.cell_size)
     }

@@ -42,6 +42,27 @@ pub(crate) fn merge_touched(
     removed
 }
 
+/// Keeps, of every group of landmarks of `map` that match within `gate` (looked for
+/// within `radius` metres), the best supported one: landmarks are taken by hits (most
+/// first, then the older id), and each removes the others that match it.
+pub(crate) fn keep_best_supported(map: &mut LandmarkMap, gate: f64, radius: f64) {
+    let mut order: Vec<Landmark> = map.iter().copied().collect();
+    order.sort_by(|a, b| b.hits.cmp(&a.hits).then(a.id.cmp(&b.id)));
+    for a in order {
+        if map.get(a.id).is_none() {
+            continue; // removed by a better supported one
+        }
+        let shadowed: Vec<u64> = (map.within(a.mean, radius))
+            .filter(|(slot, _)| slot.id() != a.id)
+            .filter(|(_, b)| mahalanobis_squared(&a, b).is_some_and(|d2| d2 < gate))
+            .map(|(slot, _)| slot.id())
+            .collect();
+        for id in shadowed {
+            map.remove(id);
+        }
+    }
+}
+
 /// `(μa − μb)ᵀ (Σa + Σb)⁻¹ (μa − μb)`; `None` if the sum is singular.
 fn mahalanobis_squared(a: &Landmark, b: &Landmark) -> Option<f64> {
     let d: Vector2<f64> = a.mean - b.mean;

@@ -595,10 +595,18 @@ impl FastSlam {
     /// O(M log M) (collect and sort).
     pub fn best_map(&self) -> Vec<MapLandmark> {
         let best = self.best();
-        let mut landmarks: Vec<MapLandmark> = (best.map.iter())
-            .filter(|l| self.is_confirmed(l))
-            .map(MapLandmark::from)
-            .collect();
+        let confirmed = best.map.iter().filter(|l| self.is_confirmed(l));
+        let association = &self.config.association;
+        let gate = association.map_merge_gate;
+        let mut landmarks: Vec<MapLandmark> =
+            if gate > 0.0 && association.mode == AssociationMode::Unknown {
+                let mut shown = LandmarkMap::new(association.cell_size);
+                confirmed.for_each(|l| shown.insert(*l));
+                merge::keep_best_supported(&mut shown, gate, association.search_radius);
+                shown.iter().map(MapLandmark::from).collect()
+            } else {
+                confirmed.map(MapLandmark::from).collect()
+            };
         landmarks.sort_unstable_by_key(|l| l.id);
         landmarks
     }
@@ -614,6 +622,9 @@ impl FastSlam {
     /// Landmarks in the published map ([`best_map`](Self::best_map)), counted without
     /// collecting them.
     pub fn confirmed_landmarks(&self) -> usize {
+        if self.config.association.map_merge_gate > 0.0 {
+            return self.best_map().len();
+        }
         self.best()
             .map
             .iter()
@@ -720,6 +731,35 @@ mod tests {
         };
         assert_eq!(landmarks_after(0.0), 2, "no merging by default");
         assert_eq!(landmarks_after(9.21), 1);
+    }
+
+    #[test]
+    fn the_published_map_shows_a_duplicate_once_and_the_particle_keeps_both() {
+        let seen = Observation {
+            range: 5.0,
+            bearing: 0.1,
+            id: None,
+        };
+        let far = Observation {
+            range: 8.0,
+            bearing: -1.0,
+            id: None,
+        };
+        let mut config = FastSlamConfig {
+            particles: 5,
+            ..FastSlamConfig::default()
+        };
+        config.association.map_merge_gate = 9.21;
+        let mut slam = FastSlam::new(config, Pose2::default()).unwrap();
+        // Two scans, each detecting one point twice and another once: the particle holds
+        // three landmarks, all confirmed (seen twice).
+        slam.update(&[seen, seen, far]).unwrap();
+        slam.update(&[seen, seen, far]).unwrap();
+        assert_eq!(slam.best().map.len(), 3);
+        let shown = slam.best_map();
+        assert_eq!(shown.len(), 2, "{shown:?}");
+        assert_eq!(slam.confirmed_landmarks(), 2);
+        assert_eq!(slam.best().map.len(), 3, "the filter keeps its hypotheses");
     }
 
     #[test]
