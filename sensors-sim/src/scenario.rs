@@ -511,9 +511,15 @@ mod tests {
         for (name, _) in BUILT_IN {
             let s = Scenario::load(name).unwrap();
             assert_eq!(&s.name, name);
-            let expected = if name.starts_with("bailey") { 35 } else { 10 };
-            assert!(s.world.point_landmarks().len() >= expected, "{name}");
-            assert_eq!(s.lidar.is_some(), !s.world.poles.is_empty(), "{name}");
+            let landmarks = s.world.point_landmarks().len();
+            match *name {
+                "office-corridors" => assert_eq!(landmarks, 0, "not a single pole"),
+                _ if name.starts_with("bailey") => assert!(landmarks >= 35, "{name}"),
+                _ => assert!(landmarks >= 10, "{name}"),
+            }
+            // A lidar sees poles and walls; the feature-level sensor point landmarks.
+            let obstacles = !(s.world.poles.is_empty() && s.world.walls.is_empty());
+            assert_eq!(s.lidar.is_some(), obstacles, "{name}");
         }
     }
 
