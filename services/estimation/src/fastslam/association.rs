@@ -95,10 +95,10 @@ pub struct AssociationConfig {
     /// Σ₂)⁻¹ (μ₁ − μ₂) < merge_gate` (χ², 2 dof), into their fused Gaussian
     /// (`merge::merge_touched`). 0 (default): never.
     pub merge_gate: f64,
-    /// Unknown association: the published map — not the filter — shows landmarks of the
-    /// best particle that match within this χ² gate (2 dof) once, fused
-    /// (`merge::merge_all`): duplicates a particle keeps apart while it is not sure are
-    /// drawn as one point, and its hypotheses stay as they are. 0 (default): the map is
+    /// Unknown association: the published map — not the filter — shows, of every group of
+    /// the best particle's landmarks that match within this χ² gate (2 dof), only the one
+    /// seen most often (`merge::keep_best_supported`): duplicates a particle keeps apart
+    /// while it is not sure are drawn once, and its hypotheses stay as they are. 0 (default): the map is
     /// published as the particle holds it.
     pub map_merge_gate: f64,
 }

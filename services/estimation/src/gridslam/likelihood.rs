@@ -12,7 +12,7 @@
 
 use super::tiles::TiledGrid;
 use crate::Result;
-use crate::check::{in_range, positive, require};
+use crate::check::{positive, require};
 use crate::moves::LocalTarget;
 use crate::pose::{Pose2, wrap_angle};
 use crate::scan::{Beam, RangeScan};
@@ -66,7 +66,6 @@ impl ScanMatchConfig {
     /// [`crate::Error::InvalidParameter`] naming the first bad value.
     pub fn validate(&self) -> Result<()> {
         positive("map.matching.sigma", self.sigma)?;
-        in_range("map.matching.z_hit", self.z_hit, 0.0, 1.0)?;
         require(
             self.z_hit > 0.0 && self.z_hit < 1.0,
             "map.matching.z_hit",
