@@ -16,9 +16,11 @@ const WEBSOCKETS: &str = "websockets==15.0.1";
 /// A Foxglove WebSocket client: connects to `argv[1]` (retrying until the server is up),
 /// subscribes to every channel the server advertises, and counts the message-data frames
 /// (binary, opcode 1: subscription id u32, log time u64, payload) per topic until it has a
-/// pose and a map, the server closes, or `argv[2]` seconds pass. Prints the server's name,
-/// the advertised channels (topic → `schemaName/encoding`), the counts and the largest
-/// payload per topic, as JSON.
+/// pose and a map, the server closes, or `argv[2]` seconds pass. A subscription the server
+/// refuses as an unknown channel is sent again: the Foxglove SDK records an advertised
+/// channel only after queueing its advertisement, so a fast client can beat it. Prints the
+/// server's name, the advertised channels (topic → `schemaName/encoding`), the counts and
+/// the largest payload per topic, and the topics whose subscription was refused, as JSON.
 const CLIENT: &str = r#"import json, struct, sys, time
 from websockets.sync.client import connect
 from websockets.exceptions import ConnectionClosed
@@ -31,7 +33,14 @@ while True:
         if time.time() > deadline:
             raise
         time.sleep(0.2)
-server, channels, by_sub, counts, sizes = None, {}, {}, {}, {}
+server, channels, by_sub, counts, sizes, refused = None, {}, {}, {}, {}, []
+def subscribe(channel_ids):
+    subscriptions = []
+    for channel in channel_ids:
+        sub = len(by_sub) + 1
+        by_sub[sub] = channels[channel]['topic']
+        subscriptions.append({'id': sub, 'channelId': channel})
+    ws.send(json.dumps({'op': 'subscribe', 'subscriptions': subscriptions}))
 with ws:
     assert ws.subprotocol == 'foxglove.sdk.v1', ws.subprotocol
     while time.time() < deadline and not (counts.get('/pose') and counts.get('/map')):
@@ -46,20 +55,22 @@ with ws:
             if op['op'] == 'serverInfo':
                 server = op['name']
             elif op['op'] == 'advertise':
-                subscriptions = []
                 for c in op['channels']:
                     channels[c['id']] = c
-                    sub = len(by_sub) + 1
-                    by_sub[sub] = c['topic']
-                    subscriptions.append({'id': sub, 'channelId': c['id']})
-                ws.send(json.dumps({'op': 'subscribe', 'subscriptions': subscriptions}))
+                subscribe([c['id'] for c in op['channels']])
+            elif op['op'] == 'status' and op['message'].startswith('Unknown channel ID: '):
+                channel = int(op['message'].rsplit(' ', 1)[1])
+                refused.append(channels[channel]['topic'])
+                time.sleep(0.1)
+                subscribe([channel])
         elif frame[0] == 1:
             sub, _log_time = struct.unpack_from('<IQ', frame, 1)
             topic = by_sub[sub]
             counts[topic] = counts.get(topic, 0) + 1
             sizes[topic] = max(sizes.get(topic, 0), len(frame) - 13)
 advertised = {c['topic']: f"{c.get('schemaName', '')}/{c['encoding']}" for c in channels.values()}
-print(json.dumps({'server': server, 'advertised': advertised, 'counts': counts, 'sizes': sizes}))
+print(json.dumps({'server': server, 'advertised': advertised, 'counts': counts, 'sizes': sizes,
+                  'refused': refused}))
 "#;
 
 /// A TCP port nobody listens on right now.

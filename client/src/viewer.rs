@@ -61,6 +61,10 @@ pub struct Args {
 /// A port that cannot be bound, or IPC failures.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let context = Context::new();
+    // Every channel exists before a client can connect, so a client gets them all in one
+    // advertisement: a subscription sent back to a channel advertised on its own can race
+    // the server's record of that advertisement and be refused as an unknown channel.
+    let mut log = RunLog::new(&context);
     let server = WebSocketServer::new()
         .name("fastslam")
         .context(&context)
@@ -76,7 +80,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Duration::from_secs_f64(args.wait_timeout_s.max(0.0)),
     )?;
     let inputs = Inputs::open(&ipc)?;
-    let mut log = RunLog::new(&context);
     let mut newest = Newest::default();
     let mut ends = Ends::new(inputs.lidar.stream());
     let mut published = Instant::now();
