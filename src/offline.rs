@@ -225,6 +225,10 @@ impl Source {
                             let scan = &data.scans[i];
                             Message::Observations(scan.header, scan.observations.clone())
                         }
+                        Next::RawScan(i) => {
+                            let scan = &data.raw_scans[i];
+                            Message::RawScan(scan.header, scan.ranges.clone())
+                        }
                     })),
                 )
             }

@@ -135,6 +135,45 @@ fn victoria_park_follows_the_gps_loop_far_better_than_dead_reckoning() {
 }
 
 #[test]
+fn victoria_park_raw_scans_matched_against_particle_grids_beat_dead_reckoning() {
+    let prefix = prefix("victoriaraw");
+    let dir = folder(&prefix);
+    let out = dir.join("run");
+    let data = data("victoria_park");
+    // Grid FastSLAM on the raw scans; ten particles drawn from the motion prior keep the
+    // run short.
+    let m = replay(
+        &prefix,
+        &out,
+        &[
+            "victoria-park",
+            "--data",
+            data.to_str().unwrap(),
+            "--profile",
+            "victoria-park-scans",
+            "--particles",
+            "10",
+            "--optimizer",
+            "none",
+        ],
+    );
+    let settings = std::fs::read_to_string(out.join("service.toml")).unwrap();
+    assert!(settings.contains("kind = \"grid\""), "{settings}");
+    // Every raw scan of the release made a filter step; the map is a grid.
+    assert_eq!(num(&m, "/filter/steps"), 7230.0, "{m}");
+    assert_eq!(num(&m, "/map/estimated"), 0.0, "no landmarks: {m}");
+    for file in ["map.pgm", "map.yaml"] {
+        assert!(out.join(file).is_file(), "{file} in the run folder");
+    }
+    let (estimate, dead_reckoning) = ates(&m);
+    assert!(
+        estimate < 0.5 * dead_reckoning,
+        "ATE at the GPS points {estimate} m vs dead reckoning {dead_reckoning} m"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn a_missing_data_folder_or_profile_is_reported_with_its_reason() {
     let prefix = prefix("replaybad");
     let dir = folder(&prefix);

@@ -1,6 +1,6 @@
 //! A recorded data set turned into the stack's messages, ready to publish: odometry,
-//! landmark observations grouped per scan, ground truth and the true landmark map, all
-//! stamped on one clock. The data-set readers ([`crate::mrclam`],
+//! landmark observations grouped per scan (or the raw laser scans), ground truth and the
+//! true landmark map, all stamped on one clock. The data-set readers ([`crate::mrclam`],
 //! [`crate::victoria_park`]) build it; the [`crate::player`] publishes it.
 //!
 //! Conventions every reader follows:
@@ -21,7 +21,7 @@ use fastslam_estimation::Pose2;
 use fastslam_estimation::motion::{Control, MotionModel};
 use fastslam_protocol::header::stamp_from_secs;
 use fastslam_protocol::{
-    GroundTruth, Header, MapLandmark, Observation, ObservationsHeader, Odometry,
+    GroundTruth, Header, LaserScanHeader, MapLandmark, Observation, ObservationsHeader, Odometry,
 };
 use serde::Deserialize;
 
@@ -32,6 +32,9 @@ pub struct DataSet {
     pub odometry: Vec<Odometry>,
     /// Landmark observations, one message per scan (camera frame, laser scan).
     pub scans: Vec<Scan>,
+    /// Raw laser scans, when the profile asks for them ([`LaserOutput::Scans`]; `scans`
+    /// is then empty, and a data set with both plays only these); empty otherwise.
+    pub raw_scans: Vec<RawScan>,
     /// Ground truth poses (Vicon, GPS…), for the client only.
     pub truth: Vec<GroundTruth>,
     /// True landmark positions for map metrics; empty when the data set has none.
@@ -45,6 +48,16 @@ pub struct Scan {
     pub header: ObservationsHeader,
     /// The observations, vehicle frame.
     pub observations: Vec<Observation>,
+}
+
+/// One raw laser scan as it goes on the wire: ranges only (no intensities), a beam
+/// without a return as +∞ (REP-117).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RawScan {
+    /// The message header (stamp, seq, beam layout, range limits).
+    pub header: LaserScanHeader,
+    /// One range per beam (m).
+    pub ranges: Vec<f32>,
 }
 
 /// Observations grouped per scan, before they become messages: `(stamp_ns, observations)`
@@ -90,6 +103,21 @@ pub struct SensorSpec {
     pub max_range_m: f64,
     /// Field of view centred on the vehicle's heading (deg), in (0, 360].
     pub field_of_view_deg: f64,
+    /// What the replay publishes for the laser: its landmark observations (the default)
+    /// or its raw scans, where the data set has them.
+    #[serde(default)]
+    pub publish: LaserOutput,
+}
+
+/// What a replay publishes for the data set's laser.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LaserOutput {
+    /// Landmark observations on `observations` (detections released with the data set).
+    #[default]
+    Observations,
+    /// The raw range scans on `scan`: the service extracts poles or matches the scans.
+    Scans,
 }
 
 impl SensorSpec {
@@ -293,6 +321,7 @@ mod tests {
         let sensor = SensorSpec {
             max_range_m: 10.0,
             field_of_view_deg: 180.0,
+            publish: LaserOutput::Observations,
         };
         sensor.validate().unwrap();
         let obs = |range| Observation {

@@ -21,7 +21,7 @@
 //! landmarks) is therefore expressed in the frame of the robot's true pose at the first
 //! odometry record (where the filter starts), so the client scores without alignment.
 
-use crate::dataset::{self, Association, Clock, DataSet, ScanGroups, SensorSpec};
+use crate::dataset::{self, Association, Clock, DataSet, LaserOutput, ScanGroups, SensorSpec};
 use crate::text::{self, DAT_BY_TIME, DAT_TABLE, DataError, Result, Row, Table};
 use fastslam_estimation::motion::{Control, MotionModel, Unicycle};
 use fastslam_estimation::{Pose2, wrap_angle};
@@ -47,9 +47,17 @@ pub struct Options {
 ///
 /// # Errors
 /// [`DataError`] naming file and line for a missing or malformed file, a negative range,
-/// or a data set without odometry or ground truth.
+/// or a data set without odometry or ground truth; a profile asking for raw scans (MRCLAM
+/// has a camera, no laser).
 pub fn load(dir: &Path, options: &Options) -> Result<DataSet> {
     options.sensor.validate()?;
+    if options.sensor.publish == LaserOutput::Scans {
+        return Err(DataError::Unusable(
+            "sensor.publish = \"scans\": MRCLAM has no raw scans (its sensor is a camera); \
+             use \"observations\""
+                .into(),
+        ));
+    }
     let r = options.robot;
     let barcodes = text::read::<2>(dir, "Barcodes.dat", DAT_TABLE)?;
     let subject_of = barcodes
@@ -96,6 +104,7 @@ pub fn load(dir: &Path, options: &Options) -> Result<DataSet> {
             (clock.stamp(t), frame.pose(Pose2::new(x, y, theta)))
         })),
         landmarks: true_map(&landmarks, &frame)?,
+        raw_scans: Vec::new(),
     };
     tracing::info!(
         robot = r,
@@ -254,6 +263,7 @@ mod tests {
             sensor: SensorSpec {
                 max_range_m: 5.0,
                 field_of_view_deg: 70.0,
+                publish: LaserOutput::Observations,
             },
         }
     }
@@ -269,6 +279,16 @@ mod tests {
                 ("Robot1_Measurement.dat", measurements),
             ],
         )
+    }
+
+    #[test]
+    fn a_profile_asking_for_raw_scans_is_refused_with_its_reason() {
+        let dir = folder("mrclam-scans", MEASUREMENTS);
+        let mut options = options(Association::Known);
+        options.sensor.publish = LaserOutput::Scans;
+        let err = load(&dir, &options).unwrap_err().to_string();
+        assert!(err.contains("MRCLAM has no raw scans"), "{err}");
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]

@@ -9,7 +9,7 @@
 use crate::dataset::DataSet;
 use fastslam_protocol::ipc::{Ipc, IpcError, Pub, shutdown};
 use fastslam_protocol::{
-    EndOfStream, GroundTruth, Header, LandmarkMapHeader, MapLandmark, Observation,
+    EndOfStream, GroundTruth, Header, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation,
     ObservationsHeader, Odometry, StreamId, topics,
 };
 use std::time::{Duration, Instant};
@@ -31,8 +31,14 @@ struct Outputs {
     truth: Pub<GroundTruth, ()>,
     landmarks: Pub<[MapLandmark], LandmarkMapHeader>,
     odometry: Pub<Odometry, ()>,
-    observations: Pub<[Observation], ObservationsHeader>,
+    laser: Laser,
     eos: Pub<EndOfStream, ()>,
+}
+
+/// The laser's port: observations or raw scans, whichever the data set holds.
+enum Laser {
+    Observations(Pub<[Observation], ObservationsHeader>),
+    Scans(Pub<[f32], LaserScanHeader>),
 }
 
 /// One message to publish: which stream, and its index in that stream.
@@ -44,11 +50,13 @@ pub enum Next {
     Odometry(usize),
     /// `data.scans[i]`.
     Scan(usize),
+    /// `data.raw_scans[i]`.
+    RawScan(usize),
 }
 
 /// Every message of `data` in stamp order; on equal stamps truth, then odometry (so the
-/// filter predicts up to a scan before it updates), then the scan. The order the player
-/// publishes in, and an in-process run replays in.
+/// filter predicts up to a scan before it updates), then the scan (observations or raw).
+/// The order the player publishes in, and an in-process run replays in.
 pub fn schedule(data: &DataSet) -> Vec<(u64, Next)> {
     let mut order: Vec<(u64, Next)> = (data.truth.iter().enumerate())
         .map(|(i, m)| (m.header.stamp_ns, Next::Truth(i)))
@@ -58,17 +66,22 @@ pub fn schedule(data: &DataSet) -> Vec<(u64, Next)> {
         .chain(
             (data.scans.iter().enumerate()).map(|(i, s)| (s.header.header.stamp_ns, Next::Scan(i))),
         )
+        .chain(
+            (data.raw_scans.iter().enumerate())
+                .map(|(i, s)| (s.header.header.stamp_ns, Next::RawScan(i))),
+        )
         .collect();
-    // `Next` orders by variant first (truth < odometry < scan), then by index.
+    // `Next` orders by variant first (truth < odometry < scans), then by index.
     order.sort_unstable();
     order
 }
 
-/// Opens the player's publishers, waits for its consumers, then plays `data`.
+/// Opens the player's publishers, waits for its consumers, then plays `data`: its raw
+/// scans on `scan` where it has any, else its observations on `observations`.
 ///
 /// `consumers` counts the processes that take the sensor streams: 1 = the service alone,
 /// 2 = the service and the client, 3 = also the live viewer. Play starts once odometry
-/// and the observations have that many subscribers (the client takes observations too,
+/// and the laser's topic have that many subscribers (the client takes the laser too,
 /// for latency: counting one would let the client's subscription stand in for a service
 /// that is still starting) and the ground truth one fewer (every consumer but the
 /// service takes it). Each consumer subscribes to
@@ -82,11 +95,18 @@ pub fn play(ipc: &Ipc, data: &DataSet, pacing: Pacing, consumers: usize) -> Resu
         truth: ipc.publisher(&topics::GROUND_TRUTH)?,
         landmarks: ipc.slice_publisher(&topics::TRUE_LANDMARKS)?,
         odometry: ipc.publisher(&topics::ODOMETRY)?,
-        observations: ipc.slice_publisher(&topics::OBSERVATIONS)?,
+        laser: if data.raw_scans.is_empty() {
+            Laser::Observations(ipc.slice_publisher(&topics::OBSERVATIONS)?)
+        } else {
+            Laser::Scans(ipc.slice_publisher(&topics::SCAN)?)
+        },
         eos: ipc.publisher(&topics::END_OF_STREAM)?,
     };
     out.odometry.wait_for_subscribers(ipc, consumers)?;
-    out.observations.wait_for_subscribers(ipc, consumers)?;
+    match &out.laser {
+        Laser::Observations(p) => p.wait_for_subscribers(ipc, consumers)?,
+        Laser::Scans(p) => p.wait_for_subscribers(ipc, consumers)?,
+    }
     out.truth
         .wait_for_subscribers(ipc, consumers.saturating_sub(1))?;
     let order = schedule(data);
@@ -111,24 +131,37 @@ pub fn play(ipc: &Ipc, data: &DataSet, pacing: Pacing, consumers: usize) -> Resu
             Pacing::AsFastAsPossible if shutdown::requested() => return Err(IpcError::Shutdown),
             Pacing::AsFastAsPossible => {}
         }
-        match *next {
-            Next::Truth(i) => out.truth.send(data.truth[i])?,
-            Next::Odometry(i) => out.odometry.send(data.odometry[i])?,
-            Next::Scan(i) => {
+        match (*next, &out.laser) {
+            (Next::Truth(i), _) => out.truth.send(data.truth[i])?,
+            (Next::Odometry(i), _) => out.odometry.send(data.odometry[i])?,
+            (Next::Scan(i), Laser::Observations(p)) => {
                 let scan = &data.scans[i];
-                out.observations.send(scan.header, &scan.observations)?;
+                p.send(scan.header, &scan.observations)?;
             }
+            (Next::RawScan(i), Laser::Scans(p)) => {
+                let scan = &data.raw_scans[i];
+                p.send(scan.header, &scan.ranges)?;
+            }
+            // A data set with raw scans plays those alone.
+            (Next::Scan(_), Laser::Scans(_)) | (Next::RawScan(_), Laser::Observations(_)) => {}
         }
     }
     let last_ns = order.last().map_or(0, |(stamp, _)| *stamp);
     send_map(last_ns, 1)?;
-    for (stream, last) in [
-        (StreamId::GroundTruth, data.truth.last().map(|m| m.header)),
-        (StreamId::Odometry, data.odometry.last().map(|m| m.header)),
-        (
+    let laser = match out.laser {
+        Laser::Observations(_) => (
             StreamId::Observations,
             data.scans.last().map(|s| s.header.header),
         ),
+        Laser::Scans(_) => (
+            StreamId::Scan,
+            data.raw_scans.last().map(|s| s.header.header),
+        ),
+    };
+    for (stream, last) in [
+        (StreamId::GroundTruth, data.truth.last().map(|m| m.header)),
+        (StreamId::Odometry, data.odometry.last().map(|m| m.header)),
+        laser,
     ] {
         out.eos.send(EndOfStream::new(stream, last))?;
     }
@@ -171,6 +204,7 @@ mod tests {
                 })
                 .to_vec(),
             landmarks: vec![],
+            raw_scans: vec![],
         };
         let order: Vec<Next> = schedule(&data).into_iter().map(|(_, n)| n).collect();
         let (t, o, s) = (Next::Truth, Next::Odometry, Next::Scan);

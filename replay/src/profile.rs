@@ -13,6 +13,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         "victoria-park",
         include_str!("../profiles/victoria-park.toml"),
     ),
+    (
+        "victoria-park-scans",
+        include_str!("../profiles/victoria-park-scans.toml"),
+    ),
 ];
 
 /// What can be wrong with a profile.

@@ -29,20 +29,22 @@
 //!   a metre are the lever arm, not the filter.
 //! - There are no true tree positions: `truth/landmarks` is published empty.
 //!
-//! Raw scans (a second mode, not built yet): the protocol's `scan` topic and the service's
-//! pole extraction exist, so a replay of `laser_raw_361beams.txt.gz` (361 ranges over
-//! 0…180°; 81.91 m = no return, so `range_max` below it; its clock runs 20.967 s behind
-//! the CSV files') would publish `LaserScanHeader { angle_min: −π/2, angle_increment:
-//! π/360, … }` instead of the tree observations: with the pose at the laser the scan needs
-//! no mounting offset, and odometry and GPS stay as they are.
+//! - **Raw scans** instead of the tree detections, with `[sensor] publish = "scans"`
+//!   (profile `victoria-park-scans`): `laser_raw_361beams.txt` holds one scan per line,
+//!   its time then 361 ranges over 0…180° from the laser's right; its clock runs
+//!   [`RAW_LASER_CLOCK_OFFSET_S`] behind the CSV files' (its first scan is
+//!   `scan_times.csv`'s first). Each becomes a
+//!   [`LaserScanHeader`](fastslam_protocol::LaserScanHeader) with `angle_min` −π/2 and
+//!   `angle_increment` π/360, no mounting offset (the pose is the laser's); a range from
+//!   [`NO_RETURN_M`] on is the laser's "no return" and goes out as +∞ (REP-117).
 
-use crate::dataset::{self, Clock, DataSet, ScanGroups, SensorSpec};
-use crate::text::{self, CSV_BY_TIME, DataError, Result, Table};
+use crate::dataset::{self, Clock, DataSet, LaserOutput, RawScan, ScanGroups, SensorSpec};
+use crate::text::{self, CSV_BY_TIME, DAT_BY_TIME, DataError, Result, Table};
 use fastslam_estimation::Pose2;
 use fastslam_estimation::motion::{Bicycle, Control, MotionModel};
-use fastslam_protocol::Observation;
+use fastslam_protocol::{Header, LaserScanHeader, Observation};
 use std::collections::HashMap;
-use std::f64::consts::FRAC_PI_2;
+use std::f64::consts::{FRAC_PI_2, PI};
 use std::path::Path;
 
 /// Wheelbase L (m), from the data set's documentation.
@@ -53,6 +55,17 @@ pub const HALF_TRACK_M: f64 = 0.76;
 pub const LASER_AHEAD_M: f64 = 3.78;
 /// Laser position left of the centre line, b (m).
 pub const LASER_LEFT_M: f64 = 0.50;
+
+/// The raw scans' file: a time, then [`BEAMS`] ranges per line.
+pub const RAW_SCANS_FILE: &str = "laser_raw_361beams.txt";
+/// Beams per raw scan: 0…180° in 0.5° steps.
+pub const BEAMS: usize = 361;
+/// What the raw scans' clock runs behind the CSV files' (s): a raw scan's time plus this
+/// is its time in `scan_times.csv`.
+pub const RAW_LASER_CLOCK_OFFSET_S: f64 = 20.967;
+/// A raw range from this on is the laser's "no return" (the release writes 81.91 m, a
+/// few 81.8x m) (m).
+pub const NO_RETURN_M: f32 = 81.0;
 
 /// Fixes farther apart in time than this are not differenced for a course (s).
 pub const COURSE_MAX_GAP_S: f64 = 2.0;
@@ -82,17 +95,17 @@ pub fn laser_bicycle() -> MotionModel {
     })
 }
 
-/// Reads the Victoria Park folder `dir` (files plain or gzipped); observations beyond
-/// `sensor.max_range_m` are dropped.
+/// Reads the Victoria Park folder `dir` (files plain or gzipped): with the tree
+/// detections (observations beyond `sensor.max_range_m` dropped), or with the raw scans
+/// when `sensor.publish` asks for them.
 ///
 /// # Errors
 /// [`DataError`] naming file and line for a missing or malformed file, a tree of a scan
-/// not in `scan_times.csv` (or at another time), or a data set without odometry.
+/// not in `scan_times.csv` (or at another time), a raw scan without 361 ranges, or a data
+/// set without odometry.
 pub fn load(dir: &Path, sensor: &SensorSpec) -> Result<DataSet> {
     sensor.validate()?;
     let odometry = text::read::<3>(dir, "odometry.csv", CSV_BY_TIME)?;
-    let scan_times = text::read::<2>(dir, "scan_times.csv", CSV_BY_TIME)?;
-    let trees = text::read::<5>(dir, "tree_observations.csv", CSV_BY_TIME)?;
     let gps = text::read::<3>(dir, "gps.csv", CSV_BY_TIME)?;
     if odometry.rows.is_empty() {
         return Err(DataError::Unusable(format!(
@@ -100,9 +113,15 @@ pub fn load(dir: &Path, sensor: &SensorSpec) -> Result<DataSet> {
             odometry.path.display()
         )));
     }
-    let first_scan = scan_times.rows.first().map(|r| r.values[1]);
+    let laser = match sensor.publish {
+        LaserOutput::Observations => Laser::Trees {
+            scan_times: text::read::<2>(dir, "scan_times.csv", CSV_BY_TIME)?,
+            trees: text::read::<5>(dir, "tree_observations.csv", CSV_BY_TIME)?,
+        },
+        LaserOutput::Scans => Laser::Raw(read_raw_scans(dir)?),
+    };
     let clock = Clock::starting_at(
-        [odometry.first_time(), gps.first_time(), first_scan]
+        [odometry.first_time(), gps.first_time(), laser.first_time()]
             .into_iter()
             .flatten(),
     )?;
@@ -112,7 +131,13 @@ pub fn load(dir: &Path, sensor: &SensorSpec) -> Result<DataSet> {
             (t, laser_controls(v_e, gamma))
         })
         .collect();
-    let (scans, beyond) = sensor.scans(scans(&scan_times, &trees, &clock)?);
+    let (mut scans, mut raw_scans, mut beyond) = (Vec::new(), Vec::new(), 0);
+    match &laser {
+        Laser::Trees { scan_times, trees } => {
+            (scans, beyond) = sensor.scans(self::scans(scan_times, trees, &clock)?);
+        }
+        Laser::Raw(raw) => raw_scans = raw_messages(raw, &clock),
+    }
     let fixes: Vec<[f64; 3]> = gps.rows.iter().map(|r| r.values).collect();
     let truth = dataset::truth_track(
         (fixes.iter().zip(course_over_ground(&fixes)))
@@ -121,6 +146,7 @@ pub fn load(dir: &Path, sensor: &SensorSpec) -> Result<DataSet> {
     let data = DataSet {
         odometry: dataset::odometry(&records, &laser_bicycle(), &clock),
         scans,
+        raw_scans,
         truth,
         landmarks: Vec::new(),
     };
@@ -128,11 +154,95 @@ pub fn load(dir: &Path, sensor: &SensorSpec) -> Result<DataSet> {
         epoch_s = clock.epoch_s(),
         odometry = data.odometry.len(),
         scans = data.scans.len(),
+        raw_scans = data.raw_scans.len(),
         gps = data.truth.len(),
         beyond_range_dropped = beyond,
         "Victoria Park data set read"
     );
     Ok(data)
+}
+
+/// The laser's files a replay reads.
+enum Laser {
+    /// Scan times and the tree detections per scan.
+    Trees {
+        scan_times: Table<2>,
+        trees: Table<5>,
+    },
+    /// The raw scans.
+    Raw(Vec<RawLaserScan>),
+}
+
+impl Laser {
+    /// The first scan's time on the CSV files' clock (s).
+    fn first_time(&self) -> Option<f64> {
+        match self {
+            Self::Trees { scan_times, .. } => scan_times.rows.first().map(|r| r.values[1]),
+            Self::Raw(raw) => raw.first().map(|s| s.t_s),
+        }
+    }
+}
+
+/// One line of the raw scans' file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RawLaserScan {
+    /// Time on the CSV files' clock (s): the file's own plus [`RAW_LASER_CLOCK_OFFSET_S`].
+    pub t_s: f64,
+    /// The [`BEAMS`] ranges from the laser's right to its left (m), as released (81.91 =
+    /// no return).
+    pub ranges: Vec<f32>,
+}
+
+/// Reads [`RAW_SCANS_FILE`] (plain or gzipped) in `dir`.
+///
+/// # Errors
+/// [`DataError`] naming file and line for a missing file, a line without a time and 361
+/// finite ranges ≥ 0, or a time going backwards.
+pub fn read_raw_scans(dir: &Path) -> Result<Vec<RawLaserScan>> {
+    let table = text::read::<{ BEAMS + 1 }>(dir, RAW_SCANS_FILE, DAT_BY_TIME)?;
+    (table.rows.iter())
+        .map(|row| {
+            if row.values[1..].iter().any(|r| *r < 0.0) {
+                return Err(table.malformed(row, "ranges must be ≥ 0"));
+            }
+            Ok(RawLaserScan {
+                t_s: row.values[0] + RAW_LASER_CLOCK_OFFSET_S,
+                ranges: row.values[1..].iter().map(|&r| r as f32).collect(),
+            })
+        })
+        .collect()
+}
+
+/// The raw scans as messages: the laser's layout (see the module doc), no-return ranges
+/// as +∞, `scan_time` the file's mean period.
+fn raw_messages(raw: &[RawLaserScan], clock: &Clock) -> Vec<RawScan> {
+    let period_s = match (raw.first(), raw.last()) {
+        (Some(first), Some(last)) if raw.len() > 1 => {
+            (last.t_s - first.t_s) / (raw.len() - 1) as f64
+        }
+        _ => 0.0,
+    };
+    (raw.iter().enumerate())
+        .map(|(seq, scan)| RawScan {
+            header: LaserScanHeader {
+                header: Header {
+                    stamp_ns: clock.stamp(scan.t_s),
+                    seq: seq as u64,
+                },
+                angle_min: -FRAC_PI_2 as f32,
+                angle_increment: (PI / (BEAMS - 1) as f64) as f32,
+                time_increment: 0.0,
+                scan_time: period_s as f32,
+                range_min: 0.0,
+                range_max: NO_RETURN_M,
+                ranges: BEAMS as u32,
+                intensities: 0,
+            },
+            ranges: (scan.ranges.iter())
+                .map(|&r| if r >= NO_RETURN_M { f32::INFINITY } else { r })
+                .collect(),
+        })
+        .collect()
 }
 
 /// Every scan of `scan_times` with its trees, in the vehicle (= laser) frame.
@@ -288,6 +398,7 @@ mod tests {
         let sensor = SensorSpec {
             max_range_m: 30.0,
             field_of_view_deg: 180.0,
+            publish: LaserOutput::Observations,
         };
         let data = load(&dir, &sensor).unwrap();
         assert_eq!(
@@ -322,6 +433,7 @@ mod tests {
         let sensor = SensorSpec {
             max_range_m: 30.0,
             field_of_view_deg: 180.0,
+            publish: LaserOutput::Observations,
         };
         for (rows, expected) in [
             (
@@ -334,6 +446,104 @@ mod tests {
             let dir = folder("vp-bad", &format!("{head}{rows}"));
             let err = load(&dir, &sensor).unwrap_err().to_string();
             assert!(err.contains(expected), "{err}");
+            std::fs::remove_dir_all(dir).unwrap();
+        }
+    }
+
+    /// A raw scans' file: one line per `(time on its own clock, range of every beam)`.
+    fn raw_lines(lines: &[(f64, Vec<f64>)]) -> String {
+        (lines.iter())
+            .map(|(t, ranges)| {
+                let ranges: Vec<String> = ranges.iter().map(f64::to_string).collect();
+                format!("{t} {}\n", ranges.join(" "))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn raw_scans_are_published_on_the_csv_clock_with_no_return_as_infinity() {
+        let mut ranges = vec![5.0; BEAMS];
+        (ranges[0], ranges[1], ranges[180]) = (81.91, 81.87, 12.5);
+        let file = raw_lines(&[
+            (1.2 - RAW_LASER_CLOCK_OFFSET_S, ranges.clone()),
+            (1.8 - RAW_LASER_CLOCK_OFFSET_S, ranges),
+        ]);
+        let dir = folder_with(
+            "vp-raw",
+            &[
+                ("odometry.csv", ODOMETRY),
+                ("gps.csv", GPS),
+                ("laser_raw_361beams.txt.gz", &file),
+            ],
+        );
+        let sensor = SensorSpec {
+            max_range_m: 30.0,
+            field_of_view_deg: 180.0,
+            publish: LaserOutput::Scans,
+        };
+        let data = load(&dir, &sensor).unwrap();
+        assert!(data.scans.is_empty(), "no tree detections with raw scans");
+        assert_eq!(data.raw_scans.len(), 2);
+        let s = &data.raw_scans[1];
+        // The epoch is the first GPS fix (0.9 s); the scan is at 1.8 s on the CSV clock.
+        assert_eq!(
+            (s.header.header.stamp_ns, s.header.header.seq),
+            (900_000_000, 1)
+        );
+        assert_eq!((s.header.ranges, s.header.intensities), (361, 0));
+        assert!(
+            (f64::from(s.header.angle_min) + FRAC_PI_2).abs() < 1e-6,
+            "from the right"
+        );
+        assert!(
+            (s.header.angle_max() - FRAC_PI_2).abs() < 1e-5,
+            "to the left"
+        );
+        assert!(
+            (f64::from(s.header.scan_time) - 0.6).abs() < 1e-6,
+            "the mean period"
+        );
+        assert_eq!(
+            &s.ranges[..2],
+            &[f32::INFINITY; 2],
+            "81.91 and 81.87: no return"
+        );
+        assert_eq!((s.ranges[2], s.ranges[180]), (5.0, 12.5));
+        fastslam_protocol::validate::laser_scan(&s.header, &s.ranges).unwrap();
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn raw_scans_with_a_missing_beam_or_a_negative_range_name_file_and_line() {
+        let sensor = SensorSpec {
+            max_range_m: 30.0,
+            field_of_view_deg: 180.0,
+            publish: LaserOutput::Scans,
+        };
+        let good = (0.5, vec![5.0; BEAMS]);
+        let mut negative = vec![5.0; BEAMS];
+        negative[7] = -1.0;
+        for (bad, expected) in [
+            (
+                (0.7, vec![5.0; BEAMS - 1]),
+                ":2: expected 362 columns, found 361",
+            ),
+            ((0.7, negative), ":2: ranges must be ≥ 0"),
+        ] {
+            let file = raw_lines(&[good.clone(), bad]);
+            let dir = folder_with(
+                "vp-raw-bad",
+                &[
+                    ("odometry.csv", ODOMETRY),
+                    ("gps.csv", GPS),
+                    ("laser_raw_361beams.txt", &file),
+                ],
+            );
+            let err = load(&dir, &sensor).unwrap_err().to_string();
+            assert!(
+                err.contains("laser_raw_361beams.txt") && err.contains(expected),
+                "{err}"
+            );
             std::fs::remove_dir_all(dir).unwrap();
         }
     }

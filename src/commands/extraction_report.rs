@@ -6,16 +6,11 @@
 use anyhow::{Context, bail};
 use fastslam_estimation::features::{ExtractorConfig, Feature, extract};
 use fastslam_estimation::scan::RangeScan;
+use fastslam_replay::victoria_park;
 use flate2::read::GzDecoder;
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-
-/// Beams per Victoria Park scan (0°…180° in 0.5° steps).
-const BEAMS: usize = 361;
-/// The released scans report this range (m) for "no return"; anything from `NO_RETURN`
-/// on is read as no return.
-const NO_RETURN: f64 = 81.0;
 
 /// Flags of `extraction-report`.
 #[derive(Debug, Clone, clap::Args)]
@@ -88,17 +83,18 @@ pub fn compare(args: &ReportArgs) -> anyhow::Result<Comparison> {
         }
         None => victoria_park_extractor(),
     };
-    let scans = read_scans(&args.data.join("laser_raw_361beams.txt.gz"), args.scans)?;
+    let mut scans = victoria_park::read_raw_scans(&args.data)?;
+    scans.truncate(args.scans.unwrap_or(usize::MAX));
     let mut trees = read_trees(&args.data.join("tree_observations.csv.gz"))?;
     let increment = 0.5f64.to_radians();
     let (mut theirs, mut ours, mut errors, mut diameters) = (0, 0, Vec::new(), Vec::new());
-    for (index, ranges) in scans.iter().enumerate() {
+    for (index, raw) in scans.iter().enumerate() {
         let scan = RangeScan {
             angle_min: -std::f64::consts::FRAC_PI_2,
             angle_increment: increment,
             range_min: 0.0,
-            range_max: NO_RETURN,
-            ranges,
+            range_max: f64::from(victoria_park::NO_RETURN_M),
+            ranges: &raw.ranges,
         };
         let found = extract(&scan, &config);
         let released = trees.remove(&index).unwrap_or_default();
@@ -130,9 +126,10 @@ pub fn run(args: &ReportArgs) -> anyhow::Result<()> {
     let c = compare(args)?;
     let percent = |n: usize, of: usize| 100.0 * n as f64 / of.max(1) as f64;
     println!(
-        "Victoria Park (Guivant & Nebot, ACFR): {} raw scans, {BEAMS} beams over 0°…180°, \
+        "Victoria Park (Guivant & Nebot, ACFR): {} raw scans, {} beams over 0°…180°, \
          81.91 m = no return",
-        c.scans
+        c.scans,
+        victoria_park::BEAMS
     );
     println!("  released tree detections   {:>6}", c.theirs);
     println!("  our pole extractions       {:>6}", c.ours);
@@ -187,30 +184,6 @@ fn median(values: &mut [f64]) -> f64 {
 fn lines(path: &Path) -> anyhow::Result<impl Iterator<Item = (usize, std::io::Result<String>)>> {
     let file = std::fs::File::open(path).with_context(|| format!("opening {}", path.display()))?;
     Ok(BufReader::new(GzDecoder::new(file)).lines().enumerate())
-}
-
-/// The raw scans (ranges only), at most `limit` of them.
-fn read_scans(path: &Path, limit: Option<usize>) -> anyhow::Result<Vec<Vec<f32>>> {
-    let mut scans = Vec::new();
-    for (n, line) in lines(path)?.take(limit.unwrap_or(usize::MAX)) {
-        let line = line.with_context(|| format!("{}: line {}", path.display(), n + 1))?;
-        let values: Vec<f32> = line
-            .split_whitespace()
-            .skip(1)
-            .map(str::parse)
-            .collect::<Result<_, _>>()
-            .with_context(|| format!("{}: line {}: not numbers", path.display(), n + 1))?;
-        if values.len() != BEAMS {
-            bail!(
-                "{}: line {}: {} ranges, expected {BEAMS}",
-                path.display(),
-                n + 1,
-                values.len()
-            );
-        }
-        scans.push(values);
-    }
-    Ok(scans)
 }
 
 /// The released detections by scan index, as features in our bearing convention.
