@@ -16,7 +16,8 @@ const WEBSOCKETS: &str = "websockets==15.0.1";
 /// A Foxglove WebSocket client: connects to `argv[1]` (retrying until the server is up),
 /// subscribes to every channel the server advertises, and counts the message-data frames
 /// (binary, opcode 1: subscription id u32, log time u64, payload) per topic until it has a
-/// pose and a map, the server closes, or `argv[2]` seconds pass. A subscription the server
+/// message of every topic `argv[3]` lists (comma-separated), the server closes, or
+/// `argv[2]` seconds pass. A subscription the server
 /// refuses as an unknown channel is sent again: the Foxglove SDK records an advertised
 /// channel only after queueing its advertisement, so a fast client can beat it. Prints the
 /// server's name, the advertised channels (topic → `schemaName/encoding`), the counts and
@@ -43,7 +44,7 @@ def subscribe(channel_ids):
     ws.send(json.dumps({'op': 'subscribe', 'subscriptions': subscriptions}))
 with ws:
     assert ws.subprotocol == 'foxglove.sdk.v1', ws.subprotocol
-    while time.time() < deadline and not (counts.get('/pose') and counts.get('/map')):
+    while time.time() < deadline and not all(counts.get(t) for t in sys.argv[3].split(',')):
         try:
             frame = ws.recv(timeout=1)
         except TimeoutError:
@@ -80,9 +81,10 @@ fn free_port() -> u16 {
 }
 
 /// Starts the launcher with `command` (`run …` or `replay …`) and `--live` on a free
-/// port into `out`, connects the WebSocket client while it runs, and checks that both
-/// succeeded; what the client saw (its JSON).
-fn watched(prefix: &str, out: &Path, command: &[String]) -> serde_json::Value {
+/// port into `out`, connects the WebSocket client while it runs until it has a message of
+/// each of `topics` (or the run ends), and checks that both succeeded; what the client
+/// saw (its JSON).
+fn watched(prefix: &str, out: &Path, command: &[String], topics: &[&str]) -> serde_json::Value {
     let python = python_venv("websockets-15.0.1", WEBSOCKETS)
         .join("bin")
         .join("python3");
@@ -98,6 +100,7 @@ fn watched(prefix: &str, out: &Path, command: &[String]) -> serde_json::Value {
         .expect("starting the launcher");
     let client = Command::new(python)
         .args(["-c", CLIENT, &format!("ws://127.0.0.1:{port}"), "60"])
+        .arg(topics.join(","))
         .output()
         .expect("running the WebSocket client");
     let result = launcher
@@ -141,46 +144,91 @@ fn assert_poses_and_a_map(seen: &serde_json::Value, out: &Path) {
 }
 
 /// Runs `command` (given the test's folder) with `--live` under a fresh prefix named
-/// after `name`, and checks what a Foxglove client saw ([`assert_poses_and_a_map`]).
-fn serves_poses_and_a_map(name: &str, command: impl FnOnce(&Path) -> Vec<String>) {
+/// after `name`, and checks what a Foxglove client waiting for `topics` saw
+/// ([`assert_poses_and_a_map`]), then `also` on what it saw and the run folder.
+fn serves_poses_and_a_map(
+    name: &str,
+    topics: &[&str],
+    command: impl FnOnce(&Path) -> Vec<String>,
+    also: impl FnOnce(&serde_json::Value, &Path),
+) {
     let prefix = prefix(name);
     let dir = folder(&prefix);
     let out = dir.join("run");
-    let seen = watched(&prefix, &out, &command(&dir));
+    let seen = watched(&prefix, &out, &command(&dir), topics);
     assert_poses_and_a_map(&seen, &out);
+    also(&seen, &out);
     assert_no_leftovers_and_remove(&prefix, &dir);
 }
 
 #[test]
-fn foxglove_receives_poses_and_the_map_while_the_stack_runs() {
-    serves_poses_and_a_map("live_view", |dir| {
+fn foxglove_receives_poses_the_map_and_the_particle_cloud_while_the_stack_runs() {
+    let command = |dir: &Path| {
         // A real-time drive of about 12 s: time for a client to connect and see the map
-        // grow.
-        let scenario = short_scenario(dir).display().to_string();
+        // grow; the service sends its particle cloud after every step.
+        let path = short_scenario(dir);
+        let text = std::fs::read_to_string(&path).unwrap();
+        std::fs::write(&path, text + "\n[service.output]\nparticles_every = 1\n").unwrap();
+        let scenario = path.display().to_string();
         ["run", "--realtime", "--scenario", &scenario]
             .map(String::from)
             .to_vec()
-    });
+    };
+    let particles = |seen: &serde_json::Value, out: &Path| {
+        assert_eq!(
+            seen["advertised"]["/particles"], "foxglove.PosesInFrame/protobuf",
+            "{seen}"
+        );
+        assert!(
+            seen["counts"]["/particles"].as_u64().unwrap_or(0) >= 1,
+            "{seen}"
+        );
+        // One pose per particle (the scenario's 100), each some tens of bytes.
+        assert!(
+            seen["sizes"]["/particles"].as_u64().unwrap_or(0) > 100 * 40,
+            "{seen}"
+        );
+        // The run folder's recording holds a cloud per pose estimate.
+        let mcap = read_mcap(&out.join("run.mcap"));
+        let count = |topic: &str| mcap["counts"][topic].as_u64().unwrap_or(0);
+        assert!(count("/pose") > 10, "{mcap}");
+        assert_eq!(count("/particles"), count("/pose"), "{mcap}");
+        assert_eq!(
+            mcap["schemas"]["/particles"],
+            "foxglove.PosesInFrame/protobuf"
+        );
+    };
+    serves_poses_and_a_map(
+        "live_view",
+        &["/pose", "/map", "/particles"],
+        command,
+        particles,
+    );
 }
 
 #[test]
 fn foxglove_receives_poses_and_the_map_while_a_recording_is_replayed() {
-    serves_poses_and_a_map("live_replay", |dir| {
-        // The first 60 s of MRCLAM robot 1, played at five times its pace: some 12 s.
-        let data = mrclam_clip(&dir.join("data"), |t| t < 60.0, |_| true);
-        let data = data.display().to_string();
-        [
-            "replay",
-            "mrclam",
-            "--data",
-            &data,
-            "--realtime",
-            "--rate",
-            "5",
-        ]
-        .map(String::from)
-        .to_vec()
-    });
+    serves_poses_and_a_map(
+        "live_replay",
+        &["/pose", "/map"],
+        |dir| {
+            // The first 60 s of MRCLAM robot 1, played at five times its pace: some 12 s.
+            let data = mrclam_clip(&dir.join("data"), |t| t < 60.0, |_| true);
+            let data = data.display().to_string();
+            [
+                "replay",
+                "mrclam",
+                "--data",
+                &data,
+                "--realtime",
+                "--rate",
+                "5",
+            ]
+            .map(String::from)
+            .to_vec()
+        },
+        |_, _| {},
+    );
 }
 
 #[test]

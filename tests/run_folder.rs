@@ -100,6 +100,10 @@ fn run_mcap_holds_what_the_client_saw_in_foxglove_schemas() {
     let mut expected = documented("`run.mcap`");
     assert!(expected.remove("/scan"), "/scan: raw-scan runs only");
     assert!(expected.remove("/grid"), "/grid: raw-scan runs only");
+    assert!(
+        expected.remove("/particles"),
+        "/particles: only when asked for"
+    );
     assert_eq!(topics, expected, "run.mcap vs METRICS.md");
     let count = |topic: &str| mcap["counts"][topic].as_u64().unwrap();
     let poses = rows(&out.join("metrics.csv"), 1);

@@ -16,12 +16,13 @@
 //! | `/grid` | `foxglove.Grid` | occupancy grid (raw-scan runs) |
 //! | `/smoothed` | `foxglove.PosesInFrame` | smoothing back-end's solution: its trajectory |
 //! | `/smoothed_map` | `foxglove.SceneUpdate` | smoothing back-end's solution: its map |
+//! | `/particles` | `foxglove.PosesInFrame` | particle cloud (when the service sends it) |
 //! | `/scan` | `foxglove.LaserScan` | raw scan (frame `base_link`) |
 //! | `/observations` | `foxglove.SceneUpdate` | landmark observation message (frame `base_link`) |
 
 use fastslam_protocol::{
     GroundTruth, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation, ObservationsHeader,
-    OccupancyGridHeader, PoseEstimate, TrajectoryHeader, TrajectoryPose,
+    OccupancyGridHeader, Particle, ParticlesHeader, PoseEstimate, TrajectoryHeader, TrajectoryPose,
 };
 use foxglove::messages::{
     Color, FrameTransform, FrameTransforms, Grid, LaserScan, Odometry, PackedElementField, Pose,
@@ -48,6 +49,7 @@ pub struct RunLog {
     grid: Channel<Grid>,
     smoothed: Channel<PosesInFrame>,
     smoothed_map: Channel<SceneUpdate>,
+    particles: Channel<PosesInFrame>,
     scan: Channel<LaserScan>,
     observations: Channel<SceneUpdate>,
     /// The newest stamp logged (ns).
@@ -69,6 +71,7 @@ impl RunLog {
             grid: channel("/grid").build(),
             smoothed: channel("/smoothed").build(),
             smoothed_map: channel("/smoothed_map").build(),
+            particles: channel("/particles").build(),
             scan: channel("/scan").build(),
             observations: channel("/observations").build(),
             last_ns: 0,
@@ -211,6 +214,20 @@ impl RunLog {
         let stamp_ns = header.header.stamp_ns;
         let update = landmark_scene(stamp_ns, "smoothed_landmarks", landmarks, PURPLE);
         self.log(|s| &s.smoothed_map, &update, stamp_ns);
+    }
+
+    /// The service's particle cloud (validated): `/particles`, one pose per particle.
+    pub fn particles(&mut self, header: &ParticlesHeader, particles: &[Particle]) {
+        let stamp_ns = header.header.stamp_ns;
+        let cloud = PosesInFrame {
+            timestamp: Some(timestamp(stamp_ns)),
+            frame_id: MAP_FRAME.into(),
+            poses: particles
+                .iter()
+                .map(|p| planar(p.x, p.y, p.theta))
+                .collect(),
+        };
+        self.log(|s| &s.particles, &cloud, stamp_ns);
     }
 
     /// A raw scan (validated): `/scan`.

@@ -6,8 +6,8 @@ use fastslam_protocol::ipc::{Ipc, Sub, WakeSource};
 use fastslam_protocol::stream::StreamEnd;
 use fastslam_protocol::{
     EndOfStream, GroundTruth, Header, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation,
-    ObservationsHeader, OccupancyGridHeader, Odometry, PoseEstimate, ServiceStatus, StreamId,
-    TrajectoryHeader, TrajectoryPose, topics, validate,
+    ObservationsHeader, OccupancyGridHeader, Odometry, Particle, ParticlesHeader, PoseEstimate,
+    ServiceStatus, StreamId, TrajectoryHeader, TrajectoryPose, topics, validate,
 };
 
 /// A subscriber to every topic of the stack a consumer records or shows.
@@ -24,6 +24,8 @@ pub struct Inputs {
     pub smoothed: Sub<[TrajectoryPose], TrajectoryHeader>,
     /// The smoothing back-end's map.
     pub smoothed_map: Sub<[MapLandmark], LandmarkMapHeader>,
+    /// The service's particle cloud (sent only when its `[output] particles_every` asks).
+    pub particles: Sub<[Particle], ParticlesHeader>,
     /// The service's status.
     pub status: Sub<ServiceStatus, ()>,
     /// Raw scans or landmark observations.
@@ -55,6 +57,7 @@ impl Inputs {
             ipc.slice_subscriber::<TrajectoryHeader, TrajectoryPose>(&topics::SMOOTHED_TRAJECTORY)?;
         let smoothed_map =
             ipc.slice_subscriber::<LandmarkMapHeader, MapLandmark>(&topics::SMOOTHED_MAP)?;
+        let particles = ipc.slice_subscriber::<ParticlesHeader, Particle>(&topics::PARTICLES)?;
         let status = ipc.subscriber::<ServiceStatus>(&topics::STATUS)?;
         let lidar = Lidar::open(ipc)?;
         let truth = ipc.subscriber::<GroundTruth>(&topics::GROUND_TRUTH)?;
@@ -67,6 +70,7 @@ impl Inputs {
             grid,
             smoothed,
             smoothed_map,
+            particles,
             status,
             lidar,
             truth,
@@ -76,7 +80,7 @@ impl Inputs {
     }
 
     /// Every subscriber, to wake on.
-    pub fn sources(&self) -> [&dyn WakeSource; 11] {
+    pub fn sources(&self) -> [&dyn WakeSource; 12] {
         [
             &self.truth,
             &self.odometry,
@@ -86,6 +90,7 @@ impl Inputs {
             &self.grid,
             &self.smoothed,
             &self.smoothed_map,
+            &self.particles,
             &self.pose,
             &self.true_map,
             &self.eos,
@@ -94,7 +99,7 @@ impl Inputs {
 }
 
 /// The streams a consumer takes until they end, each with its end bookkeeping.
-pub struct Ends([(StreamId, StreamEnd); 9]);
+pub struct Ends([(StreamId, StreamEnd); 10]);
 
 impl Ends {
     /// The stack's streams, with `lidar` (scans or observations) as the lidar's.
@@ -109,6 +114,7 @@ impl Ends {
                 StreamId::Grid,
                 StreamId::SmoothedTrajectory,
                 StreamId::SmoothedMap,
+                StreamId::Particles,
                 StreamId::Status,
             ]
             .map(|id| (id, StreamEnd::default())),

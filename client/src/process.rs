@@ -89,6 +89,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         grid,
         smoothed,
         smoothed_map,
+        particles,
         status,
         lidar,
         truth,
@@ -216,6 +217,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     mcap.smoothed_map(s.user_header(), s.payload());
                     rec.smoothed_map = s.payload().to_vec();
                 },
+            );
+        })?;
+        particles.drain(|s| {
+            if !seen.fresh(StreamId::Particles, s.user_header().header) {
+                return;
+            }
+            ends.saw(StreamId::Particles, s.user_header().header.seq);
+            accept(
+                validate::particles(s.user_header(), s.payload()),
+                "particle cloud",
+                || mcap.particles(s.user_header(), s.payload()),
             );
         })?;
         true_map.drain(|s| {

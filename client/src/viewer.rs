@@ -16,8 +16,8 @@ use crate::inputs::{Ends, Inputs, Lidar};
 use fastslam_protocol::ipc::{Flow, Ipc, Received, Sub};
 use fastslam_protocol::{
     GroundTruth, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation, ObservationsHeader,
-    OccupancyGridHeader, Odometry, PoseEstimate, StreamId, TrajectoryHeader, TrajectoryPose, cli,
-    validate,
+    OccupancyGridHeader, Odometry, Particle, ParticlesHeader, PoseEstimate, StreamId,
+    TrajectoryHeader, TrajectoryPose, cli, validate,
 };
 use foxglove::{Context, WebSocketServer};
 use iceoryx2::prelude::ZeroCopySend;
@@ -28,7 +28,8 @@ use std::time::{Duration, Instant};
 pub const ABOUT: &str = "Live viewer: joins a running stack and serves it to Foxglove over \
 WebSocket (connect Foxglove to ws://localhost:8765): the pose with its covariance, the truth \
 and dead reckoning, the trajectory so far, the landmark map with 2σ ellipses, the scans or \
-observations and the occupancy grid. It keeps only the newest of each topic and keeps no publisher waiting.";
+observations, the occupancy grid and, when the service sends it, the particle cloud. It keeps only \
+the newest of each topic and keeps no publisher waiting.";
 
 /// The WebSocket port Foxglove connects to by default.
 pub const DEFAULT_PORT: u16 = 8765;
@@ -162,6 +163,7 @@ struct Newest {
     grid: Latest<(OccupancyGridHeader, Vec<i8>)>,
     smoothed: Latest<(TrajectoryHeader, Vec<TrajectoryPose>)>,
     smoothed_map: Latest<(LandmarkMapHeader, Vec<MapLandmark>)>,
+    particles: Latest<(ParticlesHeader, Vec<Particle>)>,
 }
 
 impl Newest {
@@ -175,6 +177,7 @@ impl Newest {
             grid,
             smoothed,
             smoothed_map,
+            particles,
             status,
             lidar,
             truth,
@@ -240,6 +243,13 @@ impl Newest {
             validate::trajectory,
             |h, p| self.smoothed.keep_slice(*h, p),
         )?;
+        slices(
+            particles,
+            StreamId::Particles,
+            ends,
+            validate::particles,
+            |h, p| self.particles.keep_slice(*h, p),
+        )?;
         true_map.drain(|s| {
             if validate::landmark_map(s.user_header(), s.payload()).is_ok() {
                 self.true_map.keep_slice(*s.user_header(), s.payload());
@@ -268,6 +278,9 @@ impl Newest {
         }
         if let Some(m) = self.pose.take(false) {
             log.pose(m);
+        }
+        if let Some((h, p)) = self.particles.take(false) {
+            log.particles(h, p);
         }
         if again && let Some(poses) = self.trajectory.take(false) {
             log.trajectory(poses);
@@ -333,5 +346,6 @@ sequenced!(
     ObservationsHeader,
     LandmarkMapHeader,
     OccupancyGridHeader,
-    TrajectoryHeader
+    TrajectoryHeader,
+    ParticlesHeader
 );

@@ -25,6 +25,7 @@
 //! [output]
 //! map_every = 5
 //! grid_every = 50
+//! particles_every = 0   # the particle cloud, for a live view (0: never)
 //! [smoother]          # fastslam_estimation::graph::SmootherConfig
 //! enabled = true
 //! loop_gap_s = 30.0
@@ -271,6 +272,10 @@ pub struct OutputConfig {
     /// scans (and always at the end); 0 publishes it only at the end. Building it stops
     /// the filter for a moment (see `fastslam_estimation::grid`), so keep this low-rate.
     pub grid_every: u64,
+    /// Publish the particle cloud (every particle's pose and weight, for a live view)
+    /// after every `particles_every` observation steps; 0, the default, never: a cloud is
+    /// one pose per particle, and the run folder's `run.mcap` records each one.
+    pub particles_every: u64,
 }
 
 impl Default for OutputConfig {
@@ -278,6 +283,7 @@ impl Default for OutputConfig {
         Self {
             map_every: 5,
             grid_every: 50,
+            particles_every: 0,
         }
     }
 }

@@ -1,4 +1,5 @@
-//! The service's outputs: the pose, status, landmark map and occupancy grid publishers,
+//! The service's outputs: the pose, status, landmark map, occupancy grid and particle
+//! cloud publishers,
 //! the `map/get` server, and the sequence numbers each stream continues (also across a
 //! resume).
 
@@ -10,7 +11,8 @@ use fastslam_protocol::status::ServiceStatus;
 use fastslam_protocol::validate;
 use fastslam_protocol::{
     Checkpointed, EndOfStream, Header, LandmarkMapHeader, MapLandmark, MapRequest,
-    OccupancyGridHeader, PoseEstimate, StreamId, TrajectoryHeader, TrajectoryPose, topics,
+    OccupancyGridHeader, Particle, ParticlesHeader, PoseEstimate, StreamId, TrajectoryHeader,
+    TrajectoryPose, topics,
 };
 
 /// The service's output ports (and the `map/get` server) and the last header sent on each.
@@ -21,6 +23,7 @@ pub(crate) struct Outputs {
     grid: Pub<[i8], OccupancyGridHeader>,
     smoothed_trajectory: Pub<[TrajectoryPose], TrajectoryHeader>,
     smoothed_map: Pub<[MapLandmark], LandmarkMapHeader>,
+    particles: Pub<[Particle], ParticlesHeader>,
     status: Pub<ServiceStatus, ()>,
     checkpoint: Pub<Checkpointed, ()>,
     eos: Pub<EndOfStream, ()>,
@@ -30,6 +33,7 @@ pub(crate) struct Outputs {
     last_status: Option<Header>,
     last_smoothed: Option<Header>,
     last_checkpoint: Option<Header>,
+    last_particles: Option<Header>,
 }
 
 /// Next header of a stream whose last header was `last`.
@@ -51,6 +55,7 @@ impl Outputs {
             grid: ipc.slice_publisher(&topics::GRID)?,
             smoothed_trajectory: ipc.slice_publisher(&topics::SMOOTHED_TRAJECTORY)?,
             smoothed_map: ipc.slice_publisher(&topics::SMOOTHED_MAP)?,
+            particles: ipc.slice_publisher(&topics::PARTICLES)?,
             status: ipc.publisher(&topics::STATUS)?.coalescing(),
             checkpoint: ipc.newest_only_publisher(&topics::CHECKPOINT)?,
             eos: ipc.publisher(&topics::END_OF_STREAM)?,
@@ -60,6 +65,7 @@ impl Outputs {
             last_status: None,
             last_smoothed: None,
             last_checkpoint: None,
+            last_particles: None,
         })
     }
 
@@ -126,6 +132,15 @@ impl Outputs {
         if answered > 0 {
             tracing::debug!(answered, "map requests answered");
         }
+        Ok(())
+    }
+
+    /// Publishes the particle cloud, stamped `stamp_ns`.
+    pub(crate) fn particles(&mut self, slam: &Slam, stamp_ns: u64) -> anyhow::Result<()> {
+        let header = next_header(self.last_particles, stamp_ns);
+        let (h, cloud) = slam.cloud(header);
+        self.particles.send(h, &cloud)?;
+        self.last_particles = Some(header);
         Ok(())
     }
 
@@ -213,6 +228,7 @@ impl Outputs {
             (StreamId::Status, self.last_status),
             (StreamId::SmoothedTrajectory, self.last_smoothed),
             (StreamId::SmoothedMap, self.last_smoothed),
+            (StreamId::Particles, self.last_particles),
         ] {
             self.eos.send(EndOfStream::new(stream, last))?;
         }
@@ -221,6 +237,7 @@ impl Outputs {
         self.grid.wait_until_unsubscribed(ipc)?;
         self.smoothed_trajectory.wait_until_unsubscribed(ipc)?;
         self.smoothed_map.wait_until_unsubscribed(ipc)?;
+        self.particles.wait_until_unsubscribed(ipc)?;
         Ok(())
     }
 }

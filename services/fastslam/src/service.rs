@@ -516,6 +516,9 @@ impl Core {
                 if due(output.grid_every) {
                     self.out.grid(&mut self.slam, stamp_ns)?;
                 }
+                if due(output.particles_every) {
+                    self.out.particles(&self.slam, stamp_ns)?;
+                }
                 self.out.status(status)?;
                 if self.persist.checkpoint_due(self.health.steps()) {
                     match self.persist.write_checkpoint(|| self.checkpoint()) {

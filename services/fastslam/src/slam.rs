@@ -19,7 +19,7 @@ use fastslam_estimation::observation::{Observation, Sensor};
 use fastslam_estimation::scan::RangeScan;
 use fastslam_protocol::{
     Header, LandmarkMapHeader, LaserScanHeader, MapLandmark, ObservationsHeader,
-    OccupancyGridHeader, PoseEstimate, TrajectoryHeader, TrajectoryPose,
+    OccupancyGridHeader, Particle, ParticlesHeader, PoseEstimate, TrajectoryHeader, TrajectoryPose,
 };
 use nalgebra::{Matrix2, Vector2};
 use std::collections::VecDeque;
@@ -583,6 +583,35 @@ impl Slam {
         }
     }
 
+    /// The particle cloud as it stands after the last step, as a message: each particle's
+    /// pose (grid FastSLAM's: its prediction `x̂`) and normalised weight.
+    pub fn cloud(&self, header: Header) -> (ParticlesHeader, Vec<Particle>) {
+        let (poses, weights): (Vec<Pose2>, &[f64]) = match &self.grid_filter {
+            Some(g) => (
+                g.particles().iter().map(|p| p.predicted).collect(),
+                g.weights().as_slice(),
+            ),
+            None => (
+                self.filter.particles().iter().map(|p| *p.pose()).collect(),
+                self.filter.weights().as_slice(),
+            ),
+        };
+        let particles: Vec<Particle> = (poses.iter().zip(weights))
+            .map(|(p, &weight)| Particle {
+                x: p.x,
+                y: p.y,
+                theta: p.theta,
+                weight,
+            })
+            .collect();
+        let h = ParticlesHeader {
+            header,
+            count: particles.len() as u32,
+            reserved: 0,
+        };
+        (h, particles)
+    }
+
     /// Grid FastSLAM's particle grids in memory (bytes; shared tiles once), `None` for the
     /// landmark filter.
     pub fn grid_bytes(&self) -> Option<usize> {
@@ -747,6 +776,16 @@ mod tests {
         );
         assert!(
             step.pose.covariance[0] > 0.0 && step.pose.covariance[1] == step.pose.covariance[3]
+        );
+        let (h, cloud) = slam.cloud(step.pose.header);
+        assert_eq!((h.header, h.count, cloud.len()), (step.pose.header, 20, 20));
+        fastslam_protocol::validate::particles(&h, &cloud).unwrap();
+        let total: f64 = cloud.iter().map(|p| p.weight).sum();
+        assert!((total - 1.0).abs() < 1e-9, "weights sum to {total}");
+        let mean_x: f64 = cloud.iter().map(|p| p.weight * p.x).sum();
+        assert!(
+            (mean_x - 2.0).abs() < 0.5,
+            "the cloud moved with the estimate: {mean_x}"
         );
     }
 

@@ -63,6 +63,11 @@
 #define FASTSLAM_TOPIC_SMOOTHED_MAP_BUFFER 2
 #define FASTSLAM_TOPIC_SMOOTHED_MAP_HISTORY 1
 
+/* particles: payload [fastslam::Particle], user header fastslam::ParticlesHeader */
+#define FASTSLAM_TOPIC_PARTICLES "particles"
+#define FASTSLAM_TOPIC_PARTICLES_BUFFER 16
+#define FASTSLAM_TOPIC_PARTICLES_HISTORY 0
+
 /* status: payload fastslam::ServiceStatus, user header none */
 #define FASTSLAM_TOPIC_STATUS "status"
 #define FASTSLAM_TOPIC_STATUS_BUFFER 256
@@ -88,6 +93,7 @@
 #define FASTSLAM_STREAM_GRID 8
 #define FASTSLAM_STREAM_SMOOTHED_TRAJECTORY 9
 #define FASTSLAM_STREAM_SMOOTHED_MAP 10
+#define FASTSLAM_STREAM_PARTICLES 11
 
 typedef struct fastslam_Header {
     uint64_t stamp_ns; /* ns */
@@ -291,7 +297,7 @@ _Static_assert(offsetof(fastslam_Checkpointed, reserved) == 36, "fastslam_Checkp
 #define FASTSLAM_END_OF_STREAM_TYPE_NAME "fastslam::EndOfStream"
 typedef struct fastslam_EndOfStream {
     fastslam_Header header;
-    uint32_t stream; /* —: 1 ground truth, 2 odometry, 3 observations, 4 pose, 5 map, 6 status, 7 scan, 8 grid, 9 smoothed trajectory, 10 smoothed map */
+    uint32_t stream; /* —: 1 ground truth, 2 odometry, 3 observations, 4 pose, 5 map, 6 status, 7 scan, 8 grid, 9 smoothed trajectory, 10 smoothed map, 11 particles */
     uint32_t reserved; /* —: 0 */
 } fastslam_EndOfStream;
 _Static_assert(sizeof(fastslam_EndOfStream) == 24, "fastslam_EndOfStream must match the Rust layout");
@@ -379,5 +385,34 @@ _Static_assert(offsetof(fastslam_TrajectoryPose, stamp_ns) == 0, "fastslam_Traje
 _Static_assert(offsetof(fastslam_TrajectoryPose, x) == 8, "fastslam_TrajectoryPose must match the Rust layout");
 _Static_assert(offsetof(fastslam_TrajectoryPose, y) == 16, "fastslam_TrajectoryPose must match the Rust layout");
 _Static_assert(offsetof(fastslam_TrajectoryPose, theta) == 24, "fastslam_TrajectoryPose must match the Rust layout");
+
+/* fastslam::ParticlesHeader: header of a particle cloud */
+#define FASTSLAM_PARTICLES_HEADER_TYPE_NAME "fastslam::ParticlesHeader"
+typedef struct fastslam_ParticlesHeader {
+    fastslam_Header header;
+    uint32_t count; /* —: number of particles (= slice length) */
+    uint32_t reserved; /* —: 0 */
+} fastslam_ParticlesHeader;
+_Static_assert(sizeof(fastslam_ParticlesHeader) == 24, "fastslam_ParticlesHeader must match the Rust layout");
+_Static_assert(_Alignof(fastslam_ParticlesHeader) == 8, "fastslam_ParticlesHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_ParticlesHeader, header.stamp_ns) == 0, "fastslam_ParticlesHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_ParticlesHeader, header.seq) == 8, "fastslam_ParticlesHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_ParticlesHeader, count) == 16, "fastslam_ParticlesHeader must match the Rust layout");
+_Static_assert(offsetof(fastslam_ParticlesHeader, reserved) == 20, "fastslam_ParticlesHeader must match the Rust layout");
+
+/* fastslam::Particle: one particle: pose and weight */
+#define FASTSLAM_PARTICLE_TYPE_NAME "fastslam::Particle"
+typedef struct fastslam_Particle {
+    double x; /* m: position x, frame `map` */
+    double y; /* m: position y */
+    double theta; /* rad: heading */
+    double weight; /* —: normalised weight, ≥ 0 (the cloud's weights sum to 1) */
+} fastslam_Particle;
+_Static_assert(sizeof(fastslam_Particle) == 32, "fastslam_Particle must match the Rust layout");
+_Static_assert(_Alignof(fastslam_Particle) == 8, "fastslam_Particle must match the Rust layout");
+_Static_assert(offsetof(fastslam_Particle, x) == 0, "fastslam_Particle must match the Rust layout");
+_Static_assert(offsetof(fastslam_Particle, y) == 8, "fastslam_Particle must match the Rust layout");
+_Static_assert(offsetof(fastslam_Particle, theta) == 16, "fastslam_Particle must match the Rust layout");
+_Static_assert(offsetof(fastslam_Particle, weight) == 24, "fastslam_Particle must match the Rust layout");
 
 #endif /* FASTSLAM_PROTOCOL_H */

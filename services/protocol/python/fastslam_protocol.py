@@ -47,6 +47,8 @@ SMOOTHED_TRAJECTORY = Topic("smoothed/trajectory", 2, 1, "[fastslam::TrajectoryP
 
 SMOOTHED_MAP = Topic("smoothed/map", 2, 1, "[fastslam::MapLandmark]", "fastslam::LandmarkMapHeader")
 
+PARTICLES = Topic("particles", 16, 0, "[fastslam::Particle]", "fastslam::ParticlesHeader")
+
 STATUS = Topic("status", 256, 1, "fastslam::ServiceStatus", "")
 
 CHECKPOINT = Topic("checkpoint", 16, 1, "fastslam::Checkpointed", "")
@@ -63,6 +65,7 @@ STREAM_SCAN = 7
 STREAM_GRID = 8
 STREAM_SMOOTHED_TRAJECTORY = 9
 STREAM_SMOOTHED_MAP = 10
+STREAM_PARTICLES = 11
 
 
 class Header(ctypes.Structure):
@@ -267,7 +270,7 @@ class EndOfStream(ctypes.Structure):
 
     _fields_ = [
         ("header", Header),
-        ("stream", ctypes.c_uint32),  # —: 1 ground truth, 2 odometry, 3 observations, 4 pose, 5 map, 6 status, 7 scan, 8 grid, 9 smoothed trajectory, 10 smoothed map
+        ("stream", ctypes.c_uint32),  # —: 1 ground truth, 2 odometry, 3 observations, 4 pose, 5 map, 6 status, 7 scan, 8 grid, 9 smoothed trajectory, 10 smoothed map, 11 particles
         ("reserved", ctypes.c_uint32),  # —: 0
     ]
 
@@ -354,6 +357,39 @@ class TrajectoryPose(ctypes.Structure):
         return "fastslam::TrajectoryPose"
 
 
+class ParticlesHeader(ctypes.Structure):
+    """`fastslam::ParticlesHeader` (24 bytes, alignment 8): header of a particle cloud."""
+
+    _fields_ = [
+        ("header", Header),
+        ("count", ctypes.c_uint32),  # —: number of particles (= slice length)
+        ("reserved", ctypes.c_uint32),  # —: 0
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::ParticlesHeader"
+
+
+class Particle(ctypes.Structure):
+    """`fastslam::Particle` (32 bytes, alignment 8): one particle: pose and weight."""
+
+    _fields_ = [
+        ("x", ctypes.c_double),  # m: position x, frame `map`
+        ("y", ctypes.c_double),  # m: position y
+        ("theta", ctypes.c_double),  # rad: heading
+        ("weight", ctypes.c_double),  # —: normalised weight, ≥ 0 (the cloud's weights sum to 1)
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::Particle"
+
+
 # The layouts above must equal the Rust ones (checked on import).
 LAYOUTS = {
     GroundTruth: (64, 8, {"header": 0, "x": 16, "y": 24, "theta": 32, "v": 40, "omega": 48, "steering": 56}),
@@ -371,6 +407,8 @@ LAYOUTS = {
     OccupancyGridHeader: (56, 8, {"header": 0, "resolution": 16, "origin_x": 24, "origin_y": 32, "origin_theta": 40, "width": 48, "height": 52}),
     TrajectoryHeader: (32, 8, {"header": 0, "count": 16, "solves": 20, "chi2_per_dof": 24}),
     TrajectoryPose: (32, 8, {"stamp_ns": 0, "x": 8, "y": 16, "theta": 24}),
+    ParticlesHeader: (24, 8, {"header": 0, "count": 16, "reserved": 20}),
+    Particle: (32, 8, {"x": 0, "y": 8, "theta": 16, "weight": 24}),
 }
 for _t, (_size, _align, _offsets) in LAYOUTS.items():
     assert ctypes.sizeof(_t) == _size, _t

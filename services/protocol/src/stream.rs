@@ -27,6 +27,8 @@ pub enum StreamId {
     SmoothedTrajectory = 9,
     /// Smoothed maps on [`crate::topics::SMOOTHED_MAP`].
     SmoothedMap = 10,
+    /// Particle clouds on [`crate::topics::PARTICLES`].
+    Particles = 11,
 }
 
 impl StreamId {
@@ -43,6 +45,7 @@ impl StreamId {
             Self::Grid,
             Self::SmoothedTrajectory,
             Self::SmoothedMap,
+            Self::Particles,
         ]
         .into_iter()
         .find(|s| *s as u32 == v)

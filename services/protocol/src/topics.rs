@@ -100,6 +100,14 @@ pub const SMOOTHED_MAP: Topic = Topic {
     history: 1,
     initial_slice_len: 64,
 };
+/// `ParticlesHeader` + `[Particle]`: the particle cloud from the FastSLAM service, after
+/// every `[output] particles_every` observation steps (off by default: it is large).
+pub const PARTICLES: Topic = Topic {
+    name: "particles",
+    buffer: 16,
+    history: 0,
+    initial_slice_len: 128,
+};
 /// [`crate::ServiceStatus`] from the FastSLAM service, after every observation step.
 pub const STATUS: Topic = Topic {
     name: "status",

@@ -3,7 +3,7 @@
 
 use crate::{
     GroundTruth, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation, ObservationsHeader,
-    OccupancyGridHeader, Odometry, TrajectoryHeader, TrajectoryPose,
+    OccupancyGridHeader, Odometry, Particle, ParticlesHeader, TrajectoryHeader, TrajectoryPose,
 };
 
 /// Most observations one message may carry.
@@ -14,6 +14,8 @@ pub const MAX_MAP_LANDMARKS: usize = 1 << 20;
 pub const MAX_SCAN_BEAMS: usize = 1 << 16;
 /// Most poses one trajectory message may carry (a day at 10 Hz).
 pub const MAX_TRAJECTORY_POSES: usize = 1 << 20;
+/// Most particles one particle cloud may carry.
+pub const MAX_PARTICLES: usize = 1 << 20;
 /// Most cells one occupancy grid may carry (a 1 km square at 0.25 m).
 pub const MAX_GRID_CELLS: usize = 1 << 24;
 
@@ -359,6 +361,33 @@ pub fn trajectory(h: &TrajectoryHeader, items: &[TrajectoryPose]) -> Result<(), 
             finite(field, v)?;
         }
         order.accept(p.stamp_ns)?;
+    }
+    Ok(())
+}
+
+/// Checks a particle cloud: the count matches the slice, every value is finite and every
+/// weight ≥ 0.
+///
+/// # Errors
+/// The first problem found.
+pub fn particles(h: &ParticlesHeader, items: &[Particle]) -> Result<(), Rejection> {
+    count(h.count, items.len(), MAX_PARTICLES)?;
+    for p in items {
+        for (field, v) in [
+            ("x", p.x),
+            ("y", p.y),
+            ("theta", p.theta),
+            ("weight", p.weight),
+        ] {
+            finite(field, v)?;
+        }
+        if p.weight < 0.0 {
+            return Err(Rejection::OutOfRange {
+                field: "weight",
+                value: p.weight,
+                reason: "must be ≥ 0",
+            });
+        }
     }
     Ok(())
 }
@@ -796,6 +825,38 @@ mod tests {
         s.resync();
         assert_eq!(s.accept(h(10_000, 2)), Ok(Continuity::Continues));
         assert!(s.accept(h(20_000, 3)).is_err(), "one jump per resync");
+    }
+
+    #[test]
+    fn particles_need_their_count_finite_poses_and_weights_of_at_least_zero() {
+        let p = Particle {
+            x: 1.0,
+            y: 2.0,
+            theta: 0.5,
+            weight: 0.5,
+        };
+        let header = |count| ParticlesHeader {
+            count,
+            ..Default::default()
+        };
+        assert_eq!(particles(&header(2), &[p, p]), Ok(()));
+        assert!(matches!(
+            particles(&header(3), &[p, p]),
+            Err(Rejection::BadCount { .. })
+        ));
+        let nan = Particle { y: f64::NAN, ..p };
+        assert_eq!(
+            particles(&header(1), &[nan]),
+            Err(Rejection::NonFinite { field: "y" })
+        );
+        let negative = Particle { weight: -0.1, ..p };
+        assert!(matches!(
+            particles(&header(1), &[negative]),
+            Err(Rejection::OutOfRange {
+                field: "weight",
+                ..
+            })
+        ));
     }
 
     #[test]

@@ -33,6 +33,7 @@ fn rust_topics() -> Vec<Topic> {
         topics::GRID,
         topics::SMOOTHED_TRAJECTORY,
         topics::SMOOTHED_MAP,
+        topics::PARTICLES,
         topics::STATUS,
         topics::CHECKPOINT,
         topics::END_OF_STREAM,

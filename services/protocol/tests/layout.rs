@@ -48,6 +48,8 @@ fn rust_layouts() -> Vec<Layout> {
             origin_theta, width, height),
         layout!(TrajectoryHeader: header.stamp_ns, header.seq, count, solves, chi2_per_dof),
         layout!(TrajectoryPose: stamp_ns, x, y, theta),
+        layout!(ParticlesHeader: header.stamp_ns, header.seq, count, reserved),
+        layout!(Particle: x, y, theta, weight),
     ]
 }
 

@@ -144,6 +144,11 @@ impl GridFastSlam {
         &self.particles
     }
 
+    /// The particles' current normalised weights and `N_eff`.
+    pub fn weights(&self) -> &Weights {
+        &self.weights
+    }
+
     /// Keyframes used so far.
     pub fn keyframes(&self) -> u64 {
         self.keyframes
