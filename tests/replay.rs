@@ -46,6 +46,24 @@ fn replay(prefix: &str, out: &Path, args: &[&str]) -> serde_json::Value {
     m
 }
 
+/// Replays data set `set` from the repository's `data/<folder>` with `flags`, under a
+/// fresh prefix named after `name` ([`replay`]); the test's folder, the run folder and
+/// the metrics.
+fn replay_data(
+    name: &str,
+    set: &str,
+    folder_name: &str,
+    flags: &[&str],
+) -> (PathBuf, PathBuf, serde_json::Value) {
+    let prefix = prefix(name);
+    let dir = folder(&prefix);
+    let out = dir.join("run");
+    let data = data(folder_name);
+    let args = [&[set, "--data", data.to_str().unwrap()][..], flags].concat();
+    let m = replay(&prefix, &out, &args);
+    (dir, out, m)
+}
+
 /// The client's aligned ATE RMSE of the estimate and of dead reckoning (m).
 fn ates(m: &serde_json::Value) -> (f64, f64) {
     (
@@ -55,20 +73,11 @@ fn ates(m: &serde_json::Value) -> (f64, f64) {
 }
 
 fn mrclam(association: &str) -> (serde_json::Value, f64, f64) {
-    let prefix = prefix(&format!("mrclam{association}"));
-    let dir = folder(&prefix);
-    let out = dir.join("run");
-    let data = data("mrclam7");
-    let m = replay(
-        &prefix,
-        &out,
-        &[
-            "mrclam",
-            "--data",
-            data.to_str().unwrap(),
-            "--association",
-            association,
-        ],
+    let (dir, _, m) = replay_data(
+        &format!("mrclam{association}"),
+        "mrclam",
+        "mrclam7",
+        &["--association", association],
     );
     // One estimate per camera frame with a landmark in it.
     assert!(num(&m, "/estimate/poses") > 1500.0, "{m}");
@@ -108,15 +117,7 @@ fn mrclam_with_unknown_association_beats_dead_reckoning() {
 
 #[test]
 fn victoria_park_follows_the_gps_loop_far_better_than_dead_reckoning() {
-    let prefix = prefix("victoriapark");
-    let dir = folder(&prefix);
-    let out = dir.join("run");
-    let data = data("victoria_park");
-    let m = replay(
-        &prefix,
-        &out,
-        &["victoria-park", "--data", data.to_str().unwrap()],
-    );
+    let (dir, _, m) = replay_data("victoriapark", "victoria-park", "victoria_park", &[]);
     assert_eq!(num(&m, "/map/truth"), 0.0, "no true tree map: {m}");
     assert!(num(&m, "/map/estimated") > 50.0, "trees mapped: {m}");
     // Every laser scan made an observation step, and the scoring is at the GPS fixes.
@@ -136,19 +137,13 @@ fn victoria_park_follows_the_gps_loop_far_better_than_dead_reckoning() {
 
 #[test]
 fn victoria_park_raw_scans_matched_against_particle_grids_beat_dead_reckoning() {
-    let prefix = prefix("victoriaraw");
-    let dir = folder(&prefix);
-    let out = dir.join("run");
-    let data = data("victoria_park");
     // Grid FastSLAM on the raw scans; ten particles drawn from the motion prior keep the
     // run short.
-    let m = replay(
-        &prefix,
-        &out,
+    let (dir, out, m) = replay_data(
+        "victoriaraw",
+        "victoria-park",
+        "victoria_park",
         &[
-            "victoria-park",
-            "--data",
-            data.to_str().unwrap(),
             "--profile",
             "victoria-park-scans",
             "--particles",
