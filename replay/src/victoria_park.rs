@@ -131,13 +131,13 @@ pub fn load(dir: &Path, sensor: &SensorSpec) -> Result<DataSet> {
             (t, laser_controls(v_e, gamma))
         })
         .collect();
-    let (mut scans, mut raw_scans, mut beyond) = (Vec::new(), Vec::new(), 0);
-    match &laser {
-        Laser::Trees { scan_times, trees } => {
-            (scans, beyond) = sensor.scans(self::scans(scan_times, trees, &clock)?);
-        }
-        Laser::Raw(raw) => raw_scans = raw_messages(raw, &clock),
-    }
+    let ((scans, beyond), raw_scans) = match &laser {
+        Laser::Trees { scan_times, trees } => (
+            sensor.scans(self::scans(scan_times, trees, &clock)?),
+            Vec::new(),
+        ),
+        Laser::Raw(raw) => ((Vec::new(), 0), raw_messages(raw, &clock)),
+    };
     let fixes: Vec<[f64; 3]> = gps.rows.iter().map(|r| r.values).collect();
     let truth = dataset::truth_track(
         (fixes.iter().zip(course_over_ground(&fixes)))

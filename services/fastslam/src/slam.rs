@@ -586,24 +586,24 @@ impl Slam {
     /// The particle cloud as it stands after the last step, as a message: each particle's
     /// pose (grid FastSLAM's: its prediction `x̂`) and normalised weight.
     pub fn cloud(&self, header: Header) -> (ParticlesHeader, Vec<Particle>) {
-        let (poses, weights): (Vec<Pose2>, &[f64]) = match &self.grid_filter {
-            Some(g) => (
-                g.particles().iter().map(|p| p.predicted).collect(),
-                g.weights().as_slice(),
-            ),
-            None => (
-                self.filter.particles().iter().map(|p| *p.pose()).collect(),
-                self.filter.weights().as_slice(),
-            ),
+        let particle = |p: &Pose2, &weight: &f64| Particle {
+            x: p.x,
+            y: p.y,
+            theta: p.theta,
+            weight,
         };
-        let particles: Vec<Particle> = (poses.iter().zip(weights))
-            .map(|(p, &weight)| Particle {
-                x: p.x,
-                y: p.y,
-                theta: p.theta,
-                weight,
-            })
-            .collect();
+        let particles: Vec<Particle> = match &self.grid_filter {
+            Some(g) => (g.particles().iter().zip(g.weights().as_slice()))
+                .map(|(p, w)| particle(&p.predicted, w))
+                .collect(),
+            None => (self
+                .filter
+                .particles()
+                .iter()
+                .zip(self.filter.weights().as_slice()))
+            .map(|(p, w)| particle(p.pose(), w))
+            .collect(),
+        };
         let h = ParticlesHeader {
             header,
             count: particles.len() as u32,
