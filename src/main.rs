@@ -75,6 +75,10 @@ enum Command {
     /// ws://localhost:8765), for a stack whose processes you start yourself; `run --live`
     /// and `replay --live` start it for you. It exits when the stack's streams end.
     Viewer(fastslam_client::viewer::Args),
+    /// Carry a stack's topics between two hosts over Zenoh (TCP): run one bridge on the
+    /// host with the sensors (`--side sensors`) and one on the host with the FastSLAM
+    /// service (`--side service`); one listens, the other connects. See docs/MULTI_HOST.md.
+    Bridge(fastslam_bridge::Args),
     /// The truth simulator process (started by `run`).
     #[command(hide = true)]
     TruthSim(truth::Args),
@@ -159,5 +163,6 @@ fn dispatch(command: Command) -> anyhow::Result<u8> {
         Command::Service(a) => done(run_process("service", a, fastslam_service::process::run)),
         Command::Client(a) => done(run_process("client", a, fastslam_client::process::run)),
         Command::Viewer(a) => done(run_process("viewer", a, fastslam_client::viewer::run)),
+        Command::Bridge(a) => done(run_process("bridge", a, fastslam_bridge::run)),
     }
 }

@@ -3,6 +3,7 @@
 //! is the origin — along +x first, then +y.
 
 use crate::header::Header;
+use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::*;
 
 /// Cell value of a cell nothing was ever measured in.
@@ -10,7 +11,7 @@ pub const UNKNOWN: i8 = -1;
 
 /// Header of a grid; the slice holds `width · height` cells, each [`UNKNOWN`] or an
 /// occupancy probability in percent (0 free … 100 occupied).
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::OccupancyGridHeader")]
 #[repr(C)]
 pub struct OccupancyGridHeader {

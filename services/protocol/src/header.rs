@@ -1,5 +1,6 @@
 //! The header every message starts with.
 
+use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::*;
 
 /// Stamp and sequence number of a message.
@@ -7,7 +8,7 @@ use iceoryx2::prelude::*;
 /// `stamp_ns` is the sensor (or simulated) clock in nanoseconds, never the wall clock of
 /// the receiving process; `seq` counts the messages of one stream from 0 and lets a
 /// receiver detect gaps and duplicates.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ZeroCopySend, Pod, Zeroable)]
 #[repr(C)]
 pub struct Header {
     /// Time the data refers to (ns).

@@ -2,13 +2,14 @@
 //! simulator's true map). Both are a fixed user header plus a slice.
 
 use crate::header::Header;
+use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::*;
 
 /// Header of one scan's landmark observations; the slice holds [`Observation`]s.
 ///
 /// The sensor's range and field of view tell the filter which landmarks it *could* have
 /// seen (negative evidence).
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::ObservationsHeader")]
 #[repr(C)]
 pub struct ObservationsHeader {
@@ -28,7 +29,7 @@ pub struct ObservationsHeader {
 
 /// One range–bearing observation of a point landmark (a pole, a tree trunk), in the
 /// vehicle frame.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::Observation")]
 #[repr(C)]
 pub struct Observation {
@@ -50,7 +51,7 @@ impl Observation {
 }
 
 /// Header of a landmark map; the slice holds [`MapLandmark`]s.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::LandmarkMapHeader")]
 #[repr(C)]
 pub struct LandmarkMapHeader {
@@ -63,7 +64,7 @@ pub struct LandmarkMapHeader {
 }
 
 /// One landmark of a map (frame `map`): mean and 2×2 covariance.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::MapLandmark")]
 #[repr(C)]
 pub struct MapLandmark {
@@ -85,7 +86,7 @@ pub struct MapLandmark {
 
 /// A request for the current map, sent to the `map/get` request–response service; the
 /// response is a [`LandmarkMapHeader`] plus a slice of [`MapLandmark`]s, as on `map`.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::MapRequest")]
 #[repr(C)]
 pub struct MapRequest {

@@ -42,3 +42,9 @@ pub use scan::LaserScanHeader;
 pub use status::{Checkpointed, ServiceStatus};
 pub use stream::{EndOfStream, StreamId};
 pub use trajectory::{TrajectoryHeader, TrajectoryPose};
+
+/// The version of the wire contract: the message types' layouts and the topics' meaning.
+/// It changes whenever a message type's layout does, so that peers exchanging the bytes
+/// of messages between hosts (the Zenoh bridge) refuse a peer of another version instead
+/// of misreading it.
+pub const CONTRACT_VERSION: u32 = 1;

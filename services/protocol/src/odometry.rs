@@ -1,6 +1,7 @@
 //! Wheel odometry.
 
 use crate::header::Header;
+use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::*;
 
 /// Odometry over the interval that ends at `header.stamp_ns` and started at the previous
@@ -10,7 +11,7 @@ use iceoryx2::prelude::*;
 /// `v` and `steering` (and may fill `omega` = v·sin(steering)/wheelbase). The service's
 /// motion model says which it uses. `x`, `y`, `theta` are the dead-reckoned pose in the
 /// `odom` frame, for clients; the filter does not use them.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::Odometry")]
 #[repr(C)]
 pub struct Odometry {

@@ -3,10 +3,11 @@
 //! service's `[output] particles_every` asks for it (it is large: one pose per particle).
 
 use crate::header::Header;
+use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::*;
 
 /// Header of a particle cloud; the slice holds one [`Particle`] per particle.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::ParticlesHeader")]
 #[repr(C)]
 pub struct ParticlesHeader {
@@ -19,7 +20,7 @@ pub struct ParticlesHeader {
 }
 
 /// One particle: its pose (frame `map`) and its normalised weight.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::Particle")]
 #[repr(C)]
 pub struct Particle {

@@ -1,13 +1,14 @@
 //! Poses: the simulator's ground truth and the service's estimate.
 
 use crate::header::Header;
+use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::*;
 
 /// True vehicle state, published by the simulator (frame `map`).
 ///
 /// Carries the true controls that moved the vehicle to this pose over the interval
 /// ending at `header.stamp_ns`, so the odometry simulator can derive noisy odometry.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::GroundTruth")]
 #[repr(C)]
 pub struct GroundTruth {
@@ -35,7 +36,7 @@ pub struct GroundTruth {
 /// resampling: each particle contributes its component — the Gaussian FastSLAM 2.0 drew
 /// its pose from, its motion prior while its pose is not yet drawn, or its pose — and the
 /// estimate is the mixture's mean and covariance, `Σ wᵢ (Σᵢ + dᵢ dᵢᵀ)` with `dᵢ = μᵢ − μ`.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::PoseEstimate")]
 #[repr(C)]
 pub struct PoseEstimate {

@@ -9,6 +9,7 @@
 //! measurement; a finite range outside `[range_min, range_max]` is discarded as well.
 
 use crate::header::Header;
+use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::*;
 
 /// Header of one scan; the slice holds `ranges` ranges (m) then `intensities`
@@ -16,7 +17,7 @@ use iceoryx2::prelude::*;
 ///
 /// `header.stamp_ns` is the time of the first beam; beam `i` was measured
 /// `i · time_increment` seconds later (0 when the scan is treated as instantaneous).
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::LaserScanHeader")]
 #[repr(C)]
 pub struct LaserScanHeader {

@@ -3,6 +3,7 @@
 //! this message; it says how the filter is doing, not how well.
 
 use crate::header::Header;
+use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::*;
 
 /// Number of rejection counters in [`ServiceStatus::rejections`].
@@ -98,7 +99,7 @@ pub mod flags {
 
 /// Published by the service after every observation step, and whenever an input stream
 /// goes quiet or comes back (then `steps` and the filter fields repeat the last step's).
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::ServiceStatus")]
 #[repr(C)]
 pub struct ServiceStatus {
@@ -140,7 +141,7 @@ pub struct ServiceStatus {
 /// checkpoint skips every input stamped at or before `covered_ns` of its stream, so a
 /// sensor may forget what it sent up to there. A sensor keeps what it sent since; a
 /// service resumed after a crash asks for it with `resume` set.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::Checkpointed")]
 #[repr(C)]
 pub struct Checkpointed {

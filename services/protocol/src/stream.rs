@@ -1,6 +1,7 @@
 //! End of a finite stream.
 
 use crate::header::Header;
+use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::*;
 
 /// Which stream an [`EndOfStream`] closes.
@@ -58,7 +59,7 @@ impl StreamId {
 /// treats the stream as finished once it has processed the message with `header.seq`
 /// (messages of different topics are not ordered against each other), or at once when
 /// the stream never sent anything (`header.seq == u64::MAX`).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::EndOfStream")]
 #[repr(C)]
 pub struct EndOfStream {

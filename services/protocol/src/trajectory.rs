@@ -2,10 +2,11 @@
 //! header plus a slice of poses.
 
 use crate::header::Header;
+use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::*;
 
 /// Header of a trajectory; the slice holds [`TrajectoryPose`]s in time order.
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::TrajectoryHeader")]
 #[repr(C)]
 pub struct TrajectoryHeader {
@@ -21,7 +22,7 @@ pub struct TrajectoryHeader {
 }
 
 /// One pose of a trajectory (frame `map`).
-#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::TrajectoryPose")]
 #[repr(C)]
 pub struct TrajectoryPose {

@@ -107,7 +107,7 @@ pub struct Subscribers {
 /// joins a stack takes another name: the stack's processes do not wait for its
 /// subscribers at their end beyond [`OUTSIDE_GRACE`], and the client does not count it
 /// among the stack's processes.
-pub const STACK_NODES: [&str; 8] = [
+pub const STACK_NODES: [&str; 9] = [
     "truth-sim",
     "odometry-sim",
     "lidar-sim",
@@ -116,6 +116,7 @@ pub const STACK_NODES: [&str; 8] = [
     "replay-mrclam",
     "replay-victoria-park",
     "viewer",
+    "bridge",
 ];
 
 /// True when `name` is the node name of one of the stack's own processes.

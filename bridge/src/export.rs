@@ -1,0 +1,244 @@
+//! Sending: the topics this host publishes, from shared memory to the peers.
+//!
+//! A topic is subscribed to once it has a publisher here; its publisher token then tells
+//! the peers. A message leaves only once a peer takes the topic (Zenoh matches a
+//! subscriber); until then it stays in shared memory and its publisher waits once the
+//! buffer is full, as it would for a slow subscriber on one host, so a stack that starts
+//! before its peer loses nothing. The bridge is done sending once each stream it carried
+//! has ended, it sent the last message, and the peer says it received the stream to its
+//! end.
+
+use crate::frame::{self, Kind};
+use crate::link::{Keys, Token};
+use crate::routes::{Outgoing, Route, end_of_stream};
+use anyhow::{Context as _, Result, anyhow};
+use fastslam_protocol::ipc::{Ended, Flow, Ipc, WakeSource};
+use fastslam_protocol::stream::StreamEnd;
+use fastslam_protocol::{EndOfStream, StreamId};
+use std::collections::HashSet;
+use std::time::{Duration, Instant};
+use zenoh::Wait;
+use zenoh::liveliness::LivelinessToken;
+use zenoh::pubsub::Publisher;
+use zenoh::qos::CongestionControl;
+use zenoh::sample::{Locality, SampleKind};
+
+/// How often the loop looks for new publishers here and for peers.
+const LOOK_EVERY: Duration = Duration::from_millis(5);
+
+/// A topic being sent: the subscriber here, the publisher to the peers, and the token
+/// that tells them the topic has a publisher.
+struct Open {
+    port: Box<dyn Outgoing>,
+    publisher: Publisher<'static>,
+    _token: LivelinessToken,
+}
+
+/// How far a topic's stream got.
+#[derive(Default)]
+struct Progress {
+    end: StreamEnd,
+    /// A peer takes the topic (as last looked).
+    matched: bool,
+    sent: u64,
+}
+
+impl Open {
+    /// Subscribes to `route` here and declares it to the peers.
+    fn new(
+        ipc: &Ipc,
+        session: &zenoh::Session,
+        keys: &Keys,
+        route: &'static Route,
+    ) -> Result<Self> {
+        let name = route.topic.name;
+        let port = route.outgoing(ipc)?;
+        let publisher = session
+            .declare_publisher(keys.data(name))
+            .congestion_control(CongestionControl::Block)
+            .express(true)
+            .allowed_destination(Locality::Remote)
+            .wait()
+            .map_err(|e| anyhow!("{e}"))
+            .with_context(|| format!("declare the Zenoh publisher of {name}"))?;
+        let token = session
+            .liveliness()
+            .declare_token(keys.token(Token::Publisher, name))
+            .wait()
+            .map_err(|e| anyhow!("{e}"))
+            .with_context(|| format!("announce {name} to the peers"))?;
+        tracing::info!(topic = name, "sending to the peers once one takes it");
+        Ok(Self {
+            port,
+            publisher,
+            _token: token,
+        })
+    }
+
+    /// True when a peer takes the topic.
+    fn matched(&self) -> Result<bool> {
+        let status = self
+            .publisher
+            .matching_status()
+            .wait()
+            .map_err(|e| anyhow!("{e}"))?;
+        Ok(status.matching())
+    }
+}
+
+/// Sends `routes` (and the end of their streams) until each has ended and a peer
+/// received it, or a signal arrives.
+///
+/// # Errors
+/// IPC or Zenoh failures.
+pub fn run(
+    ipc: &Ipc,
+    session: &zenoh::Session,
+    keys: &Keys,
+    routes: &[&'static Route],
+) -> Result<()> {
+    if routes.is_empty() {
+        return Ok(());
+    }
+    let all: Vec<&'static Route> = routes.iter().copied().chain([end_of_stream()]).collect();
+    let kinds: Vec<Kind> = all.iter().map(|r| r.kind()).collect();
+    let ours: Vec<StreamId> = routes.iter().filter_map(|r| r.stream).collect();
+    let probes = all
+        .iter()
+        .map(|r| r.publishers(ipc))
+        .collect::<Result<Vec<_>>>()?;
+    let mut opens: Vec<Option<Open>> = all.iter().map(|_| None).collect();
+    let mut progress: Vec<Progress> = all.iter().map(|_| Progress::default()).collect();
+    let ends = session
+        .liveliness()
+        .declare_subscriber(keys.tokens(Token::Ended))
+        .history(true)
+        .wait()
+        .map_err(|e| anyhow!("{e}"))
+        .context("follow what the peers received")?;
+    let mut peer_ended: HashSet<String> = HashSet::new();
+    loop {
+        for (i, route) in all.iter().enumerate() {
+            if opens[i].is_none() && probes[i]() > 0 {
+                opens[i] = Some(Open::new(ipc, session, keys, route)?);
+            }
+        }
+        let sources: Vec<&dyn WakeSource> =
+            opens.iter().flatten().map(|o| o.port.source()).collect();
+        let mut finished = false;
+        let mut last_look: Option<Instant> = None;
+        let ended = ipc.wake_loop(&sources, Some(LOOK_EVERY), || -> Result<Flow> {
+            let look = last_look.is_none_or(|t| t.elapsed() >= LOOK_EVERY);
+            if look {
+                last_look = Some(Instant::now());
+                for (open, p) in opens.iter().zip(&mut progress) {
+                    if let Some(open) = open {
+                        p.matched = open.matched()?;
+                    }
+                }
+                while let Some(token) = ends.try_recv().map_err(|e| anyhow!("{e}"))? {
+                    if token.kind() == SampleKind::Put
+                        && let Some(topic) = keys.topic_of(Token::Ended, token.key_expr().as_str())
+                    {
+                        peer_ended.insert(topic.to_string());
+                    }
+                }
+            }
+            let mut frame = Vec::new();
+            for (i, open) in opens.iter().enumerate() {
+                if let Some(open) = open {
+                    let send = |body: &[u8]| -> Result<()> {
+                        frame::encode(&kinds[i], &[body], &mut frame);
+                        open.publisher
+                            .put(std::mem::take(&mut frame))
+                            .wait()
+                            .map_err(|e| anyhow!("{e}"))
+                            .with_context(|| format!("send {}", all[i].topic.name))
+                    };
+                    send_pending(i, open.port.as_ref(), &all, &ours, &mut progress, send)?;
+                }
+            }
+            if done(&all, &opens, &progress, &peer_ended) {
+                finished = true;
+                return Ok(Flow::Stop);
+            }
+            let new_publisher = || (0..all.len()).any(|i| opens[i].is_none() && probes[i]() > 0);
+            Ok(if look && new_publisher() {
+                Flow::Stop
+            } else {
+                Flow::Continue
+            })
+        })?;
+        if finished || ended == Ended::Signal {
+            break;
+        }
+    }
+    for (route, p) in all.iter().zip(&progress) {
+        if p.sent > 0 {
+            tracing::info!(topic = route.topic.name, messages = p.sent, "sent");
+        }
+    }
+    Ok(())
+}
+
+/// Sends what waits on route `i` while a peer takes it: a message of a stream this side
+/// carries is counted in that stream's progress; an end of another stream (one this host
+/// received from a peer) is not sent back.
+fn send_pending(
+    i: usize,
+    port: &dyn Outgoing,
+    all: &[&'static Route],
+    ours: &[StreamId],
+    progress: &mut [Progress],
+    mut send: impl FnMut(&[u8]) -> Result<()>,
+) -> Result<()> {
+    let mut failed = None;
+    let ends_streams = std::ptr::eq(all[i], end_of_stream());
+    port.drain(&mut |header, body| {
+        let stream = if ends_streams {
+            let eos: EndOfStream = bytemuck::pod_read_unaligned(body);
+            match StreamId::from_u32(eos.stream).filter(|s| ours.contains(s)) {
+                Some(stream) => Some((stream, eos)),
+                None => return true,
+            }
+        } else {
+            None
+        };
+        if !progress[i].matched {
+            return false;
+        }
+        if let Err(e) = send(body) {
+            failed = Some(e);
+            return false;
+        }
+        progress[i].sent += 1;
+        match stream {
+            Some((stream, eos)) => {
+                if let Some(j) = all.iter().position(|r| r.stream == Some(stream)) {
+                    progress[j].end.announce(&eos);
+                }
+            }
+            None => progress[i].end.saw(header.seq),
+        }
+        true
+    })?;
+    failed.map_or(Ok(()), Err)
+}
+
+/// True once every stream sent has ended, its last message left, and a peer received it
+/// to the end (and at least one stream was sent).
+fn done(
+    all: &[&'static Route],
+    opens: &[Option<Open>],
+    progress: &[Progress],
+    peer_ended: &HashSet<String>,
+) -> bool {
+    let mut streams = all
+        .iter()
+        .zip(opens)
+        .zip(progress)
+        .filter(|((route, open), _)| route.stream.is_some() && open.is_some())
+        .peekable();
+    streams.peek().is_some()
+        && streams.all(|((route, _), p)| p.end.finished() && peer_ended.contains(route.topic.name))
+}

@@ -1,0 +1,164 @@
+//! The Zenoh side of a bridge: how the session is opened ([`ZenohArgs`]) and the keys a
+//! bridge uses below its `--key` ([`Keys`]).
+//!
+//! Besides the messages (`<key>/data/<topic>`), bridges tell each other two things with
+//! liveliness tokens: which topics have a publisher on their host
+//! (`<key>/publishers/<topic>`: the peer then opens a publisher of its own, so a process
+//! there that picks its input by which topic has a publisher picks the same as on one
+//! host), and which streams they have received to the end (`<key>/ended/<topic>`: the
+//! sender may then leave, knowing nothing was still on its way).
+
+use anyhow::{Context as _, Result, bail};
+use zenoh::{Session, Wait};
+
+/// How a bridge reaches its peers.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ZenohArgs {
+    /// Zenoh endpoints to listen on, comma-separated (`tcp/0.0.0.0:7447`): the other
+    /// host's bridge connects to one of them.
+    #[arg(long, value_delimiter = ',', value_name = "ENDPOINT")]
+    pub listen: Vec<String>,
+    /// Zenoh endpoints to connect to, comma-separated (`tcp/192.168.1.20:7447`); the
+    /// bridge retries until the peer listens.
+    #[arg(long, value_delimiter = ',', value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
+    /// The Zenoh key below which this stack's topics travel: bridges with the same key
+    /// exchange topics, bridges of other stacks on the same network use other keys.
+    #[arg(long, default_value = "fastslam")]
+    pub key: String,
+    /// Also find peers by UDP multicast on the local network (off: only the peers given by
+    /// `--listen` and `--connect`).
+    #[arg(long)]
+    pub multicast: bool,
+}
+
+impl ZenohArgs {
+    /// Opens the Zenoh session: a peer that listens and connects where it was told.
+    ///
+    /// # Errors
+    /// No endpoint and no multicast, a key or endpoint Zenoh refuses, or a port that
+    /// cannot be bound.
+    pub fn open(&self) -> Result<Session> {
+        if self.listen.is_empty() && self.connect.is_empty() && !self.multicast {
+            bail!(
+                "the bridge has no peer to reach: give --listen (e.g. tcp/0.0.0.0:7447) on one \
+                 host and --connect (e.g. tcp/<that host>:7447) on the other, or --multicast"
+            );
+        }
+        zenoh::key_expr::KeyExpr::try_from(self.key.as_str())
+            .map_err(|e| anyhow::anyhow!("--key {:?} is not a Zenoh key: {e}", self.key))?;
+        let mut config = zenoh::Config::default();
+        let mut set = |path: &str, value: String| {
+            config
+                .insert_json5(path, &value)
+                .map_err(|e| anyhow::anyhow!("{path} = {value}: {e}"))
+        };
+        set("mode", "\"peer\"".into())?;
+        set("listen/endpoints", json_list(&self.listen))?;
+        set("connect/endpoints", json_list(&self.connect))?;
+        set(
+            "connect/retry",
+            "{period_init_ms: 100, period_max_ms: 1000, period_increase_factor: 2}".into(),
+        )?;
+        set("scouting/multicast/enabled", self.multicast.to_string())?;
+        zenoh::open(config)
+            .wait()
+            .map_err(|e| anyhow::anyhow!("{e}"))
+            .context("open the Zenoh session")
+    }
+}
+
+/// A JSON list of strings.
+fn json_list(items: &[String]) -> String {
+    let quoted: Vec<String> = items.iter().map(|i| format!("{i:?}")).collect();
+    format!("[{}]", quoted.join(","))
+}
+
+/// What a liveliness token says about a topic.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Token {
+    /// The topic has a publisher on the host that declares it.
+    Publisher,
+    /// The host that declares it received the topic's stream to its end.
+    Ended,
+}
+
+impl Token {
+    /// Its chunk in the key.
+    fn chunk(self) -> &'static str {
+        match self {
+            Self::Publisher => "publishers",
+            Self::Ended => "ended",
+        }
+    }
+}
+
+/// The keys of one stack's bridges.
+#[derive(Debug, Clone)]
+pub struct Keys {
+    key: String,
+}
+
+impl Keys {
+    /// The keys below `key`.
+    pub fn new(key: &str) -> Self {
+        Self {
+            key: key.to_string(),
+        }
+    }
+
+    /// Where the messages of `topic` travel.
+    pub fn data(&self, topic: &str) -> String {
+        format!("{}/data/{topic}", self.key)
+    }
+
+    /// The token `what` of `topic`.
+    pub fn token(&self, what: Token, topic: &str) -> String {
+        format!("{}/{}/{topic}", self.key, what.chunk())
+    }
+
+    /// Every token `what`, as a key expression.
+    pub fn tokens(&self, what: Token) -> String {
+        self.token(what, "**")
+    }
+
+    /// The topic a token `what` names.
+    pub fn topic_of<'a>(&self, what: Token, token: &'a str) -> Option<&'a str> {
+        token.strip_prefix(&self.token(what, ""))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tokens_give_back_their_topic() {
+        let keys = Keys::new("fastslam/robot1");
+        assert_eq!(
+            keys.data("smoothed/map"),
+            "fastslam/robot1/data/smoothed/map"
+        );
+        let token = keys.token(Token::Publisher, "smoothed/map");
+        assert_eq!(
+            keys.topic_of(Token::Publisher, &token),
+            Some("smoothed/map")
+        );
+        let ended = keys.token(Token::Ended, "pose");
+        assert_eq!(keys.topic_of(Token::Ended, &ended), Some("pose"));
+        assert_eq!(keys.topic_of(Token::Ended, &token), None);
+        assert_eq!(keys.tokens(Token::Ended), "fastslam/robot1/ended/**");
+    }
+
+    #[test]
+    fn a_bridge_without_a_peer_is_refused_with_what_to_give() {
+        let args = ZenohArgs {
+            listen: vec![],
+            connect: vec![],
+            key: "fastslam".into(),
+            multicast: false,
+        };
+        let e = args.open().unwrap_err().to_string();
+        assert!(e.contains("--listen") && e.contains("--connect"), "{e}");
+    }
+}

@@ -1,0 +1,237 @@
+//! Two hosts on one machine: each its own iceoryx2 root and stack prefix, one bridge each,
+//! Zenoh over loopback TCP. The sensors and the client run on one "host", the FastSLAM
+//! service on the other; the run gives the metrics of the same run on one host. A peer
+//! that sends another contract version or another type is refused with the reason, and a
+//! well-formed message from it arrives as it was sent.
+
+mod common;
+
+use common::*;
+use fastslam_protocol::ipc::{Ipc, StackConfig};
+use fastslam_protocol::{CONTRACT_VERSION, Header, Odometry, topics};
+use std::path::Path;
+use std::time::Duration;
+use zenoh::Wait;
+
+/// A TCP port on loopback nobody listens on right now.
+fn free_port() -> u16 {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    listener.local_addr().unwrap().port()
+}
+
+/// The flags of a simulated sensor (or the truth) on the short scenario, seed 1.
+fn sim(scenario: &Path, subscribers: &str) -> Vec<String> {
+    ["--scenario", &scenario.display().to_string(), "--seed", "1"]
+        .into_iter()
+        .chain(["--wait-subscribers", subscribers])
+        .map(String::from)
+        .collect()
+}
+
+/// Starts the sensors, the truth and the client on `stack`, the client writing `out`.
+fn start_sensors_and_client(stack: &mut HandStack, scenario: &Path, out: &Path) {
+    stack.start("client", &["--out", &out.display().to_string()]);
+    stack.start("odometry-sim", &sim(scenario, "2"));
+    stack.start("lidar-sim", &sim(scenario, "2"));
+    stack.start("truth-sim", &sim(scenario, "3"));
+}
+
+/// The service's flags: seed 1, as fast as possible, waiting for one pose subscriber.
+const SERVICE: [&str; 5] = [
+    "--seed",
+    "1",
+    "--wait-subscribers",
+    "1",
+    "--as-fast-as-possible",
+];
+
+/// Waits for every process of `stack` and fails the test unless each exited 0.
+fn all_succeed(stack: &mut HandStack, what: &str) {
+    for (name, status) in stack.wait_all(Duration::from_secs(180)) {
+        assert!(
+            status.success(),
+            "{what}: {name} failed ({status}); logs in {}",
+            stack.dir.display()
+        );
+    }
+}
+
+#[test]
+fn two_hosts_over_zenoh_give_the_metrics_of_one_host() {
+    let prefix_one = prefix("bridgeone");
+    let dir = folder(&prefix_one);
+    let scenario = short_scenario(&dir);
+
+    let one_host = dir.join("one-host");
+    let mut one = HandStack::new(&prefix_one, dir.join("logs-one"));
+    one.start("service", &SERVICE);
+    start_sensors_and_client(&mut one, &scenario, &one_host);
+    all_succeed(&mut one, "one host");
+
+    let (prefix_a, prefix_b) = (prefix("bridgesensors"), prefix("bridgeservice"));
+    let two_hosts = dir.join("two-hosts");
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let key = format!("fastslam/{prefix_a}");
+    let mut sensors = HandStack::new(&prefix_a, dir.join("logs-sensors"));
+    let mut service = HandStack::new(&prefix_b, dir.join("logs-service"));
+    sensors.start(
+        "bridge",
+        &["--side", "sensors", "--listen", &endpoint, "--key", &key],
+    );
+    service.start(
+        "bridge",
+        &["--side", "service", "--connect", &endpoint, "--key", &key],
+    );
+    service.start("service", &SERVICE);
+    start_sensors_and_client(&mut sensors, &scenario, &two_hosts);
+    all_succeed(&mut sensors, "sensor host");
+    all_succeed(&mut service, "service host");
+
+    assert_eq!(
+        reproducible(&two_hosts),
+        reproducible(&one_host),
+        "the two-host run's metrics differ from the one-host run's"
+    );
+    let m = metrics(&two_hosts);
+    let poses = num(&m, "/estimate/poses");
+    assert!(poses > 10.0, "{m}");
+    let log = std::fs::read_to_string(sensors.dir.join("bridge.0.log")).unwrap();
+    assert!(log.contains("received topic=\"pose\""), "{log}");
+    drop((one, sensors, service));
+    for prefix in [&prefix_one, &prefix_a, &prefix_b] {
+        assert_no_leftovers(prefix);
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_peer_of_another_contract_or_type_is_refused_and_a_good_message_arrives_whole() {
+    let prefix = prefix("bridgepeer");
+    let dir = folder(&prefix);
+    let port = free_port();
+    let key = format!("fastslam/{prefix}");
+    let mut stack = HandStack::new(&prefix, dir.join("logs"));
+    stack.start(
+        "bridge",
+        &[
+            "--side",
+            "service",
+            "--listen",
+            &format!("tcp/127.0.0.1:{port}"),
+            "--key",
+            &key,
+        ],
+    );
+    // The test is the peer: it says it publishes odometry, and subscribes to what the
+    // bridge then publishes on this host.
+    let mut config = zenoh::Config::default();
+    config
+        .insert_json5("connect/endpoints", &format!("[\"tcp/127.0.0.1:{port}\"]"))
+        .unwrap();
+    config
+        .insert_json5("scouting/multicast/enabled", "false")
+        .unwrap();
+    let session = zenoh::open(config).wait().unwrap();
+    let _token = session
+        .liveliness()
+        .declare_token(format!("{key}/publishers/odometry"))
+        .wait()
+        .unwrap();
+    let publisher = session
+        .declare_publisher(format!("{key}/data/odometry"))
+        .wait()
+        .unwrap();
+    let ipc = Ipc::open(
+        &StackConfig {
+            prefix: prefix.clone(),
+            root: Some(stack.root.display().to_string()),
+        },
+        "test-peer",
+        Duration::from_secs(30),
+    )
+    .unwrap();
+    let odometry = ipc.subscriber::<Odometry>(&topics::ODOMETRY).unwrap();
+    wait_for(
+        "the bridge to take odometry",
+        Duration::from_secs(30),
+        || publisher.matching_status().wait().unwrap().matching(),
+    );
+
+    let sent = Odometry {
+        header: Header {
+            stamp_ns: 1_000_000_000,
+            seq: 0,
+        },
+        v: 1.5,
+        omega: -0.25,
+        ..Odometry::default()
+    };
+    let frame = |contract: u32, name: &str, body: &[u8]| {
+        let mut frame = b"FSZB".to_vec();
+        frame.extend_from_slice(&contract.to_le_bytes());
+        frame.extend_from_slice(&(body.len() as u32).to_le_bytes());
+        frame.extend_from_slice(&0u32.to_le_bytes());
+        frame.extend_from_slice(&(name.len() as u16).to_le_bytes());
+        frame.extend_from_slice(name.as_bytes());
+        frame.extend_from_slice(body);
+        frame
+    };
+    let body = bytemuck::bytes_of(&sent);
+    publisher
+        .put(frame(CONTRACT_VERSION + 1, "fastslam::Odometry", body))
+        .wait()
+        .unwrap();
+    publisher
+        .put(frame(CONTRACT_VERSION, "fastslam::Imu", body))
+        .wait()
+        .unwrap();
+    publisher
+        .put(frame(CONTRACT_VERSION, "fastslam::Odometry", body))
+        .wait()
+        .unwrap();
+
+    let mut received = Vec::new();
+    wait_for("the good message", Duration::from_secs(30), || {
+        odometry.drain(|s| received.push(*s.payload())).unwrap();
+        !received.is_empty()
+    });
+    assert_eq!(received, vec![sent], "only the good message arrives, whole");
+    let log_path = stack.dir.join("bridge.0.log");
+    let log = std::fs::read_to_string(&log_path).unwrap();
+    assert!(
+        log.contains(&format!(
+            "contract version {} and this bridge {CONTRACT_VERSION}",
+            CONTRACT_VERSION + 1
+        )) && log.contains("run the same release"),
+        "the refusal names both versions: {log}"
+    );
+    // Later refusals on the topic are counted, not logged again.
+    assert_eq!(log.matches("refused what a peer sends").count(), 1, "{log}");
+    drop((odometry, ipc, publisher, session));
+    drop(stack);
+    assert_no_leftovers_and_remove(&prefix, &dir);
+}
+
+#[test]
+fn a_bridge_without_peers_or_with_an_unknown_topic_fails_in_one_line() {
+    let prefix = prefix("bridgeflags");
+    for (flags, says) in [
+        (vec!["--side", "sensors"], "--listen"),
+        (
+            vec!["--export", "odometri", "--listen", "tcp/127.0.0.1:1"],
+            "cannot carry \"odometri\"",
+        ),
+    ] {
+        let out = std::process::Command::new(LAUNCHER)
+            .args(["bridge", "--prefix", &prefix])
+            .args(&flags)
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{flags:?} must fail");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let errors: Vec<&str> = stderr.lines().filter(|l| l.contains("error")).collect();
+        assert_eq!(errors.len(), 1, "{stderr}");
+        assert!(errors[0].contains(says), "{stderr}");
+    }
+    assert_no_leftovers(&prefix);
+}
