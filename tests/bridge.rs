@@ -1,7 +1,8 @@
 //! Two hosts on one machine: each its own iceoryx2 root and stack prefix, one bridge each,
 //! Zenoh over loopback TCP. The sensors and the client run on one "host", the FastSLAM
-//! service on the other; the run gives the metrics of the same run on one host. A peer
-//! that sends another contract version or another type is refused with the reason, and a
+//! service on the other; the run gives the metrics of the same run on one host, also when
+//! the sensor host's bridge is killed mid-run in real time and started again. A peer that
+//! sends another contract version or another type is refused with the reason, and a
 //! well-formed message from it arrives as it was sent.
 
 mod common;
@@ -28,12 +29,83 @@ fn sim(scenario: &Path, subscribers: &str) -> Vec<String> {
         .collect()
 }
 
-/// Starts the sensors, the truth and the client on `stack`, the client writing `out`.
-fn start_sensors_and_client(stack: &mut HandStack, scenario: &Path, out: &Path) {
+/// Starts the sensors, the truth (with `truth_flags`) and the client on `stack`, the
+/// client writing `out`.
+fn start_sensors_and_client(
+    stack: &mut HandStack,
+    scenario: &Path,
+    out: &Path,
+    truth_flags: &[&str],
+) {
     stack.start("client", &["--out", &out.display().to_string()]);
     stack.start("odometry-sim", &sim(scenario, "2"));
     stack.start("lidar-sim", &sim(scenario, "2"));
-    stack.start("truth-sim", &sim(scenario, "3"));
+    let mut truth = sim(scenario, "3");
+    truth.extend(truth_flags.iter().map(|f| f.to_string()));
+    stack.start("truth-sim", &truth);
+}
+
+/// The run on one host, as fast as possible: the reference's run folder.
+fn one_host_run(test: &str, dir: &Path, scenario: &Path) -> std::path::PathBuf {
+    let out = dir.join("one-host");
+    let mut one = HandStack::new(&prefix(test), dir.join("logs-one"));
+    one.start("service", &SERVICE);
+    start_sensors_and_client(&mut one, scenario, &out, &[]);
+    all_succeed(&mut one, "one host");
+    let prefix = one.prefix.clone();
+    drop(one);
+    assert_no_leftovers(&prefix);
+    out
+}
+
+/// The two hosts of a bridged run: the sensor host (sensors, truth, client, a bridge
+/// listening) and the service host (service, a bridge connecting).
+struct TwoHosts {
+    sensors: HandStack,
+    service: HandStack,
+    /// The sensor host's bridge's flags (to start it again).
+    bridge: Vec<String>,
+}
+
+impl TwoHosts {
+    /// Starts both bridges and the service; the sensor host's other processes are the
+    /// test's to start.
+    fn start(test: &str, dir: &Path) -> Self {
+        let (prefix_a, prefix_b) = (prefix(&format!("{test}s")), prefix(&format!("{test}v")));
+        let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+        let key = format!("fastslam/{prefix_a}");
+        let mut sensors = HandStack::new(&prefix_a, dir.join("logs-sensors"));
+        let mut service = HandStack::new(&prefix_b, dir.join("logs-service"));
+        let bridge: Vec<String> = ["--side", "sensors", "--listen", &endpoint, "--key", &key]
+            .map(String::from)
+            .to_vec();
+        sensors.start("bridge", &bridge);
+        service.start(
+            "bridge",
+            &["--side", "service", "--connect", &endpoint, "--key", &key],
+        );
+        service.start("service", &SERVICE);
+        Self {
+            sensors,
+            service,
+            bridge,
+        }
+    }
+
+    /// Waits for every process of both hosts; each must succeed.
+    fn all_succeed(&mut self) {
+        all_succeed(&mut self.sensors, "sensor host");
+        all_succeed(&mut self.service, "service host");
+    }
+
+    /// Drops both hosts (stopping what still runs) and checks nothing is left.
+    fn finish(self) {
+        let prefixes = [self.sensors.prefix.clone(), self.service.prefix.clone()];
+        drop(self);
+        for prefix in &prefixes {
+            assert_no_leftovers(prefix);
+        }
+    }
 }
 
 /// The service's flags: seed 1, as fast as possible, waiting for one pose subscriber.
@@ -58,49 +130,106 @@ fn all_succeed(stack: &mut HandStack, what: &str) {
 
 #[test]
 fn two_hosts_over_zenoh_give_the_metrics_of_one_host() {
-    let prefix_one = prefix("bridgeone");
-    let dir = folder(&prefix_one);
+    let dir = folder(&prefix("bridgetwo"));
     let scenario = short_scenario(&dir);
+    let one_host = one_host_run("bridgeone", &dir, &scenario);
 
-    let one_host = dir.join("one-host");
-    let mut one = HandStack::new(&prefix_one, dir.join("logs-one"));
-    one.start("service", &SERVICE);
-    start_sensors_and_client(&mut one, &scenario, &one_host);
-    all_succeed(&mut one, "one host");
-
-    let (prefix_a, prefix_b) = (prefix("bridgesensors"), prefix("bridgeservice"));
     let two_hosts = dir.join("two-hosts");
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-    let key = format!("fastslam/{prefix_a}");
-    let mut sensors = HandStack::new(&prefix_a, dir.join("logs-sensors"));
-    let mut service = HandStack::new(&prefix_b, dir.join("logs-service"));
-    sensors.start(
-        "bridge",
-        &["--side", "sensors", "--listen", &endpoint, "--key", &key],
-    );
-    service.start(
-        "bridge",
-        &["--side", "service", "--connect", &endpoint, "--key", &key],
-    );
-    service.start("service", &SERVICE);
-    start_sensors_and_client(&mut sensors, &scenario, &two_hosts);
-    all_succeed(&mut sensors, "sensor host");
-    all_succeed(&mut service, "service host");
-
+    let mut hosts = TwoHosts::start("bridgetwo", &dir);
+    start_sensors_and_client(&mut hosts.sensors, &scenario, &two_hosts, &[]);
+    hosts.all_succeed();
     assert_eq!(
         reproducible(&two_hosts),
         reproducible(&one_host),
         "the two-host run's metrics differ from the one-host run's"
     );
-    let m = metrics(&two_hosts);
-    let poses = num(&m, "/estimate/poses");
-    assert!(poses > 10.0, "{m}");
-    let log = std::fs::read_to_string(sensors.dir.join("bridge.0.log")).unwrap();
+    assert!(num(&metrics(&two_hosts), "/estimate/poses") > 10.0);
+    let log = std::fs::read_to_string(hosts.sensors.dir.join("bridge.0.log")).unwrap();
     assert!(log.contains("received topic=\"pose\""), "{log}");
-    drop((one, sensors, service));
-    for prefix in [&prefix_one, &prefix_a, &prefix_b] {
+    hosts.finish();
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn run_split_across_two_hosts_gives_the_default_runs_metrics() {
+    let prefix_one = prefix("splitone");
+    let dir = folder(&prefix_one);
+    let one_host = dir.join("one-host");
+    assert_success(&run_stack(&prefix_one, &one_host, &[]));
+
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let key = format!("fastslam/{prefix_one}");
+    let (sensors, service) = (prefix("splitsensors"), prefix("splitservice"));
+    let split = |prefix: &str, host: &str, peer: &str, out: &Path| {
+        std::process::Command::new(LAUNCHER)
+            .args(["run", "--prefix", prefix, "--timeout-s", "300"])
+            .args(["--host", host, peer, &endpoint, "--key", &key, "--out"])
+            .arg(out)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let service_host = split(&service, "service", "--listen", &dir.join("service-host"));
+    let sensor_host = split(&sensors, "sensors", "--connect", &dir.join("sensor-host"));
+    let (sensor_out, service_out) = (
+        sensor_host.wait_with_output().unwrap(),
+        service_host.wait_with_output().unwrap(),
+    );
+    assert_success(&sensor_out);
+    assert_success(&service_out);
+    assert!(
+        String::from_utf8_lossy(&service_out.stdout).contains("the service finished"),
+        "{service_out:?}"
+    );
+    assert_eq!(
+        reproducible(&dir.join("sensor-host")),
+        reproducible(&one_host),
+        "the split run's metrics differ from the one-host run's"
+    );
+    for prefix in [&prefix_one, &sensors, &service] {
         assert_no_leftovers(prefix);
     }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn the_sensor_hosts_bridge_killed_and_restarted_mid_run_loses_nothing() {
+    let dir = folder(&prefix("bridgekill"));
+    let scenario = short_scenario(&dir);
+    let one_host = one_host_run("bridgekillone", &dir, &scenario);
+
+    // The truth in real time, so the kill lands mid-run; the service takes its inputs as
+    // they come, without deadlines, so the result does not depend on their timing.
+    let two_hosts = dir.join("two-hosts");
+    let mut hosts = TwoHosts::start("bridgekill", &dir);
+    start_sensors_and_client(&mut hosts.sensors, &scenario, &two_hosts, &["--realtime"]);
+    let service_log = hosts.service.dir.join("service.0.log");
+    wait_for(
+        "the service to be under way",
+        Duration::from_secs(30),
+        || std::fs::read_to_string(&service_log).is_ok_and(|l| l.contains("running")),
+    );
+    std::thread::sleep(Duration::from_secs(3));
+    hosts.sensors.kill("bridge");
+    std::thread::sleep(Duration::from_millis(500));
+    let bridge = hosts.bridge.clone();
+    hosts.sensors.start("bridge", &bridge);
+    hosts.all_succeed();
+
+    assert_eq!(
+        reproducible(&two_hosts),
+        reproducible(&one_host),
+        "the run with a bridge restarted mid-run differs from the one-host run"
+    );
+    let restarted = std::fs::read_to_string(hosts.sensors.dir.join("bridge.1.log")).unwrap();
+    assert!(
+        restarted.contains("asking the sensors for everything after it"),
+        "{restarted}"
+    );
+    let peer = std::fs::read_to_string(hosts.service.dir.join("bridge.0.log")).unwrap();
+    assert!(peer.contains("a peer came back"), "{peer}");
+    hosts.finish();
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -7,15 +7,23 @@
 //! before its peer loses nothing. The bridge is done sending once each stream it carried
 //! has ended, it sent the last message, and the peer says it received the stream to its
 //! end.
+//!
+//! Two things make a restart of a bridge lose nothing. A bridge that starts while its
+//! peer already published some of its streams (it restarted mid-run) asks its sensors to
+//! send again everything after what the peer published last (the request a resumed
+//! service makes, on the checkpoint topic); the peer drops what it already has. And a
+//! bridge whose peer went away and came back sends the last messages it sent again
+//! ([`WINDOW_BYTES`]), which may have been on their way when the peer died; the peer, and
+//! the client after it, skip those they already have.
 
 use crate::frame::{self, Kind};
-use crate::link::{Keys, Token};
+use crate::link::{Delivered, Keys, Token};
 use crate::routes::{Outgoing, Route, end_of_stream};
 use anyhow::{Context as _, Result, anyhow};
-use fastslam_protocol::ipc::{Ended, Flow, Ipc, WakeSource};
+use fastslam_protocol::ipc::{Ended, Flow, Ipc, Pub, WakeSource};
 use fastslam_protocol::stream::StreamEnd;
-use fastslam_protocol::{EndOfStream, StreamId};
-use std::collections::HashSet;
+use fastslam_protocol::{Checkpointed, EndOfStream, Header, StreamId, topics};
+use std::collections::{HashSet, VecDeque};
 use std::time::{Duration, Instant};
 use zenoh::Wait;
 use zenoh::liveliness::LivelinessToken;
@@ -25,6 +33,13 @@ use zenoh::sample::{Locality, SampleKind};
 
 /// How often the loop looks for new publishers here and for peers.
 const LOOK_EVERY: Duration = Duration::from_millis(5);
+
+/// The last messages of each topic kept to send again to a peer that comes back, in
+/// bytes (at least the last message is kept).
+const WINDOW_BYTES: usize = 4 << 20;
+
+/// How long a starting bridge waits for its peers to say what they published.
+const ASK_TIMEOUT: Duration = Duration::from_secs(2);
 
 /// A topic being sent: the subscriber here, the publisher to the peers, and the token
 /// that tells them the topic has a publisher.
@@ -40,7 +55,41 @@ struct Progress {
     end: StreamEnd,
     /// A peer takes the topic (as last looked).
     matched: bool,
+    /// A peer took the topic and went away: what it may have missed goes again when one
+    /// comes back.
+    peer_left: bool,
     sent: u64,
+    /// The last frames sent, at most [`WINDOW_BYTES`] but the newest.
+    window: VecDeque<Vec<u8>>,
+    window_bytes: usize,
+}
+
+impl Progress {
+    /// Keeps `frame`, forgetting the oldest beyond [`WINDOW_BYTES`].
+    fn keep(&mut self, frame: Vec<u8>) {
+        self.window_bytes += frame.len();
+        self.window.push_back(frame);
+        while self.window_bytes > WINDOW_BYTES
+            && self.window.len() > 1
+            && let Some(old) = self.window.pop_front()
+        {
+            self.window_bytes -= old.len();
+        }
+    }
+
+    /// Records whether a peer takes the topic now; true when one came back after a peer
+    /// went away.
+    fn look(&mut self, matched: bool) -> bool {
+        let came_back = matched && self.peer_left;
+        if self.matched && !matched {
+            self.peer_left = true;
+        }
+        if came_back {
+            self.peer_left = false;
+        }
+        self.matched = matched;
+        came_back
+    }
 }
 
 impl Open {
@@ -117,6 +166,7 @@ pub fn run(
         .map_err(|e| anyhow!("{e}"))
         .context("follow what the peers received")?;
     let mut peer_ended: HashSet<String> = HashSet::new();
+    let mut restart = Restart::default();
     loop {
         for (i, route) in all.iter().enumerate() {
             if opens[i].is_none() && probes[i]() > 0 {
@@ -131,11 +181,14 @@ pub fn run(
             let look = last_look.is_none_or(|t| t.elapsed() >= LOOK_EVERY);
             if look {
                 last_look = Some(Instant::now());
-                for (open, p) in opens.iter().zip(&mut progress) {
-                    if let Some(open) = open {
-                        p.matched = open.matched()?;
+                for ((open, p), route) in opens.iter().zip(&mut progress).zip(&all) {
+                    if let Some(open) = open
+                        && p.look(open.matched()?)
+                    {
+                        send_again(open, p, route)?;
                     }
                 }
+                restart.check(ipc, session, keys, &ours, &all, &opens, &progress)?;
                 while let Some(token) = ends.try_recv().map_err(|e| anyhow!("{e}"))? {
                     if token.kind() == SampleKind::Put
                         && let Some(topic) = keys.topic_of(Token::Ended, token.key_expr().as_str())
@@ -147,13 +200,14 @@ pub fn run(
             let mut frame = Vec::new();
             for (i, open) in opens.iter().enumerate() {
                 if let Some(open) = open {
-                    let send = |body: &[u8]| -> Result<()> {
+                    let send = |body: &[u8]| -> Result<Vec<u8>> {
                         frame::encode(&kinds[i], &[body], &mut frame);
                         open.publisher
-                            .put(std::mem::take(&mut frame))
+                            .put(frame.clone())
                             .wait()
                             .map_err(|e| anyhow!("{e}"))
-                            .with_context(|| format!("send {}", all[i].topic.name))
+                            .with_context(|| format!("send {}", all[i].topic.name))?;
+                        Ok(std::mem::take(&mut frame))
                     };
                     send_pending(i, open.port.as_ref(), &all, &ours, &mut progress, send)?;
                 }
@@ -190,7 +244,7 @@ fn send_pending(
     all: &[&'static Route],
     ours: &[StreamId],
     progress: &mut [Progress],
-    mut send: impl FnMut(&[u8]) -> Result<()>,
+    mut send: impl FnMut(&[u8]) -> Result<Vec<u8>>,
 ) -> Result<()> {
     let mut failed = None;
     let ends_streams = std::ptr::eq(all[i], end_of_stream());
@@ -207,9 +261,12 @@ fn send_pending(
         if !progress[i].matched {
             return false;
         }
-        if let Err(e) = send(body) {
-            failed = Some(e);
-            return false;
+        match send(body) {
+            Ok(frame) => progress[i].keep(frame),
+            Err(e) => {
+                failed = Some(e);
+                return false;
+            }
         }
         progress[i].sent += 1;
         match stream {
@@ -223,6 +280,106 @@ fn send_pending(
         true
     })?;
     failed.map_or(Ok(()), Err)
+}
+
+/// Sends the frames kept of a topic again, to a peer that came back.
+fn send_again(open: &Open, p: &Progress, route: &Route) -> Result<()> {
+    for frame in &p.window {
+        open.publisher
+            .put(frame.clone())
+            .wait()
+            .map_err(|e| anyhow!("{e}"))?;
+    }
+    tracing::info!(
+        topic = route.topic.name,
+        messages = p.window.len(),
+        "a peer came back: sent the last messages again"
+    );
+    Ok(())
+}
+
+/// A bridge that starts while its peer already published some of the streams it sends
+/// (it restarted mid-run): once a peer takes every stream open here, it asks the peer
+/// what it published last and, if anything, asks the sensors here for everything after
+/// that, as a resumed service does.
+#[derive(Default)]
+struct Restart {
+    /// Looked already.
+    checked: bool,
+    /// The publisher of the request, kept until the bridge ends (a sample lives in its
+    /// publisher's memory).
+    request: Option<Pub<Checkpointed, ()>>,
+}
+
+impl Restart {
+    #[allow(clippy::too_many_arguments)]
+    fn check(
+        &mut self,
+        ipc: &Ipc,
+        session: &zenoh::Session,
+        keys: &Keys,
+        ours: &[StreamId],
+        all: &[&'static Route],
+        opens: &[Option<Open>],
+        progress: &[Progress],
+    ) -> Result<()> {
+        let mut streams = all
+            .iter()
+            .zip(opens)
+            .zip(progress)
+            .filter(|((route, open), _)| route.stream.is_some() && open.is_some())
+            .peekable();
+        if self.checked || streams.peek().is_none() || !streams.all(|(_, p)| p.matched) {
+            return Ok(());
+        }
+        self.checked = true;
+        let delivered = ask_delivered(session, keys)?;
+        let lidar = [StreamId::Observations, StreamId::Scan];
+        let newest = |ids: &[StreamId]| {
+            ids.iter()
+                .filter(|id| ours.contains(id))
+                .find_map(|&id| delivered.of(id))
+        };
+        let covered = [newest(&[StreamId::Odometry]), newest(&lidar)];
+        if covered.iter().all(Option::is_none) {
+            return Ok(());
+        }
+        let covered_ns = covered.map(|h| h.map_or(0, |h| h.stamp_ns));
+        tracing::warn!(
+            odometry_ns = covered_ns[0],
+            lidar_ns = covered_ns[1],
+            "the peer already published part of the sensor streams (this bridge restarted): \
+             asking the sensors for everything after it"
+        );
+        let request = ipc.newest_only_publisher::<Checkpointed>(&topics::CHECKPOINT)?;
+        request.send(Checkpointed {
+            header: Header::default(),
+            covered_ns,
+            resume: 1,
+            reserved: 0,
+        })?;
+        self.request = Some(request);
+        Ok(())
+    }
+}
+
+/// What the peers published last of each stream they receive.
+fn ask_delivered(session: &zenoh::Session, keys: &Keys) -> Result<Delivered> {
+    let replies = session
+        .get(keys.delivered())
+        .allowed_destination(Locality::Remote)
+        .timeout(ASK_TIMEOUT)
+        .wait()
+        .map_err(|e| anyhow!("{e}"))
+        .context("ask the peers what they published")?;
+    let mut delivered = Delivered::default();
+    while let Ok(reply) = replies.recv() {
+        if let Ok(sample) = reply.result() {
+            let text = sample.payload().try_to_string().unwrap_or_default();
+            delivered.0.extend(Delivered::decode(&text).0);
+        }
+    }
+    Ok(delivered)
 }
 
 /// True once every stream sent has ended, its last message left, and a peer received it

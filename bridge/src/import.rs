@@ -11,18 +11,20 @@
 //! subscribers here to leave.
 
 use crate::frame::{self, Kind, Refused};
-use crate::link::{Keys, Token};
-use crate::routes::{Incoming, Route, end_of_stream};
+use crate::link::{Delivered, Keys, Token};
+use crate::routes::{Incoming, Route, end_of_stream, header_of};
 use anyhow::{Context as _, Result, anyhow};
 use fastslam_protocol::ipc::{Ipc, shutdown};
-use fastslam_protocol::stream::StreamEnd;
+use fastslam_protocol::stream::{Repeats, StreamEnd};
 use fastslam_protocol::{EndOfStream, StreamId};
 use std::sync::mpsc::{RecvTimeoutError, SyncSender, sync_channel};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 use zenoh::Wait;
 use zenoh::bytes::ZBytes;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Subscriber;
+use zenoh::query::Queryable;
 use zenoh::sample::{Locality, SampleKind};
 
 /// How often the loop looks for new topics and subscribers when nothing arrives.
@@ -40,6 +42,9 @@ struct In {
     subscriber: Option<Subscriber<()>>,
     end: StreamEnd,
     received: u64,
+    /// Messages taken again and dropped: already published here (sent again after a
+    /// bridge restarted).
+    repeated: u64,
     /// Frames refused so far (the first is logged with its reason).
     refused: u64,
     /// The token telling the peers the stream arrived to its end.
@@ -73,6 +78,7 @@ pub fn run(
             subscriber: None,
             end: StreamEnd::default(),
             received: 0,
+            repeated: 0,
             refused: 0,
             ended: None,
         })
@@ -86,6 +92,8 @@ pub fn run(
         .wait()
         .map_err(|e| anyhow!("{e}"))
         .context("follow the peers' publishers")?;
+    let delivered = Arc::new(Mutex::new(Repeats::default()));
+    let _answer = answer_delivered(session, keys, &theirs, &delivered)?;
     let (tx, rx) = sync_channel::<(usize, ZBytes)>(QUEUE);
     while !shutdown::requested() {
         while let Some(token) = publishers.try_recv().map_err(|e| anyhow!("{e}"))? {
@@ -105,9 +113,10 @@ pub fn run(
         }
         match rx.recv_timeout(LOOK_EVERY) {
             Ok(first) => {
-                publish(&mut ins, eos, &theirs, first)?;
+                let mut delivered = delivered.lock().unwrap_or_else(PoisonError::into_inner);
+                publish(&mut ins, eos, &theirs, &mut delivered, first)?;
                 while let Ok(next) = rx.try_recv() {
-                    publish(&mut ins, eos, &theirs, next)?;
+                    publish(&mut ins, eos, &theirs, &mut delivered, next)?;
                 }
             }
             Err(RecvTimeoutError::Timeout) => {}
@@ -133,6 +142,7 @@ pub fn run(
             tracing::info!(
                 topic = s.route.topic.name,
                 messages = s.received,
+                repeated = s.repeated,
                 refused = s.refused,
                 "received"
             );
@@ -167,12 +177,38 @@ fn subscribe(
         .with_context(|| format!("subscribe to {name} on Zenoh"))
 }
 
+/// Answers the peers' question what was published here last of each stream in
+/// `theirs` (see [`Delivered`]), from `delivered`.
+fn answer_delivered(
+    session: &zenoh::Session,
+    keys: &Keys,
+    theirs: &[StreamId],
+    delivered: &Arc<Mutex<Repeats>>,
+) -> Result<Queryable<()>> {
+    let (key, theirs, delivered) = (keys.delivered(), theirs.to_vec(), Arc::clone(delivered));
+    session
+        .declare_queryable(keys.delivered())
+        .callback(move |query| {
+            let seen = delivered.lock().unwrap_or_else(PoisonError::into_inner);
+            let newest = theirs.iter().filter_map(|&id| Some((id, seen.newest(id)?)));
+            let answer = Delivered(newest.collect()).encode();
+            drop(seen);
+            // A peer that went away meanwhile needs no answer.
+            let _ = query.reply(key.clone(), answer).wait();
+        })
+        .wait()
+        .map_err(|e| anyhow!("{e}"))
+        .context("answer what was delivered")
+}
+
 /// Publishes one received frame here, or counts it refused (logging the first refusal
-/// of each topic with its reason). An end of stream goes to the stream's progress.
+/// of each topic with its reason) or repeated (already published: `delivered`). An end
+/// of stream goes to the stream's progress.
 fn publish(
     ins: &mut [In],
     eos: usize,
     theirs: &[StreamId],
+    delivered: &mut Repeats,
     (i, payload): (usize, ZBytes),
 ) -> Result<()> {
     let bytes = payload.to_bytes();
@@ -197,7 +233,14 @@ fn publish(
         }
         return Ok(());
     }
-    let header = port.publish(body)?;
+    let header = header_of(body);
+    if let Some(stream) = s.route.stream
+        && !delivered.fresh(stream, header)
+    {
+        s.repeated += 1;
+        return Ok(());
+    }
+    port.publish(body)?;
     s.received += 1;
     s.end.saw(header.seq);
     Ok(())

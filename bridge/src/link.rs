@@ -9,7 +9,11 @@
 //! sender may then leave, knowing nothing was still on its way).
 
 use anyhow::{Context as _, Result, bail};
+use fastslam_protocol::{Header, StreamId};
 use zenoh::{Session, Wait};
+
+/// The Zenoh key bridges use unless told otherwise.
+pub const DEFAULT_KEY: &str = "fastslam";
 
 /// How a bridge reaches its peers.
 #[derive(Debug, Clone, clap::Args)]
@@ -24,7 +28,7 @@ pub struct ZenohArgs {
     pub connect: Vec<String>,
     /// The Zenoh key below which this stack's topics travel: bridges with the same key
     /// exchange topics, bridges of other stacks on the same network use other keys.
-    #[arg(long, default_value = "fastslam")]
+    #[arg(long, default_value = DEFAULT_KEY)]
     pub key: String,
     /// Also find peers by UDP multicast on the local network (off: only the peers given by
     /// `--listen` and `--connect`).
@@ -33,12 +37,11 @@ pub struct ZenohArgs {
 }
 
 impl ZenohArgs {
-    /// Opens the Zenoh session: a peer that listens and connects where it was told.
+    /// Checks that the flags name a way to the peers and a valid key.
     ///
     /// # Errors
-    /// No endpoint and no multicast, a key or endpoint Zenoh refuses, or a port that
-    /// cannot be bound.
-    pub fn open(&self) -> Result<Session> {
+    /// No endpoint and no multicast, or a key Zenoh refuses.
+    pub fn check(&self) -> Result<()> {
         if self.listen.is_empty() && self.connect.is_empty() && !self.multicast {
             bail!(
                 "the bridge has no peer to reach: give --listen (e.g. tcp/0.0.0.0:7447) on one \
@@ -47,6 +50,31 @@ impl ZenohArgs {
         }
         zenoh::key_expr::KeyExpr::try_from(self.key.as_str())
             .map_err(|e| anyhow::anyhow!("--key {:?} is not a Zenoh key: {e}", self.key))?;
+        Ok(())
+    }
+
+    /// The same flags, for a bridge process.
+    pub fn flags(&self) -> Vec<String> {
+        let mut flags = vec!["--key".to_string(), self.key.clone()];
+        if !self.listen.is_empty() {
+            flags.extend(["--listen".into(), self.listen.join(",")]);
+        }
+        if !self.connect.is_empty() {
+            flags.extend(["--connect".into(), self.connect.join(",")]);
+        }
+        if self.multicast {
+            flags.push("--multicast".into());
+        }
+        flags
+    }
+
+    /// Opens the Zenoh session: a peer that listens and connects where it was told.
+    ///
+    /// # Errors
+    /// No endpoint and no multicast, a key or endpoint Zenoh refuses, or a port that
+    /// cannot be bound.
+    pub fn open(&self) -> Result<Session> {
+        self.check()?;
         let mut config = zenoh::Config::default();
         let mut set = |path: &str, value: String| {
             config
@@ -112,6 +140,12 @@ impl Keys {
         format!("{}/data/{topic}", self.key)
     }
 
+    /// The query a bridge answers with the newest message it published of each stream
+    /// it receives ([`Delivered`]).
+    pub fn delivered(&self) -> String {
+        format!("{}/delivered", self.key)
+    }
+
     /// The token `what` of `topic`.
     pub fn token(&self, what: Token, topic: &str) -> String {
         format!("{}/{}/{topic}", self.key, what.chunk())
@@ -125,6 +159,39 @@ impl Keys {
     /// The topic a token `what` names.
     pub fn topic_of<'a>(&self, what: Token, token: &'a str) -> Option<&'a str> {
         token.strip_prefix(&self.token(what, ""))
+    }
+}
+
+/// The newest message a bridge published on its host of each stream it receives: what
+/// a restarted peer needs to ask its sensors for again. On the wire, one line per stream:
+/// `<stream id> <stamp_ns> <seq>`.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Delivered(pub Vec<(StreamId, Header)>);
+
+impl Delivered {
+    /// The answer's text.
+    pub fn encode(&self) -> String {
+        self.0
+            .iter()
+            .map(|(id, h)| format!("{} {} {}\n", *id as u32, h.stamp_ns, h.seq))
+            .collect()
+    }
+
+    /// Reads an answer; lines it cannot read are left out.
+    pub fn decode(text: &str) -> Self {
+        let line = |l: &str| {
+            let mut words = l.split_whitespace().map(str::parse::<u64>);
+            let id = StreamId::from_u32(u32::try_from(words.next()?.ok()?).ok()?)?;
+            let stamp_ns = words.next()?.ok()?;
+            let seq = words.next()?.ok()?;
+            Some((id, Header { stamp_ns, seq }))
+        };
+        Self(text.lines().filter_map(line).collect())
+    }
+
+    /// The newest message of stream `id`.
+    pub fn of(&self, id: StreamId) -> Option<Header> {
+        self.0.iter().find(|(s, _)| *s == id).map(|(_, h)| *h)
     }
 }
 
@@ -148,6 +215,29 @@ mod tests {
         assert_eq!(keys.topic_of(Token::Ended, &ended), Some("pose"));
         assert_eq!(keys.topic_of(Token::Ended, &token), None);
         assert_eq!(keys.tokens(Token::Ended), "fastslam/robot1/ended/**");
+    }
+
+    #[test]
+    fn what_was_delivered_reads_back() {
+        let delivered = Delivered(vec![
+            (
+                StreamId::Odometry,
+                Header {
+                    stamp_ns: 1_500_000_000,
+                    seq: 7,
+                },
+            ),
+            (
+                StreamId::Scan,
+                Header {
+                    stamp_ns: 2,
+                    seq: 0,
+                },
+            ),
+        ]);
+        assert_eq!(Delivered::decode(&delivered.encode()), delivered);
+        assert_eq!(delivered.of(StreamId::Scan).map(|h| h.seq), Some(0));
+        assert_eq!(Delivered::decode("2 x 1\n99 1 1\n\n3 5").0, vec![]);
     }
 
     #[test]

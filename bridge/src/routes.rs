@@ -195,12 +195,11 @@ pub trait Outgoing {
 
 /// The messages of one topic arriving on this host.
 pub trait Incoming {
-    /// Publishes the message whose bytes are `body` (checked whole by the frame) and
-    /// returns its header.
+    /// Publishes the message whose bytes are `body` (checked whole by the frame).
     ///
     /// # Errors
     /// IPC failures.
-    fn publish(&self, body: &[u8]) -> Result<Header>;
+    fn publish(&self, body: &[u8]) -> Result<()>;
     /// Subscribers on this host right now.
     fn subscribers(&self) -> usize;
     /// Waits until this host's subscribers have left (they may still be reading what was
@@ -232,7 +231,7 @@ fn type_name<T: ZeroCopySend>() -> String {
 }
 
 /// The header every message starts with.
-fn header_of(bytes: &[u8]) -> Header {
+pub(crate) fn header_of(bytes: &[u8]) -> Header {
     bytemuck::pod_read_unaligned(&bytes[..size_of::<Header>()])
 }
 
@@ -343,9 +342,8 @@ fn taken(sent: bool) -> Taken {
 }
 
 impl<T: Pod + Debug + ZeroCopySend> Incoming for Pub<T, ()> {
-    fn publish(&self, body: &[u8]) -> Result<Header> {
-        self.send(bytemuck::pod_read_unaligned(body))?;
-        Ok(header_of(body))
+    fn publish(&self, body: &[u8]) -> Result<()> {
+        Ok(self.send(bytemuck::pod_read_unaligned(body))?)
     }
 
     fn subscribers(&self) -> usize {
@@ -362,11 +360,10 @@ where
     H: Pod + Debug + ZeroCopySend + Default,
     T: Pod + Debug + ZeroCopySend,
 {
-    fn publish(&self, body: &[u8]) -> Result<Header> {
+    fn publish(&self, body: &[u8]) -> Result<()> {
         let (head, items) = body.split_at(size_of::<H>());
         let items: Vec<T> = bytemuck::pod_collect_to_vec(items);
-        self.send(bytemuck::pod_read_unaligned(head), &items)?;
-        Ok(header_of(body))
+        Ok(self.send(bytemuck::pod_read_unaligned(head), &items)?)
     }
 
     fn subscribers(&self) -> usize {

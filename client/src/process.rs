@@ -12,9 +12,9 @@ use crate::reference::NoiseModel;
 use crate::resources::ProcessMonitor;
 use crate::{Metrics, Recording, report};
 use fastslam_protocol::ipc::{Ended, Flow, Ipc};
-use fastslam_protocol::{Header, StreamId, cli, validate};
+use fastslam_protocol::stream::Repeats;
+use fastslam_protocol::{StreamId, cli, validate};
 use fastslam_service::config::ServiceConfig;
-use std::collections::HashMap;
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -102,7 +102,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut mcap = RunMcap::create(&args.out.join(report::files::MCAP))?;
     let mut rec = Recording::default();
     let mut ends = Ends::new(lidar.stream());
-    let mut seen = Seen::default();
+    let mut seen = Repeats::default();
     let mut latency = LatencyMatcher::default();
     let mut monitor = ProcessMonitor::new();
     let mut live_ate = LiveAte::default();
@@ -301,30 +301,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The newest header taken of each stream, to skip what is sent again: a sensor sends
-/// what the service's last checkpoint does not cover again to a service resumed after a
-/// crash, and the resumed service publishes again what it had published since that
-/// checkpoint (the same messages: a resume repeats the run exactly). A message whose
-/// sequence number and stamp are both no newer than the newest taken is such a repeat;
-/// a publisher that restarts numbers from 0 again at later stamps, and is taken.
-#[derive(Debug, Default)]
-struct Seen(HashMap<StreamId, Header>);
-
-impl Seen {
-    /// True when the message with header `h` on stream `id` is not a repeat; it is then
-    /// the newest taken.
-    fn fresh(&mut self, id: StreamId, h: Header) -> bool {
-        let repeat = self
-            .0
-            .get(&id)
-            .is_some_and(|last| h.seq <= last.seq && h.stamp_ns <= last.stamp_ns);
-        if !repeat {
-            self.0.insert(id, h);
-        }
-        !repeat
-    }
-}
-
 /// Prints a progress line on stdout. A reader that went away (closed pipe) is not an
 /// error of the recording: the line is dropped.
 fn print_progress(p: &Progress) {
@@ -337,29 +313,5 @@ fn accept(check: Result<(), validate::Rejection>, what: &str, keep: impl FnOnce(
     match check {
         Ok(()) => keep(),
         Err(reason) => tracing::warn!(%reason, "{what} skipped"),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn repeats_are_skipped_and_a_restarted_publisher_is_taken() {
-        let h = |seq, stamp_ns| Header { stamp_ns, seq };
-        let mut seen = Seen::default();
-        assert!(seen.fresh(StreamId::Pose, h(0, 10)));
-        assert!(seen.fresh(StreamId::Pose, h(1, 20)));
-        assert!(!seen.fresh(StreamId::Pose, h(1, 20)), "sent again");
-        assert!(!seen.fresh(StreamId::Pose, h(0, 10)), "sent again");
-        assert!(seen.fresh(StreamId::Odometry, h(0, 10)), "another stream");
-        assert!(
-            seen.fresh(StreamId::Pose, h(0, 30)),
-            "a restarted publisher"
-        );
-        assert!(
-            seen.fresh(StreamId::Pose, h(2, 30)),
-            "the next after a restart"
-        );
     }
 }

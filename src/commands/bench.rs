@@ -11,6 +11,7 @@
 //!    against the run without it.
 //! 4. Optionally, peak memory of the service over runs of growing length.
 
+use crate::commands::host::HostArgs;
 use crate::commands::launch::LaunchArgs;
 use crate::commands::live::LiveArgs;
 use crate::commands::run::{self, RunArgs};
@@ -313,6 +314,7 @@ fn stack_run(
         service_flags: Vec::new(),
         busy_poll,
         spin_us,
+        split: HostArgs::default(),
     };
     let started = Instant::now();
     let code = run::run(run_args)?;

@@ -4,12 +4,13 @@
 //! `bench` (performance figures), `test` (your own publisher through the service and the
 //! client, judged by expectations), `map-get` (a running stack's map), `scenarios`,
 //! `extraction-report` and `fit-noise` (a robot's noise from a recording); `launch` holds what `run` and `replay` share, `live` their live
-//! view.
+//! view, `host` a stack split across two computers (`run --host`).
 
 pub mod bench;
 pub mod compare;
 pub mod extraction_report;
 pub mod fit_noise;
+pub mod host;
 pub mod launch;
 pub mod live;
 pub mod map_get;

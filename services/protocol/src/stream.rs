@@ -92,6 +92,36 @@ impl EndOfStream {
     }
 }
 
+/// The newest header taken of each stream, to skip what is sent again: a sensor sends
+/// what the service's last checkpoint does not cover again to a service resumed after a
+/// crash (or to a bridge restarted after one), and the resumed service publishes again
+/// what it had published since that checkpoint (the same messages: a resume repeats the
+/// run exactly). A message whose sequence number and stamp are both no newer than the
+/// newest taken is such a repeat; a publisher that restarts numbers from 0 again at later
+/// stamps, and is taken.
+#[derive(Debug, Default, Clone)]
+pub struct Repeats(std::collections::HashMap<StreamId, Header>);
+
+impl Repeats {
+    /// True when the message with header `h` on stream `id` is not a repeat; it is then
+    /// the newest taken.
+    pub fn fresh(&mut self, id: StreamId, h: Header) -> bool {
+        let repeat = self
+            .0
+            .get(&id)
+            .is_some_and(|last| h.seq <= last.seq && h.stamp_ns <= last.stamp_ns);
+        if !repeat {
+            self.0.insert(id, h);
+        }
+        !repeat
+    }
+
+    /// The newest header taken of stream `id`.
+    pub fn newest(&self, id: StreamId) -> Option<Header> {
+        self.0.get(&id).copied()
+    }
+}
+
 /// Sequence numbers a [`StreamEnd`] remembers, to find the announced last message among
 /// the most recent ones.
 const RECENT_SEQS: usize = 1024;
@@ -181,6 +211,27 @@ mod tests {
             early.finished(),
             "the last message came before its announcement"
         );
+    }
+
+    #[test]
+    fn repeats_are_skipped_and_a_restarted_publisher_is_taken() {
+        let h = |seq, stamp_ns| Header { stamp_ns, seq };
+        let mut seen = Repeats::default();
+        assert!(seen.fresh(StreamId::Pose, h(0, 10)));
+        assert!(seen.fresh(StreamId::Pose, h(1, 20)));
+        assert!(!seen.fresh(StreamId::Pose, h(1, 20)), "sent again");
+        assert!(!seen.fresh(StreamId::Pose, h(0, 10)), "sent again");
+        assert!(seen.fresh(StreamId::Odometry, h(0, 10)), "another stream");
+        assert!(
+            seen.fresh(StreamId::Pose, h(0, 30)),
+            "a restarted publisher"
+        );
+        assert!(
+            seen.fresh(StreamId::Pose, h(2, 30)),
+            "the next after a restart"
+        );
+        assert_eq!(seen.newest(StreamId::Pose), Some(h(2, 30)));
+        assert_eq!(seen.newest(StreamId::Map), None);
     }
 
     #[test]
