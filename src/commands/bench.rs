@@ -55,12 +55,14 @@ pub struct BenchArgs {
     #[arg(long)]
     pub steps: Option<usize>,
     /// Only these parts, comma-separated: step, latency, latency-floor, latency-busy-poll,
-    /// latency-spin, throughput, memory (default: step, latency, throughput).
+    /// latency-spin, throughput, memory, bridge (default: step, latency, throughput).
     /// `latency-floor` repeats the latency run with one particle: what the processes and
     /// the machine cost when the filter costs nothing. `latency-busy-poll` repeats it with
     /// the service and the client polling instead of sleeping (`run --busy-poll`);
     /// `latency-spin` with them polling after each wake-up until the inputs have been quiet
-    /// for `--spin-us` (`run --spin-us`). `memory` runs long.
+    /// for `--spin-us` (`run --spin-us`). `memory` runs long. `bridge` runs the latency
+    /// run on one host, then split across two "hosts" on this machine joined by two
+    /// bridges (`run --host`, Zenoh over loopback TCP): what the hops add.
     #[arg(long, value_delimiter = ',', default_value = "step,latency,throughput")]
     pub parts: Vec<String>,
     /// Scenario of the latency measurement (real time: its simulated length is the wall
@@ -107,10 +109,11 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             "latency-spin" => latency(args, LatencyRun::Spin)?,
             "throughput" => throughput(args)?,
             "memory" => memory(args)?,
+            "bridge" => bridge(args)?,
             other => {
                 bail!(
                     "unknown part `{other}`: step, latency, latency-floor, latency-busy-poll, \
-                     latency-spin, throughput or memory"
+                     latency-spin, throughput, memory or bridge"
                 )
             }
         }
@@ -310,11 +313,11 @@ fn stack_run(
             // Any free port: the bench measures the viewer's cost to the stack, with no
             // Foxglove connected.
             live: LiveArgs { live, live_port: 0 },
+            split: HostArgs::default(),
         },
         service_flags: Vec::new(),
         busy_poll,
         spin_us,
-        split: HostArgs::default(),
     };
     let started = Instant::now();
     let code = run::run(run_args)?;
@@ -360,6 +363,69 @@ enum LatencyRun {
     BusyPoll,
     /// The service and the client poll for a while after each wake-up (`run --spin-us`).
     Spin,
+}
+
+/// The latency two bridges add: the latency run on one host, then split across two hosts
+/// on this machine (`run --host`, Zenoh over loopback TCP), where an observation crosses
+/// to the service's host and its pose crosses back.
+fn bridge(args: &BenchArgs) -> anyhow::Result<()> {
+    let scenario = if args.quick {
+        "indoor-loop"
+    } else {
+        &args.latency_scenario
+    };
+    let n = args.stack_particles;
+    println!(
+        "\n[bridge] {scenario}, N = {n}, real time: one host, then two hosts joined by bridges \
+         (Zenoh over loopback TCP)"
+    );
+    let pacing = Pacing {
+        realtime: true,
+        ..Pacing::default()
+    };
+    let (one, _) = stack_run(args, scenario, ("bridge-one-host", n), pacing)?;
+    let two = split_run(args, scenario, n)?;
+    print_spread("one host", &one.cost.latency_ms);
+    print_spread("two hosts", &two.cost.latency_ms);
+    let (one, two) = (&one.cost.latency_ms, &two.cost.latency_ms);
+    println!(
+        "  the two hops (observation out, pose back) add: median {:+.3} ms, p99 {:+.3} ms; one hop about half",
+        two.median - one.median,
+        two.p99 - one.p99
+    );
+    Ok(())
+}
+
+/// Runs the stack split across two hosts on this machine (`run --host service` and
+/// `run --host sensors`, as separate launchers) in real time; the sensor host's metrics.
+fn split_run(args: &BenchArgs, scenario: &str, particles: usize) -> anyhow::Result<Metrics> {
+    let exe = std::env::current_exe().context("locating the launcher's own executable")?;
+    let port = std::net::TcpListener::bind("127.0.0.1:0")?
+        .local_addr()?
+        .port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let key = format!("fastslam/bench{}", std::process::id());
+    let launcher = |host: &str, peer: &str, out: &str| {
+        let mut command = std::process::Command::new(&exe);
+        command
+            .args(["run", "--scenario", scenario, "--realtime"])
+            .args(["--particles", &particles.to_string()])
+            .args(["--host", host, peer, &endpoint, "--key", &key, "--out"])
+            .arg(args.out.join(out))
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null());
+        fastslam_stack::children::dying_with_this_process(&mut command).spawn()
+    };
+    let mut service = launcher("service", "--listen", "bridge-service-host")?;
+    let sensors = launcher("sensors", "--connect", "bridge-sensor-host")?.wait()?;
+    let service = service.wait()?;
+    if !sensors.success() || !service.success() {
+        bail!(
+            "the split run failed (sensor host {sensors}, service host {service}); logs in {}",
+            args.out.display()
+        );
+    }
+    Metrics::read(&args.out.join("bridge-sensor-host").join("metrics.json"))
 }
 
 /// Part 2: end-to-end latency at the real-time rate.

@@ -2,6 +2,7 @@
 //! iceoryx2 root), its run folder, and the report when it has ended — the summary, the
 //! expectations' verdict, or what went wrong.
 
+use crate::commands::host::HostArgs;
 use crate::commands::live::LiveArgs;
 use crate::supervisor::Outcome;
 use anyhow::{Context, bail};
@@ -16,7 +17,8 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 /// The flags `run` and `replay` share: where the stack runs and its run folder goes, how
-/// fast, for how long, what is judged, and the live view.
+/// fast, for how long, what is judged, the live view, and the host it runs on when split
+/// across two.
 #[derive(Debug, Clone, clap::Args)]
 pub struct LaunchArgs {
     /// Where run folders go by default.
@@ -42,6 +44,9 @@ pub struct LaunchArgs {
     /// The live view in Foxglove.
     #[command(flatten)]
     pub live: LiveArgs,
+    /// One host's part of a stack split across two computers.
+    #[command(flatten)]
+    pub split: HostArgs,
 }
 
 /// Where a launcher's stack lives: its prefix and iceoryx2 root, owned by this launcher

@@ -212,10 +212,17 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         plan.label, profile.name
     );
     place.announce();
+    let live = args.launch.live.live;
+    args.launch
+        .split
+        .spawn_bridge(&mut stack, &exe, &stack_flags, &logs, live)?;
     args.launch
         .live
         .spawn(&mut stack, &exe, &stack_flags, &logs)?;
-    for role in &topology::REPLAY {
+    for role in topology::REPLAY
+        .iter()
+        .filter(|role| args.launch.split.runs_here(role.name))
+    {
         let (name, flags) = match role.name {
             "client" => ("client", client.clone()),
             "service" => ("service", service_flags.clone()),
@@ -229,6 +236,9 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
     let outcome = stack.wait(&stop, args.launch.timeout_s.map(Duration::from_secs_f64));
     drop(stack);
     place.remove();
+    if let Some(code) = args.launch.split.conclusion(&outcome, &logs) {
+        return Ok(code);
+    }
     let ended = Ended {
         outcome,
         out: &out,

@@ -1,7 +1,6 @@
 //! `fastslam-stack run`: the whole stack on one scenario, under a fresh stack prefix, with
 //! a run folder at the end.
 
-use crate::commands::host::HostArgs;
 use crate::commands::launch::{Ended, LaunchArgs, Place, conclude, prepare};
 use crate::progress;
 use crate::supervisor::{Supervisor, stop_flag};
@@ -54,9 +53,6 @@ pub struct RunArgs {
     /// polling").
     #[arg(long, default_value_t = 0, value_name = "US")]
     pub spin_us: u64,
-    /// One host's part of a stack split across two computers.
-    #[command(flatten)]
-    pub split: HostArgs,
 }
 
 /// Runs the stack; returns the process exit code (0 finished, 1 failed, 130 interrupted).
@@ -140,7 +136,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     };
     let processes: Vec<(&'static str, Vec<String>)> = topology::SIMULATION
         .iter()
-        .filter(|role| args.split.runs_here(role.name))
+        .filter(|role| args.launch.split.runs_here(role.name))
         .map(|role| {
             let mut flags = own_flags(role.name);
             flags.extend(role.wait_flags(args.launch.live.live));
@@ -154,7 +150,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     place.announce();
     let total_s = progress::simulated_duration_s(&scenario);
     let live = args.launch.live.live;
-    args.split
+    args.launch
+        .split
         .spawn_bridge(&mut stack, &exe, &stack_flags, &logs, live)?;
     args.launch
         .live
@@ -183,7 +180,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
         let _ = view.join();
     }
     place.remove();
-    if let Some(code) = args.split.conclusion(&outcome, &logs) {
+    if let Some(code) = args.launch.split.conclusion(&outcome, &logs) {
         return Ok(code);
     }
     let ended = Ended {
