@@ -24,6 +24,7 @@ use fastslam_protocol::ipc::{Ended, Flow, Ipc, Pub, WakeSource};
 use fastslam_protocol::stream::StreamEnd;
 use fastslam_protocol::{Checkpointed, EndOfStream, Header, StreamId, topics};
 use std::collections::{HashSet, VecDeque};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use zenoh::Wait;
 use zenoh::liveliness::LivelinessToken;
@@ -136,7 +137,7 @@ impl Open {
 }
 
 /// Sends `routes` (and the end of their streams) until each has ended and a peer
-/// received it, or a signal arrives.
+/// received it, a signal arrives, or `stop` is set (the receiving side failed).
 ///
 /// # Errors
 /// IPC or Zenoh failures.
@@ -145,6 +146,7 @@ pub fn run(
     session: &zenoh::Session,
     keys: &Keys,
     routes: &[&'static Route],
+    stop: &AtomicBool,
 ) -> Result<()> {
     if routes.is_empty() {
         return Ok(());
@@ -178,6 +180,10 @@ pub fn run(
         let mut finished = false;
         let mut last_look: Option<Instant> = None;
         let ended = ipc.wake_loop(&sources, Some(LOOK_EVERY), || -> Result<Flow> {
+            if stop.load(Ordering::Relaxed) {
+                finished = true;
+                return Ok(Flow::Stop);
+            }
             let look = last_look.is_none_or(|t| t.elapsed() >= LOOK_EVERY);
             if look {
                 last_look = Some(Instant::now());

@@ -17,6 +17,7 @@ use anyhow::{Context as _, Result, anyhow};
 use fastslam_protocol::ipc::{Ipc, shutdown};
 use fastslam_protocol::stream::{Repeats, StreamEnd};
 use fastslam_protocol::{EndOfStream, StreamId};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, SyncSender, sync_channel};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
@@ -52,8 +53,8 @@ struct In {
 }
 
 /// Receives `routes` (and the end of their streams) until each stream that got a
-/// publisher here has ended, or a signal arrives; then waits for this host's subscribers
-/// to leave.
+/// publisher here has ended, then waits for this host's subscribers to leave; or until a
+/// signal arrives or `stop` is set (the sending side failed).
 ///
 /// # Errors
 /// IPC or Zenoh failures.
@@ -62,6 +63,7 @@ pub fn run(
     session: &zenoh::Session,
     keys: &Keys,
     routes: &[&'static Route],
+    stop: &AtomicBool,
 ) -> Result<()> {
     if routes.is_empty() {
         return Ok(());
@@ -95,7 +97,8 @@ pub fn run(
     let delivered = Arc::new(Mutex::new(Repeats::default()));
     let _answer = answer_delivered(session, keys, &theirs, &delivered)?;
     let (tx, rx) = sync_channel::<(usize, ZBytes)>(QUEUE);
-    while !shutdown::requested() {
+    let stopped = || shutdown::requested() || stop.load(Ordering::Relaxed);
+    while !stopped() {
         while let Some(token) = publishers.try_recv().map_err(|e| anyhow!("{e}"))? {
             let topic = keys.topic_of(Token::Publisher, token.key_expr().as_str());
             if token.kind() == SampleKind::Put
@@ -148,8 +151,10 @@ pub fn run(
             );
         }
     }
-    for port in ins.iter().filter_map(|s| s.port.as_ref()) {
-        port.wait_until_unsubscribed(ipc)?;
+    if !stopped() {
+        for port in ins.iter().filter_map(|s| s.port.as_ref()) {
+            port.wait_until_unsubscribed(ipc)?;
+        }
     }
     Ok(())
 }

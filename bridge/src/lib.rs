@@ -25,8 +25,9 @@ pub mod routes;
 
 use anyhow::{Result, bail};
 use fastslam_protocol::cli;
-use fastslam_protocol::ipc::{Ipc, shutdown};
+use fastslam_protocol::ipc::Ipc;
 use routes::{Route, SENSOR_TOPICS, SERVICE_TOPICS};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 /// What `--help` says about the bridge.
@@ -144,20 +145,21 @@ pub fn run(args: Args) -> Result<()> {
         receives = ?import.iter().map(|r| r.topic.name).collect::<Vec<_>>(),
         "bridge up"
     );
+    // Set when one direction fails, so that the other stops too.
+    let failed = AtomicBool::new(false);
     // iceoryx2 ports stay on the thread that made them: one connection per direction.
     let result = std::thread::scope(|scope| {
         let side = |name: &'static str, routes: Vec<&'static Route>, run: Direction| {
-            let (stack, session, keys) = (&stack, &session, &keys);
+            let (stack, session, keys, failed) = (&stack, &session, &keys, &failed);
             std::thread::Builder::new()
                 .name(name.into())
                 .spawn_scoped(scope, move || {
                     let result = cli::in_process_span("bridge", || {
                         let ipc = Ipc::open(stack, "bridge", timeout)?;
-                        run(&ipc, session, keys, &routes)
+                        run(&ipc, session, keys, &routes, failed)
                     });
                     if result.is_err() {
-                        // The other direction stops too.
-                        shutdown::request();
+                        failed.store(true, Ordering::Relaxed);
                     }
                     result
                 })
@@ -176,8 +178,10 @@ pub fn run(args: Args) -> Result<()> {
     result
 }
 
-/// One direction of the bridge.
-type Direction = fn(&Ipc, &zenoh::Session, &link::Keys, &[&'static Route]) -> Result<()>;
+/// One direction of the bridge: it stops early, without an error of its own, once the
+/// flag says the other direction failed.
+type Direction =
+    fn(&Ipc, &zenoh::Session, &link::Keys, &[&'static Route], &AtomicBool) -> Result<()>;
 
 #[cfg(test)]
 mod tests {
