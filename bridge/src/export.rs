@@ -194,7 +194,8 @@ pub fn run(
                         send_again(open, p, route)?;
                     }
                 }
-                restart.check(ipc, session, keys, &ours, &all, &opens, &progress)?;
+                let streams = open_streams(&all, &opens, &progress);
+                restart.check(ipc, session, keys, &ours, &streams)?;
                 while let Some(token) = ends.try_recv().map_err(|e| anyhow!("{e}"))? {
                     if token.kind() == SampleKind::Put
                         && let Some(topic) = keys.topic_of(Token::Ended, token.key_expr().as_str())
@@ -218,7 +219,7 @@ pub fn run(
                     send_pending(i, open.port.as_ref(), &all, &ours, &mut progress, send)?;
                 }
             }
-            if done(&all, &opens, &progress, &peer_ended) {
+            if done(&open_streams(&all, &opens, &progress), &peer_ended) {
                 finished = true;
                 return Ok(Flow::Stop);
             }
@@ -318,24 +319,16 @@ struct Restart {
 }
 
 impl Restart {
-    #[allow(clippy::too_many_arguments)]
+    /// Asks, once a peer takes every stream open here (`streams`, of `ours`).
     fn check(
         &mut self,
         ipc: &Ipc,
         session: &zenoh::Session,
         keys: &Keys,
         ours: &[StreamId],
-        all: &[&'static Route],
-        opens: &[Option<Open>],
-        progress: &[Progress],
+        streams: &[(&'static Route, &Progress)],
     ) -> Result<()> {
-        let mut streams = all
-            .iter()
-            .zip(opens)
-            .zip(progress)
-            .filter(|((route, open), _)| route.stream.is_some() && open.is_some())
-            .peekable();
-        if self.checked || streams.peek().is_none() || !streams.all(|(_, p)| p.matched) {
+        if self.checked || streams.is_empty() || !streams.iter().all(|(_, p)| p.matched) {
             return Ok(());
         }
         self.checked = true;
@@ -388,20 +381,25 @@ fn ask_delivered(session: &zenoh::Session, keys: &Keys) -> Result<Delivered> {
     Ok(delivered)
 }
 
-/// True once every stream sent has ended, its last message left, and a peer received it
-/// to the end (and at least one stream was sent).
-fn done(
+/// The streams being sent: each open route that carries a stream, with its progress.
+fn open_streams<'a>(
     all: &[&'static Route],
     opens: &[Option<Open>],
-    progress: &[Progress],
-    peer_ended: &HashSet<String>,
-) -> bool {
-    let mut streams = all
-        .iter()
+    progress: &'a [Progress],
+) -> Vec<(&'static Route, &'a Progress)> {
+    all.iter()
         .zip(opens)
         .zip(progress)
         .filter(|((route, open), _)| route.stream.is_some() && open.is_some())
-        .peekable();
-    streams.peek().is_some()
-        && streams.all(|((route, _), p)| p.end.finished() && peer_ended.contains(route.topic.name))
+        .map(|((route, _), p)| (*route, p))
+        .collect()
+}
+
+/// True once every stream sent (`streams`) has ended, its last message left, and a peer
+/// received it to the end (and at least one stream was sent).
+fn done(streams: &[(&'static Route, &Progress)], peer_ended: &HashSet<String>) -> bool {
+    !streams.is_empty()
+        && streams
+            .iter()
+            .all(|(route, p)| p.end.finished() && peer_ended.contains(route.topic.name))
 }
