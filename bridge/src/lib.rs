@@ -17,6 +17,12 @@
 //! - [`export`]: from shared memory to the peers;
 //! - [`import`]: from the peers into shared memory.
 
+// Messages travel as the bytes they are in memory, and the contract is little-endian.
+#[cfg(target_endian = "big")]
+compile_error!(
+    "the bridge sends messages as they lie in memory: big-endian hosts are not supported"
+);
+
 pub mod export;
 pub mod frame;
 pub mod import;
