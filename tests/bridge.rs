@@ -344,16 +344,37 @@ fn a_peer_of_another_contract_or_type_is_refused_and_a_good_message_arrives_whol
 #[test]
 fn a_bridge_without_peers_or_with_an_unknown_topic_fails_in_one_line() {
     let prefix = prefix("bridgeflags");
+    let dir = folder(&prefix);
+    let out = dir.join("run").display().to_string();
     for (flags, says) in [
-        (vec!["--side", "sensors"], "--listen"),
+        (vec!["bridge", "--side", "sensors"], "--listen"),
         (
-            vec!["--export", "odometri", "--listen", "tcp/127.0.0.1:1"],
+            vec![
+                "bridge",
+                "--export",
+                "odometri",
+                "--listen",
+                "tcp/127.0.0.1:1",
+            ],
             "cannot carry \"odometri\"",
+        ),
+        (vec!["run", "--host", "sensors", "--out", &out], "--connect"),
+        (
+            vec![
+                "run",
+                "--host",
+                "service",
+                "--listen",
+                "tcp/127.0.0.1:1",
+                "--live",
+            ],
+            "sensor host",
         ),
     ] {
         let out = std::process::Command::new(LAUNCHER)
-            .args(["bridge", "--prefix", &prefix])
-            .args(&flags)
+            .args(&flags[..1])
+            .args(["--prefix", &prefix])
+            .args(&flags[1..])
             .output()
             .unwrap();
         assert!(!out.status.success(), "{flags:?} must fail");
@@ -362,5 +383,6 @@ fn a_bridge_without_peers_or_with_an_unknown_topic_fails_in_one_line() {
         assert_eq!(errors.len(), 1, "{stderr}");
         assert!(errors[0].contains(says), "{stderr}");
     }
-    assert_no_leftovers(&prefix);
+    assert!(!dir.join("run").exists(), "nothing starts on bad flags");
+    assert_no_leftovers_and_remove(&prefix, &dir);
 }

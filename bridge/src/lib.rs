@@ -36,13 +36,6 @@ use routes::{Route, SENSOR_TOPICS, SERVICE_TOPICS};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-/// What `--help` says about the bridge.
-pub const ABOUT: &str = "Bridge between hosts: carries the sensor topics from the host that \
-runs the sensors to the host that runs the FastSLAM service, and the service's poses, maps and \
-status back, over Zenoh (TCP). Run one on each host, --side sensors on one and --side service \
-on the other; one listens (--listen tcp/0.0.0.0:7447), the other connects (--connect \
-tcp/<that host>:7447). It exits when every stream it carried has ended.";
-
 /// Which end of the link a host is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Side {
@@ -63,7 +56,9 @@ pub struct Args {
     /// Which end of the link this host is; it chooses what is sent and received.
     #[arg(long, value_enum)]
     pub side: Option<Side>,
-    /// Topics to send to the peers, comma-separated (instead of --side's).
+    /// Topics to send to the peers, comma-separated (instead of --side's): odometry,
+    /// observations, scan, ground_truth, pose, map, grid, smoothed/trajectory,
+    /// smoothed/map, particles, status, checkpoint.
     #[arg(
         long,
         value_delimiter = ',',
@@ -71,7 +66,8 @@ pub struct Args {
         conflicts_with = "side"
     )]
     pub export: Vec<String>,
-    /// Topics to receive from the peers, comma-separated (instead of --side's).
+    /// Topics to receive from the peers, comma-separated (instead of --side's); the same
+    /// names as --export.
     #[arg(
         long,
         value_delimiter = ',',

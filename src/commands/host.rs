@@ -49,27 +49,37 @@ impl HostArgs {
         }
     }
 
+    /// Checks the flags before anything starts: with `--host`, a way to the other host;
+    /// the live view (`live`) only on the sensor host (the truth and the sensors are not on
+    /// the service host to show).
+    ///
+    /// # Errors
+    /// What is wrong with the flags.
+    pub fn check(&self, live: bool) -> anyhow::Result<()> {
+        match self.host {
+            None => Ok(()),
+            Some(Side::Service) if live => {
+                anyhow::bail!("--live runs on the sensor host (--host sensors), where the run is")
+            }
+            Some(_) => self.zenoh.check(),
+        }
+    }
+
     /// Starts the bridge (first: the other processes wait for its subscriptions) on the
     /// stack `stack_flags` names, its log in `logs`; nothing without `--host`.
     ///
     /// # Errors
-    /// When the bridge cannot be started, or the live view is asked for on the service
-    /// host (the truth and the sensors are not there to show).
+    /// When the bridge cannot be started.
     pub fn spawn_bridge(
         &self,
         stack: &mut Supervisor,
         exe: &Path,
         stack_flags: &[String],
         logs: &Path,
-        live: bool,
     ) -> anyhow::Result<()> {
         let Some(side) = self.host else {
             return Ok(());
         };
-        if live && side == Side::Service {
-            anyhow::bail!("--live runs on the sensor host (--host sensors), where the run is");
-        }
-        self.zenoh.check()?;
         let mut argv = vec!["bridge".to_string()];
         argv.extend(stack_flags.iter().cloned());
         let side = match side {

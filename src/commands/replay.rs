@@ -146,6 +146,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
     let plan = data_set.plan()?;
     let args = plan.run;
     let expectations = args.launch.judge.expectations()?;
+    args.launch.split.check(args.launch.live.live)?;
     let profile_arg = args
         .profile
         .clone()
@@ -212,10 +213,9 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         plan.label, profile.name
     );
     place.announce();
-    let live = args.launch.live.live;
     args.launch
         .split
-        .spawn_bridge(&mut stack, &exe, &stack_flags, &logs, live)?;
+        .spawn_bridge(&mut stack, &exe, &stack_flags, &logs)?;
     args.launch
         .live
         .spawn(&mut stack, &exe, &stack_flags, &logs)?;

@@ -61,6 +61,7 @@ pub struct RunArgs {
 /// When the scenario is invalid or the processes cannot be started.
 pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     let expectations = args.launch.judge.expectations()?;
+    args.launch.split.check(args.launch.live.live)?;
     let scenario = Scenario::load(&args.scenario)?;
     let seed = args.seed.unwrap_or(scenario.seed);
     let place = Place::claim(
@@ -149,10 +150,9 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     );
     place.announce();
     let total_s = progress::simulated_duration_s(&scenario);
-    let live = args.launch.live.live;
     args.launch
         .split
-        .spawn_bridge(&mut stack, &exe, &stack_flags, &logs, live)?;
+        .spawn_bridge(&mut stack, &exe, &stack_flags, &logs)?;
     args.launch
         .live
         .spawn(&mut stack, &exe, &stack_flags, &logs)?;
