@@ -28,7 +28,7 @@ use std::path::{Path, PathBuf};
 /// The first bytes of every checkpoint file.
 pub const MAGIC: [u8; 8] = *b"FSLMCKPT";
 /// The payload layout written by this build; bumped whenever [`Checkpoint`] changes.
-pub const FORMAT_VERSION: u32 = 5;
+pub const FORMAT_VERSION: u32 = 6;
 /// Bytes before the payload: magic, version, length, hash.
 const HEADER_LEN: usize = 28;
 
@@ -97,8 +97,8 @@ pub struct Checkpoint {
     pub steps: u64,
     /// Resamplings done.
     pub resamplings: u64,
-    /// Sequence numbers last published: pose, map, grid, status, smoothed trajectory,
-    /// smoothed map (so they continue).
+    /// Sequence numbers last published: pose, map, grid, status, smoothed trajectory and
+    /// map, particle cloud (so they continue).
     pub last_seq: [Option<u64>; 6],
     /// What the smoothing back-end was fed (empty without one): a resumed service feeds
     /// it again and so rebuilds the same graph.

@@ -72,12 +72,13 @@ impl Outputs {
     /// Continues the sequence numbers of the run a checkpoint was taken from.
     pub(crate) fn resume(&mut self, checkpoint: &Checkpoint) {
         let header = |seq: Option<u64>| seq.map(|seq| Header { stamp_ns: 0, seq });
-        let [pose, map, grid, status, smoothed, _] = checkpoint.last_seq;
+        let [pose, map, grid, status, smoothed, particles] = checkpoint.last_seq;
         self.last_pose = header(pose);
         self.last_map = header(map);
         self.last_grid = header(grid);
         self.last_status = header(status);
         self.last_smoothed = header(smoothed);
+        self.last_particles = header(particles);
     }
 
     /// Waits until the pose has `count` subscribers, so a client that starts late loses
@@ -87,8 +88,8 @@ impl Outputs {
         Ok(())
     }
 
-    /// Sequence numbers last published: pose, map, grid, status, smoothed trajectory,
-    /// smoothed map (the two smoothed streams share their numbers).
+    /// Sequence numbers last published: pose, map, grid, status, smoothed trajectory and
+    /// map (the two smoothed streams share their numbers), particle cloud.
     pub(crate) fn last_seq(&self) -> [Option<u64>; 6] {
         [
             self.last_pose,
@@ -96,7 +97,7 @@ impl Outputs {
             self.last_grid,
             self.last_status,
             self.last_smoothed,
-            self.last_smoothed,
+            self.last_particles,
         ]
         .map(|h| h.map(|h| h.seq))
     }
