@@ -9,7 +9,7 @@ mod common;
 
 use common::*;
 use fastslam_protocol::ipc::{Ipc, StackConfig};
-use fastslam_protocol::{CONTRACT_VERSION, Header, Odometry, topics};
+use fastslam_protocol::{CONTRACT_VERSION, Header, Odometry, ServiceStatus, topics};
 use std::path::Path;
 use std::time::Duration;
 use zenoh::Wait;
@@ -90,6 +90,30 @@ impl TwoHosts {
             service,
             bridge,
         }
+    }
+
+    /// Waits until the service has taken `steps` filter steps, following its status as a
+    /// process of the test's own (which leaves before the run ends).
+    fn wait_for_steps(&self, steps: u64) {
+        let ipc = Ipc::open(
+            &StackConfig {
+                prefix: self.service.prefix.clone(),
+                root: Some(self.service.root.display().to_string()),
+            },
+            "test-watch",
+            Duration::from_secs(30),
+        )
+        .unwrap();
+        let status = ipc.subscriber::<ServiceStatus>(&topics::STATUS).unwrap();
+        let mut taken = 0;
+        wait_for(
+            &format!("{steps} filter steps"),
+            Duration::from_secs(60),
+            || {
+                status.drain(|s| taken = taken.max(s.steps)).unwrap();
+                taken >= steps
+            },
+        );
     }
 
     /// Waits for every process of both hosts; each must succeed.
@@ -204,13 +228,8 @@ fn the_sensor_hosts_bridge_killed_and_restarted_mid_run_loses_nothing() {
     let two_hosts = dir.join("two-hosts");
     let mut hosts = TwoHosts::start("bridgekill", &dir);
     start_sensors_and_client(&mut hosts.sensors, &scenario, &two_hosts, &["--realtime"]);
-    let service_log = hosts.service.dir.join("service.0.log");
-    wait_for(
-        "the service to be under way",
-        Duration::from_secs(30),
-        || std::fs::read_to_string(&service_log).is_ok_and(|l| l.contains("running")),
-    );
-    std::thread::sleep(Duration::from_secs(3));
+    // A quarter of the drive's 60-odd scans through the bridges, however slow the start.
+    hosts.wait_for_steps(15);
     hosts.sensors.kill("bridge");
     std::thread::sleep(Duration::from_millis(500));
     let bridge = hosts.bridge.clone();
