@@ -361,6 +361,38 @@ fn a_peer_of_another_contract_or_type_is_refused_and_a_good_message_arrives_whol
 }
 
 #[test]
+fn a_bridge_whose_peer_never_comes_says_what_to_check() {
+    let prefix = prefix("bridgealone");
+    let dir = folder(&prefix);
+    let mut stack = HandStack::new(&prefix, dir.join("logs"));
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    stack.start("bridge", &["--side", "sensors", "--listen", &endpoint]);
+    let ipc = Ipc::open(
+        &StackConfig {
+            prefix: prefix.clone(),
+            root: Some(stack.root.display().to_string()),
+        },
+        "test-sensor",
+        Duration::from_secs(30),
+    )
+    .unwrap();
+    let odometry = ipc.publisher::<Odometry>(&topics::ODOMETRY).unwrap();
+    let log = stack.dir.join("bridge.0.log");
+    wait_for("the bridge's warning", Duration::from_secs(40), || {
+        std::fs::read_to_string(&log).is_ok_and(|l| l.contains("no peer has taken these"))
+    });
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(
+        text.contains("odometry") && text.contains("--side"),
+        "{text}"
+    );
+    assert_eq!(text.matches("no peer has taken these").count(), 1, "{text}");
+    drop((odometry, ipc));
+    drop(stack);
+    assert_no_leftovers_and_remove(&prefix, &dir);
+}
+
+#[test]
 fn a_bridge_without_peers_or_with_an_unknown_topic_fails_in_one_line() {
     let prefix = prefix("bridgeflags");
     let dir = folder(&prefix);

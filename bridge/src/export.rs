@@ -39,6 +39,9 @@ const LOOK_EVERY: Duration = Duration::from_millis(5);
 /// bytes (at least the last message is kept).
 const WINDOW_BYTES: usize = 4 << 20;
 
+/// How long messages may wait for a peer before the bridge says so (once).
+const PEERLESS_WARNING: Duration = Duration::from_secs(10);
+
 /// How long a starting bridge waits for its peers to say what they published.
 const ASK_TIMEOUT: Duration = Duration::from_secs(2);
 
@@ -59,6 +62,8 @@ struct Progress {
     /// A peer took the topic and went away: what it may have missed goes again when one
     /// comes back.
     peer_left: bool,
+    /// Since when no peer has taken the topic.
+    unmatched_since: Option<Instant>,
     sent: u64,
     /// The last frames sent, at most [`WINDOW_BYTES`] but the newest.
     window: VecDeque<Vec<u8>>,
@@ -81,6 +86,11 @@ impl Progress {
     /// Records whether a peer takes the topic now; true when one came back after a peer
     /// went away.
     fn look(&mut self, matched: bool) -> bool {
+        self.unmatched_since = if matched {
+            None
+        } else {
+            Some(self.unmatched_since.unwrap_or_else(Instant::now))
+        };
         let came_back = matched && self.peer_left;
         if self.matched && !matched {
             self.peer_left = true;
@@ -169,6 +179,7 @@ pub fn run(
         .context("follow what the peers received")?;
     let mut peer_ended: HashSet<String> = HashSet::new();
     let mut restart = Restart::default();
+    let mut warned = false;
     loop {
         for (i, route) in all.iter().enumerate() {
             if opens[i].is_none() && probes[i]() > 0 {
@@ -196,6 +207,9 @@ pub fn run(
                 }
                 let streams = open_streams(&all, &opens, &progress);
                 restart.check(ipc, session, keys, &ours, &streams)?;
+                if !warned {
+                    warned = warn_if_peerless(&streams);
+                }
                 while let Some(token) = ends.try_recv().map_err(|e| anyhow!("{e}"))? {
                     if token.kind() == SampleKind::Put
                         && let Some(topic) = keys.topic_of(Token::Ended, token.key_expr().as_str())
@@ -379,6 +393,30 @@ fn ask_delivered(session: &zenoh::Session, keys: &Keys) -> Result<Delivered> {
         }
     }
     Ok(delivered)
+}
+
+/// Warns once messages of `streams` waited [`PEERLESS_WARNING`] for a peer; true when it
+/// did.
+fn warn_if_peerless(streams: &[(&'static Route, &Progress)]) -> bool {
+    let waiting: Vec<&str> = streams
+        .iter()
+        .filter(|(_, p)| {
+            p.unmatched_since
+                .is_some_and(|t| t.elapsed() >= PEERLESS_WARNING)
+        })
+        .map(|(route, _)| route.topic.name)
+        .collect();
+    if waiting.is_empty() {
+        return false;
+    }
+    tracing::warn!(
+        topics = ?waiting,
+        "no peer has taken these for {} s: is the other host's bridge running, on the other \
+         --side, with the same --key, and reachable (--listen on one host, --connect to it on \
+         the other)?",
+        PEERLESS_WARNING.as_secs()
+    );
+    true
 }
 
 /// The streams being sent: each open route that carries a stream, with its progress.
