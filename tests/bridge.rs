@@ -8,7 +8,6 @@
 mod common;
 
 use common::*;
-use fastslam_protocol::ipc::{Ipc, StackConfig};
 use fastslam_protocol::{CONTRACT_VERSION, Header, Odometry, ServiceStatus, topics};
 use std::path::Path;
 use std::time::Duration;
@@ -95,15 +94,7 @@ impl TwoHosts {
     /// Waits until the service has taken `steps` filter steps, following its status as a
     /// process of the test's own (which leaves before the run ends).
     fn wait_for_steps(&self, steps: u64) {
-        let ipc = Ipc::open(
-            &StackConfig {
-                prefix: self.service.prefix.clone(),
-                root: Some(self.service.root.display().to_string()),
-            },
-            "test-watch",
-            Duration::from_secs(30),
-        )
-        .unwrap();
+        let ipc = self.service.join("test-watch");
         let status = ipc.subscriber::<ServiceStatus>(&topics::STATUS).unwrap();
         let mut taken = 0;
         wait_for(
@@ -289,15 +280,7 @@ fn a_peer_of_another_contract_or_type_is_refused_and_a_good_message_arrives_whol
         .declare_publisher(format!("{key}/data/odometry"))
         .wait()
         .unwrap();
-    let ipc = Ipc::open(
-        &StackConfig {
-            prefix: prefix.clone(),
-            root: Some(stack.root.display().to_string()),
-        },
-        "test-peer",
-        Duration::from_secs(30),
-    )
-    .unwrap();
+    let ipc = stack.join("test-peer");
     let odometry = ipc.subscriber::<Odometry>(&topics::ODOMETRY).unwrap();
     wait_for(
         "the bridge to take odometry",
@@ -367,15 +350,7 @@ fn a_bridge_whose_peer_never_comes_says_what_to_check() {
     let mut stack = HandStack::new(&prefix, dir.join("logs"));
     let endpoint = format!("tcp/127.0.0.1:{}", free_port());
     stack.start("bridge", &["--side", "sensors", "--listen", &endpoint]);
-    let ipc = Ipc::open(
-        &StackConfig {
-            prefix: prefix.clone(),
-            root: Some(stack.root.display().to_string()),
-        },
-        "test-sensor",
-        Duration::from_secs(30),
-    )
-    .unwrap();
+    let ipc = stack.join("test-sensor");
     let odometry = ipc.publisher::<Odometry>(&topics::ODOMETRY).unwrap();
     let log = stack.dir.join("bridge.0.log");
     wait_for("the bridge's warning", Duration::from_secs(40), || {

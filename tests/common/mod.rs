@@ -349,6 +349,15 @@ impl HandStack {
         self.children.push((name, child));
     }
 
+    /// Joins the stack as a process of the test's own, named `name`.
+    pub fn join(&self, name: &str) -> fastslam_protocol::ipc::Ipc {
+        let stack = fastslam_protocol::ipc::StackConfig {
+            prefix: self.prefix.clone(),
+            root: Some(self.root.display().to_string()),
+        };
+        fastslam_protocol::ipc::Ipc::open(&stack, name, Duration::from_secs(30)).unwrap()
+    }
+
     /// The newest running process `name`.
     pub fn child(&mut self, name: &str) -> &mut std::process::Child {
         let (_, child) = (self.children.iter_mut().rev())
