@@ -17,9 +17,9 @@
 //! the client after it, skip those they already have.
 
 use crate::frame::{self, Kind};
-use crate::link::{Delivered, Keys, Token};
+use crate::link::{Delivered, Keys, Token, zenoh_error};
 use crate::routes::{Outgoing, Route, end_of_stream};
-use anyhow::{Context as _, Result, anyhow};
+use anyhow::{Context as _, Result};
 use fastslam_protocol::ipc::{Ended, Flow, Ipc, Pub, WakeSource};
 use fastslam_protocol::stream::StreamEnd;
 use fastslam_protocol::{Checkpointed, EndOfStream, Header, StreamId, topics};
@@ -48,6 +48,7 @@ const ASK_TIMEOUT: Duration = Duration::from_secs(2);
 /// A topic being sent: the subscriber here, the publisher to the peers, and the token
 /// that tells them the topic has a publisher.
 struct Open {
+    name: &'static str,
     port: Box<dyn Outgoing>,
     publisher: Publisher<'static>,
     _token: LivelinessToken,
@@ -119,20 +120,30 @@ impl Open {
             .express(true)
             .allowed_destination(Locality::Remote)
             .wait()
-            .map_err(|e| anyhow!("{e}"))
+            .map_err(zenoh_error)
             .with_context(|| format!("declare the Zenoh publisher of {name}"))?;
         let token = session
             .liveliness()
             .declare_token(keys.token(Token::Publisher, name))
             .wait()
-            .map_err(|e| anyhow!("{e}"))
+            .map_err(zenoh_error)
             .with_context(|| format!("announce {name} to the peers"))?;
         tracing::info!(topic = name, "sending to the peers once one takes it");
         Ok(Self {
+            name,
             port,
             publisher,
             _token: token,
         })
+    }
+
+    /// Sends one frame to the peers.
+    fn put(&self, frame: Vec<u8>) -> Result<()> {
+        self.publisher
+            .put(frame)
+            .wait()
+            .map_err(zenoh_error)
+            .with_context(|| format!("send {}", self.name))
     }
 
     /// True when a peer takes the topic.
@@ -141,7 +152,7 @@ impl Open {
             .publisher
             .matching_status()
             .wait()
-            .map_err(|e| anyhow!("{e}"))?;
+            .map_err(zenoh_error)?;
         Ok(status.matching())
     }
 }
@@ -175,7 +186,7 @@ pub fn run(
         .declare_subscriber(keys.tokens(Token::Ended))
         .history(true)
         .wait()
-        .map_err(|e| anyhow!("{e}"))
+        .map_err(zenoh_error)
         .context("follow what the peers received")?;
     let mut peer_ended: HashSet<String> = HashSet::new();
     let mut restart = Restart::default();
@@ -198,19 +209,19 @@ pub fn run(
             let look = last_look.is_none_or(|t| t.elapsed() >= LOOK_EVERY);
             if look {
                 last_look = Some(Instant::now());
-                for ((open, p), route) in opens.iter().zip(&mut progress).zip(&all) {
+                for (open, p) in opens.iter().zip(&mut progress) {
                     if let Some(open) = open
                         && p.look(open.matched()?)
                     {
-                        send_again(open, p, route)?;
+                        send_again(open, p)?;
                     }
                 }
-                let streams = open_streams(&all, &opens, &progress);
+                let streams: Vec<_> = open_streams(&all, &opens, &progress).collect();
                 restart.check(ipc, session, keys, &ours, &streams)?;
                 if !warned {
                     warned = warn_if_peerless(&streams);
                 }
-                while let Some(token) = ends.try_recv().map_err(|e| anyhow!("{e}"))? {
+                while let Some(token) = ends.try_recv().map_err(zenoh_error)? {
                     if token.kind() == SampleKind::Put
                         && let Some(topic) = keys.topic_of(Token::Ended, token.key_expr().as_str())
                     {
@@ -222,18 +233,14 @@ pub fn run(
             for (i, open) in opens.iter().enumerate() {
                 if let Some(open) = open {
                     let send = |body: &[u8]| -> Result<Vec<u8>> {
-                        frame::encode(&kinds[i], &[body], &mut frame);
-                        open.publisher
-                            .put(frame.clone())
-                            .wait()
-                            .map_err(|e| anyhow!("{e}"))
-                            .with_context(|| format!("send {}", all[i].topic.name))?;
+                        frame::encode(&kinds[i], body, &mut frame);
+                        open.put(frame.clone())?;
                         Ok(std::mem::take(&mut frame))
                     };
                     send_pending(i, open.port.as_ref(), &all, &ours, &mut progress, send)?;
                 }
             }
-            if done(&open_streams(&all, &opens, &progress), &peer_ended) {
+            if done(open_streams(&all, &opens, &progress), &peer_ended) {
                 finished = true;
                 return Ok(Flow::Stop);
             }
@@ -304,15 +311,12 @@ fn send_pending(
 }
 
 /// Sends the frames kept of a topic again, to a peer that came back.
-fn send_again(open: &Open, p: &Progress, route: &Route) -> Result<()> {
+fn send_again(open: &Open, p: &Progress) -> Result<()> {
     for frame in &p.window {
-        open.publisher
-            .put(frame.clone())
-            .wait()
-            .map_err(|e| anyhow!("{e}"))?;
+        open.put(frame.clone())?;
     }
     tracing::info!(
-        topic = route.topic.name,
+        topic = open.name,
         messages = p.window.len(),
         "a peer came back: sent the last messages again"
     );
@@ -383,7 +387,7 @@ fn ask_delivered(session: &zenoh::Session, keys: &Keys) -> Result<Delivered> {
         .allowed_destination(Locality::Remote)
         .timeout(ASK_TIMEOUT)
         .wait()
-        .map_err(|e| anyhow!("{e}"))
+        .map_err(zenoh_error)
         .context("ask the peers what they published")?;
     let mut delivered = Delivered::default();
     while let Ok(reply) = replies.recv() {
@@ -421,23 +425,23 @@ fn warn_if_peerless(streams: &[(&'static Route, &Progress)]) -> bool {
 
 /// The streams being sent: each open route that carries a stream, with its progress.
 fn open_streams<'a>(
-    all: &[&'static Route],
-    opens: &[Option<Open>],
+    all: &'a [&'static Route],
+    opens: &'a [Option<Open>],
     progress: &'a [Progress],
-) -> Vec<(&'static Route, &'a Progress)> {
+) -> impl Iterator<Item = (&'static Route, &'a Progress)> + Clone {
     all.iter()
         .zip(opens)
         .zip(progress)
         .filter(|((route, open), _)| route.stream.is_some() && open.is_some())
         .map(|((route, _), p)| (*route, p))
-        .collect()
 }
 
 /// True once every stream sent (`streams`) has ended, its last message left, and a peer
 /// received it to the end (and at least one stream was sent).
-fn done(streams: &[(&'static Route, &Progress)], peer_ended: &HashSet<String>) -> bool {
-    !streams.is_empty()
-        && streams
-            .iter()
-            .all(|(route, p)| p.end.finished() && peer_ended.contains(route.topic.name))
+fn done<'a>(
+    mut streams: impl Iterator<Item = (&'static Route, &'a Progress)> + Clone,
+    peer_ended: &HashSet<String>,
+) -> bool {
+    streams.clone().next().is_some()
+        && streams.all(|(route, p)| p.end.finished() && peer_ended.contains(route.topic.name))
 }

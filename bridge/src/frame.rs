@@ -66,9 +66,9 @@ impl Kind {
     }
 }
 
-/// Appends the frame of one message to `out` (cleared first): `parts` are the message's
-/// bytes (fixed part, then elements).
-pub fn encode(kind: &Kind, parts: &[&[u8]], out: &mut Vec<u8>) {
+/// Writes the frame of the message whose bytes are `body` (fixed part, then elements) into
+/// `out` (cleared first).
+pub fn encode(kind: &Kind, body: &[u8], out: &mut Vec<u8>) {
     out.clear();
     let name = kind.name.as_bytes();
     out.extend_from_slice(&MAGIC);
@@ -78,9 +78,7 @@ pub fn encode(kind: &Kind, parts: &[&[u8]], out: &mut Vec<u8>) {
     let len = u16::try_from(name.len()).expect("type names are short");
     out.extend_from_slice(&len.to_le_bytes());
     out.extend_from_slice(name);
-    for part in parts {
-        out.extend_from_slice(part);
-    }
+    out.extend_from_slice(body);
 }
 
 /// The message bytes of `frame`, if its header announces `expected` under this side's
@@ -164,11 +162,11 @@ mod tests {
     fn a_frame_gives_back_the_bytes_it_was_made_of() {
         let mut frame = Vec::new();
         let body: Vec<u8> = (0..64).collect();
-        encode(&odometry(), &[&body], &mut frame);
+        encode(&odometry(), &body, &mut frame);
         assert_eq!(decode(&odometry(), &frame), Ok(&body[..]));
         let header = [7u8; 24];
         let elements = [9u8; 112];
-        encode(&map(), &[&header, &elements], &mut frame);
+        encode(&map(), &[&header[..], &elements[..]].concat(), &mut frame);
         let got = decode(&map(), &frame).unwrap();
         assert_eq!(&got[..24], &header);
         assert_eq!(&got[24..], &elements);
@@ -177,7 +175,7 @@ mod tests {
     #[test]
     fn another_contract_version_is_refused_with_both_versions() {
         let mut frame = Vec::new();
-        encode(&odometry(), &[&[0; 64]], &mut frame);
+        encode(&odometry(), &[0; 64], &mut frame);
         frame[4..8].copy_from_slice(&(CONTRACT_VERSION + 1).to_le_bytes());
         let refused = decode(&odometry(), &frame).unwrap_err();
         assert_eq!(
@@ -193,14 +191,14 @@ mod tests {
     #[test]
     fn another_type_or_size_is_refused_naming_both() {
         let mut frame = Vec::new();
-        encode(&map(), &[&[0; 24]], &mut frame);
+        encode(&map(), &[0; 24], &mut frame);
         let refused = decode(&odometry(), &frame).unwrap_err().to_string();
         assert!(
             refused.contains("fastslam::MapLandmark") && refused.contains("fastslam::Odometry")
         );
         let mut bigger = odometry();
         bigger.fixed_size = 72;
-        encode(&bigger, &[&[0; 72]], &mut frame);
+        encode(&bigger, &[0; 72], &mut frame);
         let refused = decode(&odometry(), &frame).unwrap_err().to_string();
         assert!(
             refused.contains("72 bytes") && refused.contains("64 bytes"),
@@ -219,7 +217,7 @@ mod tests {
             Err(Refused::NotAFrame(_))
         ));
         let mut frame = Vec::new();
-        encode(&odometry(), &[&[0; 64]], &mut frame);
+        encode(&odometry(), &[0; 64], &mut frame);
         for cut in [6, HEAD + 3, frame.len() - 1] {
             assert!(
                 matches!(
@@ -229,7 +227,7 @@ mod tests {
                 "cut at {cut}"
             );
         }
-        encode(&map(), &[&[0; 24], &[0; 55]], &mut frame);
+        encode(&map(), &[0; 24 + 55], &mut frame);
         assert!(matches!(decode(&map(), &frame), Err(Refused::Malformed(_))));
     }
 }

@@ -11,9 +11,9 @@
 //! subscribers here to leave.
 
 use crate::frame::{self, Kind, Refused};
-use crate::link::{Delivered, Keys, Token};
+use crate::link::{Delivered, Keys, Token, zenoh_error};
 use crate::routes::{Incoming, Route, end_of_stream, header_of};
-use anyhow::{Context as _, Result, anyhow};
+use anyhow::{Context as _, Result};
 use fastslam_protocol::ipc::{Ipc, shutdown};
 use fastslam_protocol::stream::{Repeats, StreamEnd};
 use fastslam_protocol::{EndOfStream, StreamId};
@@ -92,14 +92,14 @@ pub fn run(
         .declare_subscriber(keys.tokens(Token::Publisher))
         .history(true)
         .wait()
-        .map_err(|e| anyhow!("{e}"))
+        .map_err(zenoh_error)
         .context("follow the peers' publishers")?;
     let delivered = Arc::new(Mutex::new(Repeats::default()));
     let _answer = answer_delivered(session, keys, &theirs, &delivered)?;
     let (tx, rx) = sync_channel::<(usize, ZBytes)>(QUEUE);
     let stopped = || shutdown::requested() || stop.load(Ordering::Relaxed);
     while !stopped() {
-        while let Some(token) = publishers.try_recv().map_err(|e| anyhow!("{e}"))? {
+        while let Some(token) = publishers.try_recv().map_err(zenoh_error)? {
             let topic = keys.topic_of(Token::Publisher, token.key_expr().as_str());
             if token.kind() == SampleKind::Put
                 && let Some(i) = ins.iter().position(|s| Some(s.route.topic.name) == topic)
@@ -132,7 +132,7 @@ pub fn run(
                         .liveliness()
                         .declare_token(keys.token(Token::Ended, s.route.topic.name))
                         .wait()
-                        .map_err(|e| anyhow!("{e}"))?,
+                        .map_err(zenoh_error)?,
                 );
             }
         }
@@ -178,7 +178,7 @@ fn subscribe(
             let _ = tx.send((i, sample.payload().clone()));
         })
         .wait()
-        .map_err(|e| anyhow!("{e}"))
+        .map_err(zenoh_error)
         .with_context(|| format!("subscribe to {name} on Zenoh"))
 }
 
@@ -202,7 +202,7 @@ fn answer_delivered(
             let _ = query.reply(key.clone(), answer).wait();
         })
         .wait()
-        .map_err(|e| anyhow!("{e}"))
+        .map_err(zenoh_error)
         .context("answer what was delivered")
 }
 

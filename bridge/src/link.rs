@@ -91,9 +91,14 @@ impl ZenohArgs {
         set("scouting/multicast/enabled", self.multicast.to_string())?;
         zenoh::open(config)
             .wait()
-            .map_err(|e| anyhow::anyhow!("{e}"))
+            .map_err(zenoh_error)
             .context("open the Zenoh session")
     }
+}
+
+/// A Zenoh error as an `anyhow` error: Zenoh's boxed errors do not convert by `?`.
+pub(crate) fn zenoh_error(e: zenoh::Error) -> anyhow::Error {
+    anyhow::anyhow!(e)
 }
 
 /// A JSON list of strings.
