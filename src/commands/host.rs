@@ -6,6 +6,7 @@
 //! place once a process there does.
 
 use crate::supervisor::{Outcome, Supervisor};
+use clap::ValueEnum;
 use fastslam_bridge::Side;
 use fastslam_bridge::link::{DEFAULT_KEY, ZenohArgs};
 use std::path::Path;
@@ -82,10 +83,8 @@ impl HostArgs {
         };
         let mut argv = vec!["bridge".to_string()];
         argv.extend(stack_flags.iter().cloned());
-        let side = match side {
-            Side::Sensors => "sensors",
-            Side::Service => "service",
-        };
+        let side = side.to_possible_value().expect("every side is a value");
+        let side = side.get_name();
         argv.extend(["--side".into(), side.into()]);
         argv.extend(self.zenoh.flags());
         stack.spawn("bridge", exe, &argv, &logs.join("bridge.log"))?;
