@@ -61,6 +61,8 @@ pub fn solve(rec: &Recording, model: &NoiseModel) -> Option<Reference> {
     let config = SmootherConfig {
         kernel: KernelKind::None,
         max_iterations: SolveOptions::default().max_iterations,
+        // The data's own ids: nothing is mapped twice.
+        fuse_duplicates: false,
         ..SmootherConfig::default()
     };
     let mut graph = Smoother::new(config, model.clone()).ok()?;

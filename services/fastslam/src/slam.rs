@@ -6,11 +6,12 @@ use crate::config::{MapKind, ServiceConfig};
 use crate::sequencer::Input;
 use crate::smoothing::Backend;
 use fastslam_estimation::Pose2;
+use fastslam_estimation::fastslam::association::AssociationMode;
 use fastslam_estimation::fastslam::{
     self, FastSlam, FilterState, OptimiserRefiner, PoseRefiner, Proposal, StepReport,
 };
 use fastslam_estimation::features::{ExtractorConfig, extract};
-use fastslam_estimation::graph::{Feed, NoiseModel, Solution};
+use fastslam_estimation::graph::{Feed, NoiseModel, SmootherConfig, Solution};
 use fastslam_estimation::grid::{GridMapper, OccupancyGrid};
 use fastslam_estimation::gridslam::GridFastSlam;
 use fastslam_estimation::motion::Control;
@@ -185,8 +186,15 @@ impl Slam {
                 "the smoothing back-end needs landmarks: it stays off with [map] kind = \"grid\""
             );
         } else if config.smoother.enabled {
-            let noise = NoiseModel::of(&config.filter_config());
-            self.backend = Some(Backend::start(config.smoother.clone(), noise, feed)?);
+            let filter = config.filter_config();
+            let noise = NoiseModel::of(&filter);
+            // With known association the keys are the data's ids: nothing to fuse.
+            let smoother = SmootherConfig {
+                fuse_duplicates: config.smoother.fuse_duplicates
+                    && filter.association.mode == AssociationMode::Unknown,
+                ..config.smoother.clone()
+            };
+            self.backend = Some(Backend::start(smoother, noise, feed)?);
             let delay = config.smoother.reanchor_delay_scans;
             self.reanchor = config.smoother.reanchor.then(|| (delay, VecDeque::new()));
         }

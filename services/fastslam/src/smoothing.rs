@@ -192,6 +192,7 @@ fn solve(smoother: &mut Smoother) -> Option<Solution> {
                 solve = solution.solves,
                 poses = solution.poses.len(),
                 landmarks = solution.landmarks.len(),
+                fused = solution.fused,
                 iterations = r.iterations,
                 converged = r.converged,
                 chi2_per_dof = solution.chi2_per_dof,

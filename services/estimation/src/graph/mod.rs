@@ -17,10 +17,12 @@
 //! - [`OdometryIntegrator`] turns the controls between two scans into a [`Between`]
 //!   factor with the filter's own motion model and noise.
 
+mod duplicates;
 mod integrate;
 mod smoother;
 mod solve;
 
+pub use duplicates::duplicates;
 pub use integrate::OdometryIntegrator;
 pub use smoother::{Feed, KernelKind, NoiseModel, Smoother, SmootherConfig, Solution};
 pub use solve::{Kernel, SolveOptions, SolveReport};
@@ -460,5 +462,58 @@ mod solve_tests {
         let (plain, cauchy) = (solve(Kernel::None), solve(Kernel::Cauchy(3.0)));
         assert!(cauchy < 0.5 * plain, "Cauchy {cauchy} m, plain {plain} m");
         assert!(cauchy < 0.5, "{cauchy}");
+    }
+
+    #[test]
+    fn cross_covariances_of_two_landmarks_seen_from_one_uncertain_pose_are_exact() {
+        // One pose with prior covariance Σ (no other factor), two landmarks each seen once
+        // from it: linearised, m_k = g(x, z_k), so Cov(m_a, m_b) = J_a Σ J_bᵀ and
+        // Var(m_k) = J_k Σ J_kᵀ + G_k R G_kᵀ, J_k = ∂g/∂x.
+        let sigma = Matrix3::from_diagonal(&Vector3::new(0.3, 0.2, 0.01));
+        let r = Matrix2::from_diagonal(&Vector2::new(0.01, 0.0004));
+        let pose = Pose2::new(1.0, -2.0, 0.4);
+        let z = [Vector2::new(8.0, 0.5), Vector2::new(5.0, -1.0)];
+        let mut graph = Graph::default();
+        graph.add_pose(pose);
+        graph.priors.push(Prior {
+            pose: 0,
+            mean: pose,
+            information: sigma.try_inverse().unwrap(),
+        });
+        for (k, z) in z.iter().enumerate() {
+            graph.add_landmark(crate::observation::inverse(&pose, z).0);
+            let obs = Observation {
+                range: z[0],
+                bearing: z[1],
+                id: None,
+            };
+            graph.add_sighting(0, k, &obs, &r).unwrap();
+        }
+        let j = |z: &Vector2<f64>| {
+            let (s, c) = (pose.theta + z[1]).sin_cos();
+            nalgebra::Matrix2x3::new(1.0, 0.0, -z[0] * s, 0.0, 1.0, z[0] * c)
+        };
+        let g = |z: &Vector2<f64>| crate::observation::inverse(&pose, z).1;
+        let blocks = graph
+            .landmark_covariance_blocks(Kernel::None, &[(0, 1), (1, 0), (0, 0), (1, 1)])
+            .unwrap();
+        let expected = [
+            j(&z[0]) * sigma * j(&z[1]).transpose(),
+            j(&z[1]) * sigma * j(&z[0]).transpose(),
+            j(&z[0]) * sigma * j(&z[0]).transpose() + g(&z[0]) * r * g(&z[0]).transpose(),
+            j(&z[1]) * sigma * j(&z[1]).transpose() + g(&z[1]) * r * g(&z[1]).transpose(),
+        ];
+        for (got, want) in blocks.iter().zip(&expected) {
+            assert!((got - want).norm() < 1e-9 * want.norm(), "{got} vs {want}");
+        }
+        assert_eq!(
+            graph.landmark_covariances(Kernel::None).unwrap()[1],
+            blocks[3]
+        );
+        assert!(
+            graph
+                .landmark_covariance_blocks(Kernel::None, &[(0, 2)])
+                .is_err()
+        );
     }
 }

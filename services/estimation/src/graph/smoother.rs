@@ -14,6 +14,7 @@
 //! same numbers. Each solve starts from the last one's solution (new poses chained on by
 //! their odometry, new landmarks placed from their first sighting).
 
+use super::duplicates::duplicates;
 use super::{Graph, Kernel, OdometryIntegrator, Prior, SolveOptions, SolveReport};
 use crate::fastslam::{FastSlamConfig, PriorFloor};
 use crate::motion::{Control, MotionModel};
@@ -22,7 +23,10 @@ use crate::pose::Pose2;
 use crate::{Error, Result};
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
+
+/// Most fuse-and-solve rounds per solve ([`Smoother::solve`]).
+const FUSE_ROUNDS: usize = 10;
 
 /// The noise the graph assumes: the filter's own models.
 #[derive(Debug, Clone, PartialEq)]
@@ -88,6 +92,12 @@ pub struct SmootherConfig {
     /// solves meanwhile, and the filter waits for it only if it is not done by then, so
     /// the point where particles move is fixed by the data (same run, same numbers).
     pub reanchor_delay_scans: u64,
+    /// Fuse the landmarks a solution says are one (a landmark mapped again after the
+    /// path drifted): loop closure in the graph, for unknown association, where the
+    /// keys are the filter's own ids. The service leaves it off under known association.
+    pub fuse_duplicates: bool,
+    /// The `d²` two landmarks' difference must stay within to be fused (χ²₂ at 99 %).
+    pub fuse_gate: f64,
 }
 
 impl Default for SmootherConfig {
@@ -101,6 +111,8 @@ impl Default for SmootherConfig {
             max_iterations: 50,
             reanchor: false,
             reanchor_delay_scans: 25,
+            fuse_duplicates: true,
+            fuse_gate: 9.21,
         }
     }
 }
@@ -122,6 +134,9 @@ impl SmootherConfig {
         }
         if !(self.kernel_scale.is_finite() && self.kernel_scale > 0.0) {
             return bad("smoother.kernel_scale", "must be finite and > 0");
+        }
+        if !(self.fuse_gate.is_finite() && self.fuse_gate > 0.0) {
+            return bad("smoother.fuse_gate", "must be finite and > 0");
         }
         if !(1..=10_000).contains(&self.max_iterations) {
             return bad("smoother.max_iterations", "must be in 1..=10000");
@@ -180,6 +195,8 @@ pub struct Solution {
     pub report: SolveReport,
     /// Solves so far, this one included.
     pub solves: u32,
+    /// Landmarks fused into another so far ([`SmootherConfig::fuse_duplicates`]).
+    pub fused: usize,
 }
 
 /// The growing graph; see the module documentation.
@@ -199,6 +216,9 @@ pub struct Smoother {
     solved_at: usize,
     loop_pending: bool,
     solves: u32,
+    fused: usize,
+    /// Pairs of keys whose fusion the solution refused.
+    refused: HashSet<(u64, u64)>,
 }
 
 impl Smoother {
@@ -227,6 +247,8 @@ impl Smoother {
             solved_at: 0,
             loop_pending: false,
             solves: 0,
+            fused: 0,
+            refused: HashSet::new(),
         })
     }
 
@@ -285,6 +307,9 @@ impl Smoother {
                     k
                 }
                 None => {
+                    // Under unknown association a landmark mapped again after a drift
+                    // arrives under a new key: a new key may close a loop.
+                    self.loop_pending |= self.config.fuse_duplicates;
                     let at = inverse(&self.graph.poses[pose], &obs.z()).0;
                     let k = self.graph.add_landmark(at);
                     self.index.insert(key, k);
@@ -328,7 +353,10 @@ impl Smoother {
             });
         }
         let options = self.config.solve_options();
-        let report = self.graph.solve(&options)?;
+        let mut report = self.graph.solve(&options)?;
+        if self.config.fuse_duplicates {
+            report = self.fuse_duplicates(&options, report)?;
+        }
         let covariances = self.graph.landmark_covariances(options.kernel)?;
         self.solved_at = self.graph.poses.len();
         self.loop_pending = false;
@@ -347,7 +375,130 @@ impl Smoother {
             chi2_per_dof: self.graph.chi2() / dof,
             report,
             solves: self.solves,
+            fused: self.fused,
         })
+    }
+
+    /// Fuses the landmarks the solution says are one and solves again, until no more are
+    /// found (at most [`FUSE_ROUNDS`] times): each fusion shrinks the marginals around
+    /// the loop it closed, which can settle a match that was ambiguous before. The
+    /// groups a round finds are tried together, and one by one when together they are
+    /// refused ([`try_fuse`](Self::try_fuse)); a refused group is never tried again.
+    /// Returns the last solve's report.
+    fn fuse_duplicates(
+        &mut self,
+        options: &SolveOptions,
+        mut report: SolveReport,
+    ) -> Result<SolveReport> {
+        for _ in 0..FUSE_ROUNDS {
+            let refused: HashSet<(usize, usize)> = (self.refused.iter())
+                .map(|(a, b)| (self.index[a], self.index[b]))
+                .map(|(a, b)| (a.min(b), a.max(b)))
+                .collect();
+            let groups = duplicates(&self.graph, options.kernel, self.config.fuse_gate, &refused)?;
+            if groups.is_empty() {
+                break;
+            }
+            let keyed: Vec<Vec<u64>> = (groups.iter())
+                .map(|g| g.iter().map(|&k| self.keys[k]).collect())
+                .collect();
+            if let Some(fused) = self.try_fuse(&keyed, options, &report)? {
+                report = fused;
+                continue;
+            }
+            for group in &keyed {
+                match self.try_fuse(std::slice::from_ref(group), options, &report)? {
+                    Some(fused) => report = fused,
+                    None => {
+                        for (i, &a) in group.iter().enumerate() {
+                            for &b in &group[i + 1..] {
+                                self.refused.insert((a, b));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        Ok(report)
+    }
+
+    /// Fuses `groups` (named by their landmarks' keys) and solves — first without the
+    /// robust kernel, since the fused landmark's sightings from the drifted part start
+    /// far off it and the kernel would discount them, then with it. Keeps the result
+    /// when the solution's cost rose by at most `fuse_gate` per landmark fused, in units
+    /// of the variance factor `max(1, cost / dof)` before (the graph's own measure of how
+    /// far its noise model is off); else puts the graph back and returns `None`.
+    fn try_fuse(
+        &mut self,
+        groups: &[Vec<u64>],
+        options: &SolveOptions,
+        before: &SolveReport,
+    ) -> Result<Option<SolveReport>> {
+        let saved = (
+            self.graph.clone(),
+            self.index.clone(),
+            self.keys.clone(),
+            self.last_seen_ns.clone(),
+        );
+        let dof = (self.graph.residuals().saturating_sub(self.graph.unknowns())).max(1) as f64;
+        let variance = (before.final_cost / dof).max(1.0);
+        let fused: usize = groups.iter().map(|g| g.len() - 1).sum();
+        let indices: Vec<Vec<usize>> = (groups.iter())
+            .map(|g| {
+                let mut at: Vec<usize> = g.iter().map(|k| self.index[k]).collect();
+                at.sort_unstable();
+                at
+            })
+            .collect();
+        let after = self.graph.fuse_landmarks(&indices);
+        self.renumber(&after);
+        let plain = SolveOptions {
+            kernel: Kernel::None,
+            ..*options
+        };
+        let solved = self
+            .graph
+            .solve(&plain)
+            .and_then(|_| self.graph.solve(options));
+        match solved {
+            Ok(mut report)
+                if report.final_cost - before.final_cost
+                    <= variance * self.config.fuse_gate * fused as f64 =>
+            {
+                tracing::debug!(
+                    ?groups,
+                    rise = report.final_cost - before.final_cost,
+                    variance,
+                    "landmarks fused"
+                );
+                report.seconds += before.seconds;
+                self.fused += fused;
+                Ok(Some(report))
+            }
+            outcome => {
+                tracing::debug!(?groups, ?outcome, variance, "fusion refused");
+                (self.graph, self.index, self.keys, self.last_seen_ns) = saved;
+                outcome.map(|_| None)
+            }
+        }
+    }
+
+    /// Follows [`Graph::fuse_landmarks`]: every key names its landmark's new index, and
+    /// a fused landmark was last seen when the latest of its group was.
+    fn renumber(&mut self, after: &[usize]) {
+        for k in self.index.values_mut() {
+            *k = after[*k];
+        }
+        let (mut keys, mut last_seen_ns) = (Vec::new(), Vec::<u64>::new());
+        for (k, &to) in after.iter().enumerate() {
+            if to == keys.len() {
+                keys.push(self.keys[k]);
+                last_seen_ns.push(self.last_seen_ns[k]);
+            } else {
+                last_seen_ns[to] = last_seen_ns[to].max(self.last_seen_ns[k]);
+            }
+        }
+        (self.keys, self.last_seen_ns) = (keys, last_seen_ns);
     }
 }
 
@@ -419,12 +570,97 @@ mod tests {
         (smoother, truth, due)
     }
 
+    /// Two laps of the same circle with odometry and sightings as noisy as the model says
+    /// (seed `seed`), the
+    /// second lap's landmarks keyed `100 + k` when `rekey` (as a filter that mapped them
+    /// again after its path drifted would key them); solved at the end.
+    fn drifting_laps(config: SmootherConfig, rekey: bool, seed: u64) -> Solution {
+        use rand::RngExt;
+        let mut rng = crate::rng::seeded(seed);
+        let mut normal = move |sigma: f64| sigma * rng.sample::<f64, _>(rand_distr::StandardNormal);
+        let model = noise();
+        let landmarks: Vec<Vector2<f64>> = (0..16)
+            .map(|k| {
+                let a = f64::from(k) * std::f64::consts::TAU / 16.0;
+                Vector2::new(18.0 * a.cos(), 15.9 + 18.0 * a.sin())
+            })
+            .collect();
+        let truth_control = Control {
+            v: 1.0,
+            omega: std::f64::consts::TAU / 100.0,
+            steering: 0.0,
+        };
+        let mut smoother = Smoother::new(config, model.clone()).unwrap();
+        let mut x = Pose2::default();
+        for k in 1..=2000_u64 {
+            let (from_ns, to_ns) = ((k - 1) * 100_000_000, k * 100_000_000);
+            let control = Control {
+                v: truth_control.v + normal(0.1),
+                omega: truth_control.omega + normal(0.05),
+                steering: 0.0,
+            };
+            smoother.feed(&Feed::Control {
+                from_ns,
+                to_ns,
+                control,
+            });
+            x = model.motion.propagate(&x, &truth_control, 0.1);
+            if k % 10 == 0 {
+                let seen = (sightings(&x, &landmarks).into_iter())
+                    .map(|o| Observation {
+                        range: o.range + normal(0.1),
+                        bearing: o.bearing + normal(0.02),
+                        id: o.id.map(|id| if rekey && k > 1000 { 100 + id } else { id }),
+                    })
+                    .collect();
+                smoother.feed(&Feed::Scan {
+                    stamp_ns: to_ns,
+                    sightings: seen,
+                });
+            }
+        }
+        smoother.solve().unwrap()
+    }
+
+    #[test]
+    fn landmarks_mapped_again_after_a_drift_are_fused_and_close_the_loop() {
+        let apart = |a: &Solution, b: &Solution| {
+            (a.poses.iter().zip(&b.poses))
+                .map(|((_, p), (_, q))| (p.x - q.x).hypot(p.y - q.y))
+                .fold(0.0, f64::max)
+        };
+        let unfused = SmootherConfig {
+            fuse_duplicates: false,
+            ..SmootherConfig::default()
+        };
+        for seed in 1..=5 {
+            let known = drifting_laps(unfused.clone(), false, seed);
+            let open = drifting_laps(unfused.clone(), true, seed);
+            let fused = drifting_laps(SmootherConfig::default(), true, seed);
+            assert_eq!(known.landmarks.len(), 16);
+            assert_eq!(open.landmarks.len(), 32);
+            // Every second-lap key fused into its own first-lap landmark, none into a
+            // neighbour: the graph is that of the true keys, and so is its solution.
+            assert_eq!(fused.fused, 16, "seed {seed}");
+            let mut keys: Vec<u64> = fused.landmarks.iter().map(|l| l.0).collect();
+            keys.sort_unstable();
+            assert_eq!(keys, (0..16).collect::<Vec<u64>>(), "seed {seed}");
+            assert!(apart(&fused, &known) < 1e-3, "seed {seed}");
+            assert!(
+                apart(&open, &known) > 0.3,
+                "seed {seed}: the open loop is {} m from the closed one: no drift to close",
+                apart(&open, &known)
+            );
+        }
+    }
+
     #[test]
     fn a_loop_asks_for_one_solve_and_exact_data_is_solved_exactly() {
         let config = SmootherConfig {
             loop_gap_s: 50.0,
             min_poses_between_solves: 30,
             kernel: KernelKind::None,
+            fuse_duplicates: false,
             ..SmootherConfig::default()
         };
         let (mut smoother, truth, due) = two_laps(config);
@@ -447,6 +683,7 @@ mod tests {
     fn without_a_loop_no_solve_is_asked() {
         let config = SmootherConfig {
             loop_gap_s: 500.0,
+            fuse_duplicates: false,
             ..SmootherConfig::default()
         };
         let (_, _, due) = two_laps(config);
