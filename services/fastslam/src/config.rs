@@ -30,6 +30,7 @@
 //! enabled = true
 //! loop_gap_s = 30.0
 //! reanchor = false
+//! fuse_duplicates = true   # under unknown association: fuse landmarks mapped twice
 //! ```
 //!
 //! IBA comes with its partial resampling (docs/ALGORITHMS.md §4.4): with `kind = "iba"`,

@@ -425,9 +425,11 @@ impl Smoother {
     /// Fuses `groups` (named by their landmarks' keys) and solves — first without the
     /// robust kernel, since the fused landmark's sightings from the drifted part start
     /// far off it and the kernel would discount them, then with it. Keeps the result
-    /// when the solution's cost rose by at most `fuse_gate` per landmark fused, in units
-    /// of the variance factor `max(1, cost / dof)` before (the graph's own measure of how
-    /// far its noise model is off); else puts the graph back and returns `None`.
+    /// when both the robust cost the solve minimises and the χ² (no kernel: a torn graph
+    /// cannot hide its strain in the kernel's flat tails) rose by at most `fuse_gate` per
+    /// landmark fused, each in units of its variance factor `max(1, value / dof)` before
+    /// (the graph's own measure of how far its noise model is off); else puts the graph
+    /// back and returns `None`.
     fn try_fuse(
         &mut self,
         groups: &[Vec<u64>],
@@ -441,7 +443,7 @@ impl Smoother {
             self.last_seen_ns.clone(),
         );
         let dof = (self.graph.residuals().saturating_sub(self.graph.unknowns())).max(1) as f64;
-        let variance = (before.final_cost / dof).max(1.0);
+        let chi2 = self.graph.chi2();
         let fused: usize = groups.iter().map(|g| g.len() - 1).sum();
         let indices: Vec<Vec<usize>> = (groups.iter())
             .map(|g| {
@@ -456,27 +458,21 @@ impl Smoother {
             kernel: Kernel::None,
             ..*options
         };
-        let solved = self
-            .graph
-            .solve(&plain)
-            .and_then(|_| self.graph.solve(options));
+        let solved = (self.graph.solve(&plain)).and_then(|_| self.graph.solve(options));
+        let allowed = |before: f64| (before / dof).max(1.0) * self.config.fuse_gate * fused as f64;
+        let rise = (self.graph.chi2() - chi2, allowed(chi2));
+        let within = |report: &SolveReport| {
+            rise.0 <= rise.1 && report.final_cost - before.final_cost <= allowed(before.final_cost)
+        };
         match solved {
-            Ok(mut report)
-                if report.final_cost - before.final_cost
-                    <= variance * self.config.fuse_gate * fused as f64 =>
-            {
-                tracing::debug!(
-                    ?groups,
-                    rise = report.final_cost - before.final_cost,
-                    variance,
-                    "landmarks fused"
-                );
+            Ok(mut report) if within(&report) => {
+                tracing::debug!(?groups, ?rise, "landmarks fused");
                 report.seconds += before.seconds;
                 self.fused += fused;
                 Ok(Some(report))
             }
             outcome => {
-                tracing::debug!(?groups, ?outcome, variance, "fusion refused");
+                tracing::debug!(?groups, ?rise, ok = outcome.is_ok(), "fusion refused");
                 (self.graph, self.index, self.keys, self.last_seen_ns) = saved;
                 outcome.map(|_| None)
             }
