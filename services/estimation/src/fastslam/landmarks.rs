@@ -70,6 +70,19 @@ impl Slot {
     }
 }
 
+/// The id of the landmark that observation `index` of the scan at filter step `step`
+/// creates under unknown association: `step · 2¹⁶ + index`, `None` past 2¹⁶ observations
+/// (or at the end of the ids). Every particle that maps that observation as new gives it
+/// this id, and no other landmark ever has it: an id names one object across the cloud,
+/// which is what the smoothing back-end needs when the best particle changes lineage (a
+/// per-particle counter would let two copies of one ancestor give one id to two
+/// different landmarks). Ids grow with the step, so the smaller id is the older one.
+pub fn new_landmark_id(step: u64, index: usize) -> Option<u64> {
+    const PER_SCAN: u64 = 1 << 16;
+    let index = u64::try_from(index).ok().filter(|&i| i < PER_SCAN)?;
+    step.checked_mul(PER_SCAN)?.checked_add(index)
+}
+
 /// A particle's landmark map; see the module documentation for the layout and costs.
 #[derive(Debug, Clone)]
 pub struct LandmarkMap {
@@ -80,7 +93,6 @@ pub struct LandmarkMap {
     tentative: Arc<Vec<u64>>,
     /// Hits that confirm a landmark; 0 tracks nothing.
     tentative_below: u32,
-    next_id: u64,
     cell_size: f64,
 }
 
@@ -93,7 +105,6 @@ impl LandmarkMap {
             cell_of: OrdMap::new(),
             tentative: Arc::default(),
             tentative_below: 0,
-            next_id: 0,
             cell_size,
         }
     }
@@ -223,34 +234,13 @@ impl LandmarkMap {
             .map(|(slot, landmark)| (*slot, landmark))
     }
 
-    /// Reserves a fresh id for a new landmark (per-particle counter, never reused; it
-    /// saturates at `u64::MAX` instead of wrapping).
-    pub fn allocate_id(&mut self) -> u64 {
-        let id = self.next_id;
-        self.next_id = self.next_id.saturating_add(1);
-        id
-    }
-
-    /// The id the next [`allocate_id`](Self::allocate_id) returns.
-    pub fn next_id(&self) -> u64 {
-        self.next_id
-    }
-
-    /// Makes later [`allocate_id`](Self::allocate_id) calls return `next_id` or above
-    /// (restoring a saved map: ids of removed landmarks are never reused).
-    pub fn reserve_ids_below(&mut self, next_id: u64) {
-        self.next_id = self.next_id.max(next_id);
-    }
-
-    /// Inserts `landmark`, replacing any landmark with the same id. Later
-    /// [`allocate_id`](Self::allocate_id) calls return ids above it.
+    /// Inserts `landmark`, replacing any landmark with the same id.
     ///
     /// # Performance
     /// O(log M); copies the touched tree paths if they are shared.
     pub fn insert(&mut self, landmark: Landmark) {
         self.remove(landmark.id);
         let cell = self.cell(&landmark.mean);
-        self.next_id = self.next_id.max(landmark.id.saturating_add(1));
         self.cell_of.insert(landmark.id, cell);
         self.classify(landmark.id, landmark.hits);
         self.by_cell.insert(Slot::new(cell, landmark.id), landmark);
@@ -422,10 +412,10 @@ mod tests {
     }
 
     #[test]
-    fn allocated_ids_skip_inserted_ones() {
-        let mut map = LandmarkMap::new(1.0);
-        map.insert(landmark(41, 0.0, 0.0));
-        assert_eq!(map.allocate_id(), 42);
-        assert_eq!(map.allocate_id(), 43);
+    fn a_new_landmark_id_names_its_scan_and_observation() {
+        assert_eq!(new_landmark_id(0, 0), Some(0));
+        assert_eq!(new_landmark_id(3, 7), Some(3 * 65_536 + 7));
+        assert_ne!(new_landmark_id(3, 65_535), new_landmark_id(4, 0));
+        assert_eq!(new_landmark_id(3, 65_536), None);
     }
 }

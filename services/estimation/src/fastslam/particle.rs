@@ -4,7 +4,7 @@
 use super::association::{AssociationMode, Decision, Scan, ScanAssociation};
 use super::ekf;
 use super::evidence::NegativeEvidence;
-use super::landmarks::LandmarkMap;
+use super::landmarks::{LandmarkMap, new_landmark_id};
 use super::merge;
 use super::trail::Trail;
 use crate::motion::{Control, MotionModel};
@@ -137,7 +137,8 @@ impl Particle {
         let config = scan.config();
         let merging = config.mode == AssociationMode::Unknown && config.merge_gate > 0.0;
         let mut touched = Vec::new();
-        for (obs, decision) in scan.observations().iter().zip(&association.decisions) {
+        let decided = scan.observations().iter().zip(&association.decisions);
+        for (index, (obs, decision)) in decided.enumerate() {
             match *decision {
                 Decision::Update {
                     slot,
@@ -160,7 +161,10 @@ impl Particle {
                     }
                 }
                 Decision::New { id } => {
-                    let id = id.unwrap_or_else(|| self.map.allocate_id());
+                    let Some(id) = id.or_else(|| new_landmark_id(scan.step(), index)) else {
+                        changes.ignored += 1;
+                        continue;
+                    };
                     self.map
                         .insert(LandmarkMap::landmark_from(id, &self.pose, &obs.z(), &noise));
                     changes.created += 1;

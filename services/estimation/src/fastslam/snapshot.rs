@@ -35,8 +35,6 @@ pub struct FilterState {
 /// One landmark map.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MapState {
-    /// The id the map hands to its next new landmark.
-    pub next_id: u64,
     /// The landmarks, in spatial-index order.
     pub landmarks: Vec<LandmarkState>,
 }
@@ -121,7 +119,6 @@ impl FastSlam {
                     .unwrap_or_else(|| {
                         maps.push(&p.map);
                         stored.push(MapState {
-                            next_id: p.map.next_id(),
                             landmarks: p.map.iter().map(LandmarkState::from).collect(),
                         });
                         maps.len() - 1
@@ -180,7 +177,6 @@ impl FastSlam {
                     }
                     map.insert(Landmark::from(l));
                 }
-                map.reserve_ids_below(m.next_id);
                 Ok(map.track_tentative(config.negative_evidence_in_effect().min_hits))
             })
             .collect::<Result<_>>()?;
