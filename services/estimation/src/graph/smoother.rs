@@ -529,12 +529,10 @@ mod tests {
             .collect()
     }
 
-    /// Two laps of a 100 s circle (exact data) with landmarks around it, fed at 10 Hz
-    /// with a scan every second; returns the smoother, the true poses at the scans and
-    /// the feed results.
-    fn two_laps(config: SmootherConfig) -> (Smoother, Vec<Pose2>, Vec<bool>) {
-        let model = noise();
-        let landmarks: Vec<Vector2<f64>> = (0..16)
+    /// Sixteen landmarks around a circle of 18 m radius, and the control that drives it
+    /// once in 100 s from the origin.
+    fn circle() -> (Vec<Vector2<f64>>, Control) {
+        let landmarks = (0..16)
             .map(|k| {
                 let a = f64::from(k) * std::f64::consts::TAU / 16.0;
                 Vector2::new(18.0 * a.cos(), 15.9 + 18.0 * a.sin())
@@ -545,6 +543,15 @@ mod tests {
             omega: std::f64::consts::TAU / 100.0,
             steering: 0.0,
         };
+        (landmarks, control)
+    }
+
+    /// Two laps of a 100 s circle (exact data) with landmarks around it, fed at 10 Hz
+    /// with a scan every second; returns the smoother, the true poses at the scans and
+    /// the feed results.
+    fn two_laps(config: SmootherConfig) -> (Smoother, Vec<Pose2>, Vec<bool>) {
+        let model = noise();
+        let (landmarks, control) = circle();
         let mut smoother = Smoother::new(config, model.clone()).unwrap();
         let (mut x, mut truth, mut due) = (Pose2::default(), Vec::new(), Vec::new());
         for k in 1..=2000_u64 {
@@ -567,25 +574,14 @@ mod tests {
     }
 
     /// Two laps of the same circle with odometry and sightings as noisy as the model says
-    /// (seed `seed`), the
-    /// second lap's landmarks keyed `100 + k` when `rekey` (as a filter that mapped them
-    /// again after its path drifted would key them); solved at the end.
+    /// (seed `seed`), the second lap's landmarks keyed `100 + k` when `rekey` (as a filter
+    /// that mapped them again after its path drifted would key them); solved at the end.
     fn drifting_laps(config: SmootherConfig, rekey: bool, seed: u64) -> Solution {
         use rand::RngExt;
         let mut rng = crate::rng::seeded(seed);
         let mut normal = move |sigma: f64| sigma * rng.sample::<f64, _>(rand_distr::StandardNormal);
         let model = noise();
-        let landmarks: Vec<Vector2<f64>> = (0..16)
-            .map(|k| {
-                let a = f64::from(k) * std::f64::consts::TAU / 16.0;
-                Vector2::new(18.0 * a.cos(), 15.9 + 18.0 * a.sin())
-            })
-            .collect();
-        let truth_control = Control {
-            v: 1.0,
-            omega: std::f64::consts::TAU / 100.0,
-            steering: 0.0,
-        };
+        let (landmarks, truth_control) = circle();
         let mut smoother = Smoother::new(config, model.clone()).unwrap();
         let mut x = Pose2::default();
         for k in 1..=2000_u64 {
