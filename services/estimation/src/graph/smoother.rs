@@ -9,9 +9,12 @@
 //! true id for the reference, the best particle's landmark id for the back-end.
 //!
 //! A loop closes when a landmark is seen again after more than
-//! [`SmootherConfig::loop_gap_s`] without a sighting. The decision to solve depends on the
-//! data alone (never on the wall clock), so the same inputs give the same solves and the
-//! same numbers. Each solve starts from the last one's solution (new poses chained on by
+//! [`SmootherConfig::loop_gap_s`] without a sighting, or — with
+//! [`SmootherConfig::fuse_duplicates`] — when a new key arrives, since under unknown
+//! association a landmark seen again after a drift arrives under a new key; each solve
+//! then fuses the landmarks its solution says are one (`super::duplicates`). The
+//! decision to solve depends on the data alone (never on the wall clock), so the same
+//! inputs give the same solves and the same numbers. Each solve starts from the last one's solution (new poses chained on by
 //! their odometry, new landmarks placed from their first sighting).
 
 use super::duplicates::duplicates;
