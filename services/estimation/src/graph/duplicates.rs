@@ -24,12 +24,11 @@ use std::collections::{BTreeMap, HashSet};
 /// in `refused` (`(a, b)`, `a < b`) are taken as incompatible.
 ///
 /// # Errors
-/// When the graph's information cannot be factorised (as
-/// [`Graph::landmark_covariance_blocks`]).
+/// When the graph's information cannot be factorised (as [`Graph::covariances`]).
 ///
 /// # Performance
-/// O(M²) for a map of M landmarks (a 2 × 2 test per pair), plus one covariance block per
-/// candidate pair.
+/// One factorisation of the graph's information, O(M²) for a map of M landmarks (a 2 × 2
+/// test per pair), and one covariance block per candidate pair.
 pub fn duplicates(
     graph: &Graph,
     kernel: Kernel,
@@ -37,7 +36,8 @@ pub fn duplicates(
     refused: &HashSet<(usize, usize)>,
 ) -> Result<Vec<Vec<usize>>> {
     let m = graph.landmarks.len();
-    let marginals = graph.landmark_covariances(kernel)?;
+    let covariances = graph.covariances(kernel)?;
+    let marginals = covariances.marginals()?;
     let covisible = covisible(graph);
     // The cross-covariance of two landmarks seen along one drifting path is mostly
     // positive, which makes `S` smaller than `P_a + P_b`: a looser first test keeps
@@ -51,7 +51,7 @@ pub fn duplicates(
         .filter(|pair| !covisible.contains(pair) && !refused.contains(pair))
         .filter(|&(a, b)| loose(a, b))
         .collect();
-    let cross = graph.landmark_covariance_blocks(kernel, &candidates)?;
+    let cross = covariances.blocks(&candidates)?;
     let compatible: HashSet<(usize, usize)> = (candidates.iter().zip(&cross))
         .filter(|&(&(a, b), c)| {
             let d = graph.landmarks[a] - graph.landmarks[b];

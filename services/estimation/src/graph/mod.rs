@@ -25,7 +25,7 @@ mod solve;
 pub use duplicates::duplicates;
 pub use integrate::OdometryIntegrator;
 pub use smoother::{Feed, KernelKind, NoiseModel, Smoother, SmootherConfig, Solution};
-pub use solve::{Kernel, SolveOptions, SolveReport};
+pub use solve::{Covariances, Kernel, SolveOptions, SolveReport};
 
 use crate::observation::{Observation, predict};
 use crate::pose::{Pose2, wrap_angle};
@@ -494,8 +494,9 @@ mod solve_tests {
             nalgebra::Matrix2x3::new(1.0, 0.0, -z[0] * s, 0.0, 1.0, z[0] * c)
         };
         let g = |z: &Vector2<f64>| crate::observation::inverse(&pose, z).1;
-        let blocks = graph
-            .landmark_covariance_blocks(Kernel::None, &[(0, 1), (1, 0), (0, 0), (1, 1)])
+        let covariances = graph.covariances(Kernel::None).unwrap();
+        let blocks = covariances
+            .blocks(&[(0, 1), (1, 0), (0, 0), (1, 1)])
             .unwrap();
         let expected = [
             j(&z[0]) * sigma * j(&z[1]).transpose(),
@@ -510,10 +511,6 @@ mod solve_tests {
             graph.landmark_covariances(Kernel::None).unwrap()[1],
             blocks[3]
         );
-        assert!(
-            graph
-                .landmark_covariance_blocks(Kernel::None, &[(0, 2)])
-                .is_err()
-        );
+        assert!(covariances.blocks(&[(0, 2)]).is_err());
     }
 }

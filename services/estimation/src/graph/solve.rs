@@ -353,32 +353,17 @@ impl Graph {
     /// # Errors
     /// When `H` cannot be factorised (a variable no factor constrains).
     pub fn landmark_covariances(&self, kernel: Kernel) -> Result<Vec<Matrix2<f64>>> {
-        let diagonal: Vec<(usize, usize)> = (0..self.landmarks.len()).map(|k| (k, k)).collect();
-        self.landmark_covariance_blocks(kernel, &diagonal)
+        self.covariances(kernel)?.marginals()
     }
 
-    /// The covariance `Cov(m_a, m_b)` of each pair of landmarks `(a, b)` at the current
-    /// estimates: the 2 × 2 block of `H⁻¹` at `a`'s rows and `b`'s columns, by solving the
-    /// factorised `H` for `b`'s unit columns, 64 at a time. `(k, k)` is `k`'s marginal.
+    /// `H` (the Gauss–Newton information with the kernel's weights) at the current
+    /// estimates, factorised once, for the landmark covariances — blocks of `H⁻¹` — that
+    /// a caller reads from it.
     ///
     /// # Errors
-    /// When `H` cannot be factorised (a variable no factor constrains), or a pair names a
-    /// landmark the graph does not have.
-    ///
-    /// # Performance
-    /// One sparse factorisation, and one solve per 32 distinct second landmarks.
-    pub fn landmark_covariance_blocks(
-        &self,
-        kernel: Kernel,
-        pairs: &[(usize, usize)],
-    ) -> Result<Vec<Matrix2<f64>>> {
+    /// When `H` cannot be factorised (a variable no factor constrains).
+    pub fn covariances(&self, kernel: Kernel) -> Result<Covariances<'_>> {
         self.check_indices()?;
-        if pairs.iter().any(|&(a, b)| a.max(b) >= self.landmarks.len()) {
-            return Err(Error::InvalidInput {
-                what: "landmark covariance",
-                reason: format!("a pair outside the {} landmarks", self.landmarks.len()),
-            });
-        }
         let n = self.unknowns();
         let normal = self.normal(kernel);
         let mut cached = None;
@@ -390,33 +375,7 @@ impl Graph {
             .map_err(|e| factorisation(format!("{e:?}")))?;
         let llt = Llt::try_new_with_symbolic(pattern.llt.clone(), h.as_ref(), Side::Lower)
             .map_err(|e| factorisation(format!("{e:?}")))?;
-        let mut solved: Vec<usize> = pairs.iter().map(|&(_, b)| b).collect();
-        solved.sort_unstable();
-        solved.dedup();
-        let mut out = vec![Matrix2::zeros(); pairs.len()];
-        for chunk in solved.chunks(32) {
-            let columns: Vec<usize> = (chunk.iter())
-                .flat_map(|&k| {
-                    let c = self.landmark_column(k);
-                    [c, c + 1]
-                })
-                .collect();
-            let mut rhs = Mat::from_fn(n, columns.len(), |i, j| {
-                f64::from(u8::from(i == columns[j]))
-            });
-            llt.solve_in_place(rhs.as_mut());
-            for (block, &(a, b)) in out.iter_mut().zip(pairs) {
-                let Ok(at) = chunk.binary_search(&b) else {
-                    continue;
-                };
-                let row = self.landmark_column(a);
-                *block = Matrix2::from_fn(|i, j| rhs[(row + i, 2 * at + j)]);
-                if a == b {
-                    *block = 0.5 * (*block + block.transpose());
-                }
-            }
-        }
-        Ok(out)
+        Ok(Covariances { graph: self, llt })
     }
 
     /// Every factor's indices inside the variables.
@@ -435,6 +394,75 @@ impl Graph {
             });
         }
         Ok(())
+    }
+}
+
+/// A graph's factorised information ([`Graph::covariances`]): the covariances of its
+/// landmarks, read as blocks of `H⁻¹` by solving for unit columns.
+pub struct Covariances<'g> {
+    graph: &'g Graph,
+    llt: Llt<usize, f64>,
+}
+
+impl Covariances<'_> {
+    /// Every landmark's marginal covariance, in landmark order.
+    ///
+    /// # Errors
+    /// None in practice (every landmark is in the graph); see [`blocks`](Self::blocks).
+    pub fn marginals(&self) -> Result<Vec<Matrix2<f64>>> {
+        let diagonal: Vec<(usize, usize)> =
+            (0..self.graph.landmarks.len()).map(|k| (k, k)).collect();
+        self.blocks(&diagonal)
+    }
+
+    /// The covariance `Cov(m_a, m_b)` of each pair of landmarks `(a, b)`: the 2 × 2 block
+    /// of `H⁻¹` at `a`'s rows and `b`'s columns, by solving for `b`'s unit columns, 64 at
+    /// a time. `(k, k)` is `k`'s marginal (made exactly symmetric).
+    ///
+    /// # Errors
+    /// When a pair names a landmark the graph does not have.
+    ///
+    /// # Performance
+    /// One solve per 32 distinct second landmarks.
+    pub fn blocks(&self, pairs: &[(usize, usize)]) -> Result<Vec<Matrix2<f64>>> {
+        let graph = self.graph;
+        if pairs
+            .iter()
+            .any(|&(a, b)| a.max(b) >= graph.landmarks.len())
+        {
+            return Err(Error::InvalidInput {
+                what: "landmark covariance",
+                reason: format!("a pair outside the {} landmarks", graph.landmarks.len()),
+            });
+        }
+        let n = graph.unknowns();
+        let mut solved: Vec<usize> = pairs.iter().map(|&(_, b)| b).collect();
+        solved.sort_unstable();
+        solved.dedup();
+        let mut out = vec![Matrix2::zeros(); pairs.len()];
+        for chunk in solved.chunks(32) {
+            let columns: Vec<usize> = (chunk.iter())
+                .flat_map(|&k| {
+                    let c = graph.landmark_column(k);
+                    [c, c + 1]
+                })
+                .collect();
+            let mut rhs = Mat::from_fn(n, columns.len(), |i, j| {
+                f64::from(u8::from(i == columns[j]))
+            });
+            self.llt.solve_in_place(rhs.as_mut());
+            for (block, &(a, b)) in out.iter_mut().zip(pairs) {
+                let Ok(at) = chunk.binary_search(&b) else {
+                    continue;
+                };
+                let row = graph.landmark_column(a);
+                *block = Matrix2::from_fn(|i, j| rhs[(row + i, 2 * at + j)]);
+                if a == b {
+                    *block = 0.5 * (*block + block.transpose());
+                }
+            }
+        }
+        Ok(out)
     }
 }
 
