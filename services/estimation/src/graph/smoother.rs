@@ -14,8 +14,9 @@
 //! association a landmark seen again after a drift arrives under a new key; each solve
 //! then fuses the landmarks its solution says are one (`super::duplicates`). The
 //! decision to solve depends on the data alone (never on the wall clock), so the same
-//! inputs give the same solves and the same numbers. Each solve starts from the last one's solution (new poses chained on by
-//! their odometry, new landmarks placed from their first sighting).
+//! inputs give the same solves and the same numbers. Each solve starts from the last
+//! one's solution (new poses chained on by their odometry, new landmarks placed from their
+//! first sighting).
 
 use super::duplicates::duplicates;
 use super::{Graph, Kernel, OdometryIntegrator, Prior, SolveOptions, SolveReport};
@@ -549,44 +550,26 @@ mod tests {
         (landmarks, control)
     }
 
-    /// Two laps of a 100 s circle (exact data) with landmarks around it, fed at 10 Hz
-    /// with a scan every second; returns the smoother, the true poses at the scans and
-    /// the feed results.
-    fn two_laps(config: SmootherConfig) -> (Smoother, Vec<Pose2>, Vec<bool>) {
-        let model = noise();
-        let (landmarks, control) = circle();
-        let mut smoother = Smoother::new(config, model.clone()).unwrap();
-        let (mut x, mut truth, mut due) = (Pose2::default(), Vec::new(), Vec::new());
-        for k in 1..=2000_u64 {
-            let (from_ns, to_ns) = ((k - 1) * 100_000_000, k * 100_000_000);
-            smoother.feed(&Feed::Control {
-                from_ns,
-                to_ns,
-                control,
-            });
-            x = model.motion.propagate(&x, &control, 0.1);
-            if k % 10 == 0 {
-                truth.push(x);
-                due.push(smoother.feed(&Feed::Scan {
-                    stamp_ns: to_ns,
-                    sightings: sightings(&x, &landmarks),
-                }));
-            }
-        }
-        (smoother, truth, due)
-    }
-
-    /// Two laps of the same circle with odometry and sightings as noisy as the model says
-    /// (seed `seed`), the second lap's landmarks keyed `100 + k` when `rekey` (as a filter
-    /// that mapped them again after its path drifted would key them); solved at the end.
-    fn drifting_laps(config: SmootherConfig, rekey: bool, seed: u64) -> Solution {
+    /// Two laps of a 100 s circle with landmarks around it, fed at 10 Hz with a scan every
+    /// second. Odometry and sightings carry `noise_scale` times the model's noise (seed
+    /// `seed`; 0: exact data), and the second lap's landmarks are keyed `100 + k` when
+    /// `rekey` (as a filter that mapped them again after its path drifted would key
+    /// them). Returns the smoother, the true poses at the scans and the feed results.
+    fn laps(
+        config: SmootherConfig,
+        noise_scale: f64,
+        rekey: bool,
+        seed: u64,
+    ) -> (Smoother, Vec<Pose2>, Vec<bool>) {
         use rand::RngExt;
         let mut rng = crate::rng::seeded(seed);
-        let mut normal = move |sigma: f64| sigma * rng.sample::<f64, _>(rand_distr::StandardNormal);
+        let mut normal = move |sigma: f64| {
+            noise_scale * sigma * rng.sample::<f64, _>(rand_distr::StandardNormal)
+        };
         let model = noise();
         let (landmarks, truth_control) = circle();
         let mut smoother = Smoother::new(config, model.clone()).unwrap();
-        let mut x = Pose2::default();
+        let (mut x, mut truth, mut due) = (Pose2::default(), Vec::new(), Vec::new());
         for k in 1..=2000_u64 {
             let (from_ns, to_ns) = ((k - 1) * 100_000_000, k * 100_000_000);
             let control = Control {
@@ -601,6 +584,7 @@ mod tests {
             });
             x = model.motion.propagate(&x, &truth_control, 0.1);
             if k % 10 == 0 {
+                truth.push(x);
                 let seen = (sightings(&x, &landmarks).into_iter())
                     .map(|o| Observation {
                         range: o.range + normal(0.1),
@@ -608,13 +592,18 @@ mod tests {
                         id: o.id.map(|id| if rekey && k > 1000 { 100 + id } else { id }),
                     })
                     .collect();
-                smoother.feed(&Feed::Scan {
+                due.push(smoother.feed(&Feed::Scan {
                     stamp_ns: to_ns,
                     sightings: seen,
-                });
+                }));
             }
         }
-        smoother.solve().unwrap()
+        (smoother, truth, due)
+    }
+
+    /// [`laps`] with odometry and sightings as noisy as the model says, solved at the end.
+    fn drifting_laps(config: SmootherConfig, rekey: bool, seed: u64) -> Solution {
+        laps(config, 1.0, rekey, seed).0.solve().unwrap()
     }
 
     #[test]
@@ -658,7 +647,7 @@ mod tests {
             fuse_duplicates: false,
             ..SmootherConfig::default()
         };
-        let (mut smoother, truth, due) = two_laps(config);
+        let (mut smoother, truth, due) = laps(config, 0.0, false, 0);
         // A landmark is out of sight for more than 50 s only once the lap comes round
         // (one scan a second): the first re-sighting after that asks.
         let first = due.iter().position(|&d| d).expect("a loop closes");
@@ -681,7 +670,7 @@ mod tests {
             fuse_duplicates: false,
             ..SmootherConfig::default()
         };
-        let (_, _, due) = two_laps(config);
+        let (_, _, due) = laps(config, 0.0, false, 0);
         assert!(due.iter().all(|&d| !d));
     }
 
