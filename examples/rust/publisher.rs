@@ -24,9 +24,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let true_map =
         ipc.slice_publisher::<LandmarkMapHeader, MapLandmark>(&topics::TRUE_LANDMARKS)?;
     let eos = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
-    // The service subscribes to its inputs one after the other: wait for both.
-    odometry.wait_for_subscribers(&ipc, 1)?; // the service
-    scans.wait_for_subscribers(&ipc, 1)?; // the service
+    // The service and the client both take odometry and observations, and the service
+    // subscribes to its inputs one after the other: wait for both processes on both
+    // (the client alone would let the first messages go before the service is there).
+    odometry.wait_for_subscribers(&ipc, 2)?; // the service and the client
+    scans.wait_for_subscribers(&ipc, 2)?; // the service and the client
     truth.wait_for_subscribers(&ipc, 1)?; // the client
     let landmark = |(id, &(x, y)): (usize, &(f64, f64))| MapLandmark {
         id: id as u64,
