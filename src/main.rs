@@ -64,6 +64,8 @@ enum Command {
     /// Offline Monte Carlo comparison in process (no IPC): optimisers × proposals ×
     /// particle counts × seeds on a scenario, scored by the client's metrics.
     MonteCarlo(monte_carlo::MonteCarloArgs),
+    /// Solve a 2D pose graph in the g2o format (first pose anchored): prints χ² and time.
+    Solve(commands::solve::SolveArgs),
     /// Performance figures, printed with the machine: filter step time over particles ×
     /// landmarks per optimiser with growth ratios, end-to-end latency at the real-time
     /// rate (median, p99, p99.9), multi-process against in-process throughput (the IPC
@@ -94,6 +96,9 @@ enum Command {
     /// The Victoria Park replay process (started by `replay victoria-park`).
     #[command(hide = true)]
     ReplayVictoriaPark(fastslam_replay::processes::victoria_park::Args),
+    /// The recording replay process (started by `replay rosbag` and `replay carmen`).
+    #[command(hide = true)]
+    ReplayRecording(fastslam_replay::processes::recording::Args),
     /// The FastSLAM service process (started by `run`).
     #[command(hide = true)]
     Service(fastslam_service::process::Args),
@@ -143,6 +148,7 @@ fn dispatch(command: Command) -> anyhow::Result<u8> {
         Command::FitNoise(args) => done(fit_noise::run(&args)),
         Command::Ungm(a) => done(ungm::run(&a)),
         Command::MonteCarlo(a) => done(monte_carlo::run(&a)),
+        Command::Solve(a) => done(commands::solve::run(&a)),
         Command::Bench(a) => {
             fastslam_protocol::cli::init_logging("bench");
             done(bench::run(&a))
@@ -159,6 +165,11 @@ fn dispatch(command: Command) -> anyhow::Result<u8> {
             "replay-victoria-park",
             a,
             fastslam_replay::processes::victoria_park::run,
+        )),
+        Command::ReplayRecording(a) => done(run_process(
+            "replay-recording",
+            a,
+            fastslam_replay::processes::recording::run,
         )),
         Command::Service(a) => done(run_process("service", a, fastslam_service::process::run)),
         Command::Client(a) => done(run_process("client", a, fastslam_client::process::run)),

@@ -1,10 +1,11 @@
 //! The stack in one process, without IPC: the simulators' messages ([`OfflineRun`]) or
 //! a recorded data set's (in the replay player's order), the service's own glue
 //! ([`Sequencer`] and [`Slam`]) and the client's scoring ([`Metrics::compute`], with the
-//! alignment a replay profile asks for) — the same code the processes run, message for
-//! message, so an in-process run and a run through the processes with the same seed give
-//! identical metrics (integration tests hold this). On top of it, the Monte Carlo
-//! comparison of `fastslam-stack monte-carlo`.
+//! alignment a replay profile asks for, and the relation errors when a replay has a
+//! relations file) — the same code the processes run, message for message, so an
+//! in-process run and a run through the processes with the same seed give identical
+//! metrics (integration tests hold this). On top of it, the Monte Carlo comparison of
+//! `fastslam-stack monte-carlo`.
 
 use crate::lists::List;
 use crate::methods::Methods;
@@ -14,6 +15,7 @@ use clap::builder::{PossibleValuesParser, TypedValueParser};
 use fastslam_client::metrics::{AlignMode, ScoreAt, fit_alignment, scored_at};
 use fastslam_client::occupancy::OCCUPIED_THRESH;
 use fastslam_client::reference::NoiseModel;
+use fastslam_client::relations::{Relation, RelationErrors, read_relations};
 use fastslam_client::{Metrics, Recording};
 use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::moves::{MoveCorrection, MoveStats};
@@ -103,7 +105,7 @@ pub enum Source {
     /// A simulated scenario: the simulators' messages for the run's seed.
     Simulation(Box<Scenario>),
     /// A recorded data set, the same for every seed.
-    Replay(Replay),
+    Replay(Box<Replay>),
 }
 
 /// A recorded data set as an in-process run plays and scores it.
@@ -121,6 +123,10 @@ pub struct Replay {
     pub align: AlignMode,
     /// Where the client scores (the profile's client flags).
     pub score_at: ScoreAt,
+    /// Relations the trajectories are also scored against (see
+    /// [`fastslam_client::relations`]; times on the data set's clock, whose epoch is
+    /// [`DataSet::epoch_s`]); empty without a relations file.
+    pub relations: Vec<Relation>,
 }
 
 impl Source {
@@ -164,14 +170,34 @@ impl Source {
         };
         let service = settings::replay_service_table(None, &profile, association)?;
         let scoring = Scoring::from_flags(&profile.client.flags)?;
-        Ok(Self::Replay(Replay {
+        Ok(Self::Replay(Box::new(Replay {
             name,
             data,
             association,
             service,
             align: scoring.align,
             score_at: scoring.score_at,
-        }))
+            relations: Vec::new(),
+        })))
+    }
+
+    /// The same source, its trajectories also scored against the relations file at
+    /// `path` (times on the data set's clock).
+    ///
+    /// # Errors
+    /// A simulated scenario (its clock is no data set's), or a relations file that cannot
+    /// be read or holds no relation.
+    pub fn with_relations(self, path: &std::path::Path) -> anyhow::Result<Self> {
+        let Self::Replay(mut replay) = self else {
+            anyhow::bail!("relations need a recorded data set: --relations goes with --replay");
+        };
+        replay.relations = read_relations(path)?;
+        anyhow::ensure!(
+            !replay.relations.is_empty(),
+            "{}: no relation in the file",
+            path.display()
+        );
+        Ok(Self::Replay(replay))
     }
 
     /// The name of the scenario or data set.
@@ -242,6 +268,15 @@ impl Source {
             Self::Replay(r) => (r.align, r.score_at),
         }
     }
+
+    /// Whether the run has ground truth: a simulation always, a data set when it has
+    /// truth samples.
+    fn has_truth(&self) -> bool {
+        match self {
+            Self::Simulation(_) => true,
+            Self::Replay(r) => !r.data.truth.is_empty(),
+        }
+    }
 }
 
 /// The client's scoring flags a replay profile passes.
@@ -279,7 +314,10 @@ pub fn run_in_process(
     let mut slam = Slam::new(config)?;
     slam.start_smoother(config, Vec::new())?;
     let mut sequencer = Sequencer::default();
-    let mut recording = Recording::default();
+    let mut recording = Recording {
+        without_truth: !source.has_truth(),
+        ..Recording::default()
+    };
     let (mut odometry_order, mut scan_order) = (StampOrder::default(), StampOrder::default());
     let mut filter_time = Duration::ZERO;
     let mut last_pose: Option<Header> = None;
@@ -350,9 +388,14 @@ pub fn run_in_process(
     let (align, score_at) = source.scoring();
     let alignment = fit_alignment(&scored_at(&recording, score_at), align);
     let mut recording = alignment.apply(&recording);
-    let metrics = Metrics::compute(&recording, true, alignment, score_at)
-        .with_smoothed(&mut recording)
-        .with_reference(&mut recording, &NoiseModel::of(&config.filter_config()));
+    let mut metrics =
+        Metrics::compute(&recording, true, alignment, score_at).with_smoothed(&mut recording);
+    if let Source::Replay(r) = source
+        && !r.relations.is_empty()
+    {
+        metrics = metrics.with_relations(&recording, &r.relations, r.data.epoch_s);
+    }
+    let metrics = metrics.with_reference(&mut recording, &NoiseModel::of(&config.filter_config()));
     Ok(RunOutcome {
         metrics,
         filter_time,
@@ -417,6 +460,13 @@ pub struct Row {
     pub grid_precision: Summary,
     /// Its recall per run.
     pub grid_recall: Summary,
+    /// The estimate's mean translational relation error per run (m), with a relations
+    /// file (else not a number).
+    pub relations_trans: Summary,
+    /// The standard deviation of its translational relation error per run (m).
+    pub relations_trans_std: Summary,
+    /// Its mean rotational relation error per run (°).
+    pub relations_rot: Summary,
 }
 
 /// The settings of one comparison: which estimators, particle counts and seeds.
@@ -535,6 +585,9 @@ fn summarise(method: String, particles: usize, runs: &[RunOutcome]) -> Row {
         true_landmarks: runs.first().map_or(0, |r| r.metrics.map.truth),
         grid_precision: column(&|r| r.grid.map_or(f64::NAN, |g| g.0)),
         grid_recall: column(&|r| r.grid.map_or(f64::NAN, |g| g.1)),
+        relations_trans: column(&|r| relation(r, |e| e.trans_mean_m)),
+        relations_trans_std: column(&|r| relation(r, |e| e.trans_std_m)),
+        relations_rot: column(&|r| relation(r, |e| e.rot_mean_deg)),
         nees: column(&|r| r.metrics.consistency.nees_mean),
         nees_within: column(&|r| r.metrics.consistency.nees_within_95),
         singular: column(&|r| {
@@ -546,4 +599,9 @@ fn summarise(method: String, particles: usize, runs: &[RunOutcome]) -> Row {
         moves,
         map: MapKind::Landmarks,
     }
+}
+
+/// A number of the estimate's relation errors of `run`; not a number without them.
+fn relation(run: &RunOutcome, field: fn(&RelationErrors) -> f64) -> f64 {
+    (run.metrics.estimate.relations.as_ref()).map_or(f64::NAN, field)
 }

@@ -224,6 +224,15 @@ fn a_bad_expectation_is_refused_before_anything_starts() {
 /// `fastslam-stack test` on the Python example publisher with `expectations`, its run
 /// and logs in `dir`; returns the launcher's output and the JUnit report's path.
 fn test_python_publisher(dir: &Path, expectations: &[&str]) -> (Output, std::path::PathBuf) {
+    test_python_publisher_with(dir, "", expectations)
+}
+
+/// [`test_python_publisher`] with extra flags for the publisher.
+fn test_python_publisher_with(
+    dir: &Path,
+    publisher_flags: &str,
+    expectations: &[&str],
+) -> (Output, std::path::PathBuf) {
     let python = python_with_iceoryx2();
     let junit = dir.join("report.xml");
     let mut command = Command::new(LAUNCHER);
@@ -236,7 +245,7 @@ fn test_python_publisher(dir: &Path, expectations: &[&str]) -> (Output, std::pat
             "--publisher",
         ])
         .arg(format!(
-            "'{}' examples/python/publisher.py",
+            "'{}' examples/python/publisher.py {publisher_flags}",
             python.display()
         ))
         .args(["--timeout-s", "300", "--out"])
@@ -313,4 +322,28 @@ fn the_test_command_fails_the_python_publisher_on_an_impossible_expectation() {
         .collect();
     assert_eq!(failed, ["estimate.ate_rmse_m < 0.000001"]);
     assert_no_leftovers_and_remove(&announced_prefix(&result), &dir);
+}
+
+#[test]
+fn a_publisher_without_ground_truth_passes_on_what_needs_no_truth() {
+    let dir = folder(&prefix("test_no_truth"));
+    let (result, _) = test_python_publisher_with(&dir, "--no-truth", &["estimate.poses == 315"]);
+    assert_success(&result);
+    let stdout = String::from_utf8_lossy(&result.stdout);
+    assert!(stdout.contains("no ground truth"), "{}", output(&result));
+    let m = metrics(&dir.join("run"));
+    assert_eq!(m["ground_truth"], false, "{m}");
+    assert!(m["estimate"].get("ate_rmse_m").is_none(), "{m}");
+    // An expectation on a truth-based figure is not measured: the run fails.
+    let again = folder(&prefix("test_no_truth_ate"));
+    let (result, _) =
+        test_python_publisher_with(&again, "--no-truth", &["estimate.ate_rmse_m < 0.5"]);
+    assert_eq!(result.status.code(), Some(1), "{}", output(&result));
+    assert!(
+        output(&result).contains("not measured"),
+        "{}",
+        output(&result)
+    );
+    assert_no_leftovers_and_remove(&announced_prefix(&result), &again);
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -8,6 +8,7 @@ use crate::Metrics;
 use crate::metrics::{Alignment, ScoreAt, SmoothedMetrics};
 use crate::recording::Recording;
 use crate::reference::ReferenceMetrics;
+use crate::relations::RelationErrors;
 use anyhow::Context;
 use serde_json::Value;
 use std::fmt;
@@ -179,8 +180,9 @@ impl Expectation {
     }
 }
 
-/// metrics.json of an empty run, with the optional `reference` and `smoothed` sections:
-/// the shape every run's metrics have, numbers (or `null`) where a run has numbers.
+/// metrics.json of an empty run with ground truth, with every optional part: the
+/// `reference` and `smoothed` sections and each trajectory's `relations`. The shape every
+/// run's metrics have at most, numbers (or `null`) where a run has numbers.
 static TEMPLATE: LazyLock<Value> = LazyLock::new(|| {
     let mut m = Metrics::compute(
         &Recording::default(),
@@ -188,6 +190,19 @@ static TEMPLATE: LazyLock<Value> = LazyLock::new(|| {
         Alignment::default(),
         ScoreAt::default(),
     );
+    let relations = RelationErrors {
+        count: 0,
+        trans_mean_m: f64::NAN,
+        trans_std_m: f64::NAN,
+        trans_sq_mean_m2: f64::NAN,
+        trans_sq_std_m2: f64::NAN,
+        rot_mean_deg: f64::NAN,
+        rot_std_deg: f64::NAN,
+        rot_sq_mean_deg2: f64::NAN,
+        rot_sq_std_deg2: f64::NAN,
+    };
+    m.estimate.relations = Some(relations);
+    m.dead_reckoning.relations = Some(relations);
     m.reference = Some(ReferenceMetrics::default());
     m.smoothed = Some(SmoothedMetrics {
         trajectory: m.estimate.clone(),
@@ -214,8 +229,9 @@ pub enum Measured {
     Value(f64),
     /// `null` (NaN: nothing to measure) or not a number.
     NotANumber,
-    /// The section is absent from this run's metrics (`reference` without landmark ids,
-    /// `smoothed` without the smoothing back-end).
+    /// The field is absent from this run's metrics (`reference` without landmark ids,
+    /// `smoothed` without the smoothing back-end, `relations` without a relations file,
+    /// the truth-based errors without ground truth).
     NotMeasured,
 }
 
@@ -520,6 +536,39 @@ mod tests {
             "failed expectations: every stream ended"
         );
         assert!(Expectations::default().judge(&metrics()).passed());
+    }
+
+    #[test]
+    fn without_ground_truth_its_metrics_are_not_measured() {
+        let rec = Recording {
+            without_truth: true,
+            ..Default::default()
+        };
+        let m = Metrics::compute(&rec, true, Alignment::default(), ScoreAt::default());
+        let e = Expectations::parse(&[
+            "estimate.ate_rmse_m < 1",
+            "map.rmse_m < 1",
+            "consistency.nees_within_95 >= 0.5",
+            "estimate.relations.trans_mean_m < 0.1",
+            "smoothed.relations.rot_mean_deg < 1",
+            "estimate.poses >= 0",
+        ])
+        .unwrap();
+        let v = e.judge(&m);
+        let measured: Vec<Measured> = v.checks.iter().map(|c| c.measured).collect();
+        let mut expected = vec![Measured::NotMeasured; 5];
+        expected.push(Measured::Value(0.0));
+        assert_eq!(measured, expected);
+        assert_eq!(v.lines()[1], "✗ estimate.ate_rmse_m < 1  (not measured)");
+        let err = v.into_result().unwrap_err().to_string();
+        assert!(
+            err.starts_with("failed expectations: estimate.ate_rmse_m < 1 (not measured); "),
+            "{err}"
+        );
+        assert!(
+            Expectation::parse("estimate.relations.nonsense < 1").is_err(),
+            "relations have their fields only"
+        );
     }
 
     #[test]

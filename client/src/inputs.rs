@@ -1,6 +1,6 @@
 //! What the client and the live viewer subscribe to ([`Inputs`]), in an order that lets
-//! the stack start, the lidar's output whichever form it takes ([`Lidar`]), and when every
-//! stream has ended ([`Ends`]).
+//! the stack start, the lidar's output whichever form it takes ([`Lidar`]), whether the
+//! run has ground truth ([`TruthWait`]), and when every stream has ended ([`Ends`]).
 
 use fastslam_protocol::ipc::{Ipc, Sub, WakeSource};
 use fastslam_protocol::stream::StreamEnd;
@@ -9,13 +9,28 @@ use fastslam_protocol::{
     ObservationsHeader, OccupancyGridHeader, Odometry, Particle, ParticlesHeader, PoseEstimate,
     ServiceStatus, StreamId, TrajectoryHeader, TrajectoryPose, topics, validate,
 };
+use std::time::{Duration, Instant};
+
+/// How long a consumer waits for a ground-truth publisher when it was not told whether
+/// the run has ground truth (s).
+pub const TRUTH_WAIT_S: f64 = 5.0;
+
+/// Whether a consumer takes ground truth.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TruthWait {
+    /// Never: the run has none.
+    Off,
+    /// When the `ground_truth` topic has a publisher once the other subscriptions are
+    /// open, or gets one within this time; else the run goes on without truth.
+    Within(Duration),
+}
 
 /// A subscriber to every topic of the stack a consumer records or shows.
 pub struct Inputs {
     /// End-of-stream messages.
     pub eos: Sub<EndOfStream, ()>,
-    /// The true landmark map.
-    pub true_map: Sub<[MapLandmark], LandmarkMapHeader>,
+    /// The true landmark map (`None` without ground truth).
+    pub true_map: Option<Sub<[MapLandmark], LandmarkMapHeader>>,
     /// The service's landmark map.
     pub map: Sub<[MapLandmark], LandmarkMapHeader>,
     /// The service's occupancy grid.
@@ -30,8 +45,8 @@ pub struct Inputs {
     pub status: Sub<ServiceStatus, ()>,
     /// Raw scans or landmark observations.
     pub lidar: Lidar,
-    /// Ground truth.
-    pub truth: Sub<GroundTruth, ()>,
+    /// Ground truth (`None` without).
+    pub truth: Option<Sub<GroundTruth, ()>>,
     /// Odometry.
     pub odometry: Sub<Odometry, ()>,
     /// Pose estimates.
@@ -39,18 +54,19 @@ pub struct Inputs {
 }
 
 impl Inputs {
-    /// Subscribes to every topic, waiting for each one's publisher.
+    /// Subscribes to every topic, waiting for each one's publisher; to ground truth and
+    /// the true map only as `truth` says.
     ///
     /// # Errors
     /// IPC failures, or a timeout when a topic gets no publisher.
-    pub fn open(ipc: &Ipc) -> anyhow::Result<Self> {
+    pub fn open(ipc: &Ipc, truth: TruthWait) -> anyhow::Result<Self> {
         // A producer starts once the subscribers of one topic are there (truth simulator:
         // ground truth; odometry: odometry; lidar: its scans or observations; service: pose),
         // and a short run may be over before a later subscription exists: end-of-stream and
-        // each producer's other topics come before the topic it waits on.
+        // each producer's other topics come before the topic it waits on. Ground truth comes
+        // last: nothing is published before it has its subscribers (the sensor simulators
+        // relay the truth; the replay waits for the truth's subscribers too).
         let eos = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
-        let true_map =
-            ipc.slice_subscriber::<LandmarkMapHeader, MapLandmark>(&topics::TRUE_LANDMARKS)?;
         let map = ipc.slice_subscriber::<LandmarkMapHeader, MapLandmark>(&topics::MAP)?;
         let grid = ipc.slice_subscriber::<OccupancyGridHeader, i8>(&topics::GRID)?;
         let smoothed =
@@ -60,9 +76,16 @@ impl Inputs {
         let particles = ipc.slice_subscriber::<ParticlesHeader, Particle>(&topics::PARTICLES)?;
         let status = ipc.subscriber::<ServiceStatus>(&topics::STATUS)?;
         let lidar = Lidar::open(ipc)?;
-        let truth = ipc.subscriber::<GroundTruth>(&topics::GROUND_TRUTH)?;
         let odometry = ipc.subscriber::<Odometry>(&topics::ODOMETRY)?;
         let pose = ipc.subscriber::<PoseEstimate>(&topics::POSE)?;
+        let (true_map, truth) = if has_truth(ipc, truth)? {
+            (
+                Some(ipc.slice_subscriber(&topics::TRUE_LANDMARKS)?),
+                Some(ipc.subscriber::<GroundTruth>(&topics::GROUND_TRUTH)?),
+            )
+        } else {
+            (None, None)
+        };
         Ok(Self {
             eos,
             true_map,
@@ -80,9 +103,10 @@ impl Inputs {
     }
 
     /// Every subscriber, to wake on.
-    pub fn sources(&self) -> [&dyn WakeSource; 12] {
-        [
-            &self.truth,
+    pub fn sources(&self) -> Vec<&dyn WakeSource> {
+        let truth = self.truth.as_ref().map(|s| s as &dyn WakeSource);
+        let true_map = self.true_map.as_ref().map(|s| s as &dyn WakeSource);
+        let rest: [&dyn WakeSource; 10] = [
             &self.odometry,
             self.lidar.source(),
             &self.status,
@@ -92,32 +116,61 @@ impl Inputs {
             &self.smoothed_map,
             &self.particles,
             &self.pose,
-            &self.true_map,
             &self.eos,
-        ]
+        ];
+        truth.into_iter().chain(rest).chain(true_map).collect()
+    }
+
+    /// True when the run has ground truth (its topic is subscribed to).
+    pub fn ground_truth(&self) -> bool {
+        self.truth.is_some()
     }
 }
 
+/// Whether to take ground truth, as `wait` says: for [`TruthWait::Within`], whether the
+/// topic has a publisher or gets one in time (logging one line when it does not).
+fn has_truth(ipc: &Ipc, wait: TruthWait) -> anyhow::Result<bool> {
+    let TruthWait::Within(within) = wait else {
+        return Ok(false);
+    };
+    let publishers = ipc.publisher_probe::<GroundTruth, ()>(&topics::GROUND_TRUTH)?;
+    let start = Instant::now();
+    while publishers() == 0 {
+        if start.elapsed() >= within {
+            tracing::info!(
+                waited_s = within.as_secs_f64(),
+                "no ground truth: the ground_truth topic has no publisher; going on without it"
+            );
+            return Ok(false);
+        }
+        ipc.sleep(Duration::from_millis(2))?;
+    }
+    Ok(true)
+}
+
 /// The streams a consumer takes until they end, each with its end bookkeeping.
-pub struct Ends([(StreamId, StreamEnd); 10]);
+pub struct Ends(Vec<(StreamId, StreamEnd)>);
 
 impl Ends {
-    /// The stack's streams, with `lidar` (scans or observations) as the lidar's.
-    pub fn new(lidar: StreamId) -> Self {
+    /// The stack's streams, with `lidar` (scans or observations) as the lidar's; ground
+    /// truth among them when `truth`.
+    pub fn new(lidar: StreamId, truth: bool) -> Self {
+        let truth = truth.then_some(StreamId::GroundTruth);
         Self(
-            [
-                StreamId::GroundTruth,
-                StreamId::Odometry,
-                lidar,
-                StreamId::Pose,
-                StreamId::Map,
-                StreamId::Grid,
-                StreamId::SmoothedTrajectory,
-                StreamId::SmoothedMap,
-                StreamId::Particles,
-                StreamId::Status,
-            ]
-            .map(|id| (id, StreamEnd::default())),
+            (truth.into_iter())
+                .chain([
+                    StreamId::Odometry,
+                    lidar,
+                    StreamId::Pose,
+                    StreamId::Map,
+                    StreamId::Grid,
+                    StreamId::SmoothedTrajectory,
+                    StreamId::SmoothedMap,
+                    StreamId::Particles,
+                    StreamId::Status,
+                ])
+                .map(|id| (id, StreamEnd::default()))
+                .collect(),
         )
     }
 

@@ -313,15 +313,17 @@ impl TrajectoryPlot<'_> {
                     PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
                 });
         }
-        chart
-            .draw_series(
-                self.true_map
-                    .iter()
-                    .map(|l| Cross::new((l.x, l.y), 5, TRUTH.stroke_width(2))),
-            )
-            .map_err(text)?
-            .label("true landmark")
-            .legend(|(x, y)| Cross::new((x + 10, y), 5, TRUTH.stroke_width(2)));
+        if !self.true_map.is_empty() {
+            chart
+                .draw_series(
+                    self.true_map
+                        .iter()
+                        .map(|l| Cross::new((l.x, l.y), 5, TRUTH.stroke_width(2))),
+                )
+                .map_err(text)?
+                .label("true landmark")
+                .legend(|(x, y)| Cross::new((x + 10, y), 5, TRUTH.stroke_width(2)));
+        }
         chart
             .draw_series(
                 self.map
@@ -424,7 +426,8 @@ impl Picture for ErrorPlot<'_> {
             (0.0..t_end, 0.0..e_max * 1.05),
             ("time (s)", "position error (m)"),
         )?;
-        for (points, style, label) in errors {
+        // A run without ground truth has no errors: only the filter's own bound.
+        for (points, style, label) in errors.into_iter().filter(|e| !e.0.is_empty()) {
             chart
                 .draw_series(LineSeries::new(points, style))
                 .map_err(text)?
@@ -434,7 +437,12 @@ impl Picture for ErrorPlot<'_> {
         legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
 
         // NEES spans many decades when the filter is over-confident: log scale, clamped.
-        let nees = series(&|r| r.nees.max(1e-6));
+        // Without ground truth no step has a NEES: no series at all.
+        let nees = if self.rows.iter().any(|r| r.nees.is_finite()) {
+            series(&|r| r.nees.max(1e-6))
+        } else {
+            Vec::new()
+        };
         let n_max = nees.iter().map(|p| p.1).fold(CHI2_3_95 * 2.0, f64::max);
         let n_min = nees.iter().map(|p| p.1).fold(0.1, f64::min);
         let mut chart = new_chart_with(
@@ -461,11 +469,15 @@ impl Picture for ErrorPlot<'_> {
                 band.stroke_width(1),
             ))
             .map_err(text)?;
-        chart
-            .draw_series(LineSeries::new(nees, ESTIMATE.stroke_width(1)))
-            .map_err(text)?
-            .label("NEES")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], ESTIMATE.stroke_width(2)));
+        if !nees.is_empty() {
+            chart
+                .draw_series(LineSeries::new(nees, ESTIMATE.stroke_width(1)))
+                .map_err(text)?
+                .label("NEES")
+                .legend(|(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], ESTIMATE.stroke_width(2))
+                });
+        }
         legend(&mut chart, SeriesLabelPosition::UpperLeft)
     }
 }

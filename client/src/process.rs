@@ -3,12 +3,13 @@
 //! line on stdout a few times a second (see [`crate::progress`]).
 
 use crate::expect::JudgeArgs;
-use crate::inputs::{Ends, Inputs, LidarMessage};
+use crate::inputs::{Ends, Inputs, LidarMessage, TRUTH_WAIT_S, TruthWait};
 use crate::latency::LatencyMatcher;
 use crate::mcap::RunMcap;
 use crate::metrics::{AlignMode, ScoreAt, fit_alignment, interpolate, scored_at};
 use crate::progress::{LiveAte, Progress};
 use crate::reference::NoiseModel;
+use crate::relations::{Relation, read_relations};
 use crate::resources::ProcessMonitor;
 use crate::{Metrics, Recording, report};
 use fastslam_protocol::ipc::{Ended, Flow, Ipc};
@@ -16,16 +17,17 @@ use fastslam_protocol::stream::Repeats;
 use fastslam_protocol::{StreamId, cli, validate};
 use fastslam_service::config::ServiceConfig;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 /// How often the client prints a progress line and samples the processes' CPU and memory.
 const SAMPLE_EVERY: Duration = Duration::from_millis(200);
 
 /// What `--help` says about this process.
-pub const ABOUT: &str = "Metrics client: records ground truth, odometry, pose estimates, maps and the \
-occupancy grid from the stack and, when every stream has ended, writes a run folder scored against \
-ground truth; with `--expect`, it then judges the run.";
+pub const ABOUT: &str = "Metrics client: records ground truth (when the run has it), odometry, pose \
+estimates, maps and the occupancy grid from the stack and, when every stream has ended, writes a \
+run folder scored against ground truth and, with `--relations`, against a relations file; with \
+`--expect`, it then judges the run.";
 
 /// Flags of the client.
 #[derive(Debug, Clone, clap::Args)]
@@ -42,6 +44,24 @@ pub struct Args {
     /// How to wait for the stack's topics.
     #[command(flatten)]
     pub wait: cli::WaitArgs,
+    /// The run has no ground truth: do not subscribe to `ground_truth` nor
+    /// `truth/landmarks`; metrics.json then has only what needs no truth.
+    #[arg(long)]
+    pub no_truth: bool,
+    /// Without `--no-truth`: when the `ground_truth` topic has no publisher once the other
+    /// subscriptions are open, wait this many seconds for one, then record without ground
+    /// truth (saying so in the log).
+    #[arg(long, default_value_t = TRUTH_WAIT_S, value_name = "SECONDS")]
+    pub truth_wait_s: f64,
+    /// A relations file (`t1 t2 x y z roll pitch yaw` per line, times on the data set's
+    /// clock): the estimate, the smoothed trajectory and dead reckoning are also scored by
+    /// their relative motions against it (metrics.json `relations`). Read at start-up.
+    #[arg(long, value_name = "FILE")]
+    pub relations: Option<PathBuf>,
+    /// The data set's epoch on the relations' clock (s): stamps on the wire are
+    /// nanoseconds since it.
+    #[arg(long, default_value_t = 0.0, value_name = "SECONDS")]
+    pub relations_epoch_s: f64,
     /// Align the estimate with the truth before scoring: none (simulation: the map frame
     /// is the true frame) or se2 (external data: least-squares rigid alignment).
     #[arg(long, value_enum, default_value_t = AlignMode::None)]
@@ -67,6 +87,7 @@ pub struct Args {
 /// IPC failures or a run folder that cannot be written.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let expectations = args.judge.expectations()?;
+    let relations = args.relations.as_deref().map(load_relations).transpose()?;
     let noise = (args.service_config.as_deref())
         .map(|path| {
             anyhow::Ok(NoiseModel::of(
@@ -81,7 +102,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     )?
     .busy_polling(args.wait.busy_poll)
     .spinning(args.wait.spin());
-    let inputs = Inputs::open(&ipc)?;
+    let truth_wait = if args.no_truth {
+        TruthWait::Off
+    } else {
+        TruthWait::Within(Duration::from_secs_f64(args.truth_wait_s.max(0.0)))
+    };
+    let inputs = Inputs::open(&ipc, truth_wait)?;
     let Inputs {
         eos,
         true_map,
@@ -96,12 +122,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         odometry,
         pose,
     } = &inputs;
-    tracing::info!(lidar = ?lidar.stream(), "recording");
+    tracing::info!(lidar = ?lidar.stream(), ground_truth = truth.is_some(), "recording");
 
     std::fs::create_dir_all(&args.out)?;
     let mut mcap = RunMcap::create(&args.out.join(report::files::MCAP))?;
-    let mut rec = Recording::default();
-    let mut ends = Ends::new(lidar.stream());
+    let mut rec = Recording {
+        without_truth: truth.is_none(),
+        ..Recording::default()
+    };
+    let mut ends = Ends::new(lidar.stream(), truth.is_some());
     let mut seen = Repeats::default();
     let mut latency = LatencyMatcher::default();
     let mut monitor = ProcessMonitor::new();
@@ -111,13 +140,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let ended = ipc.wake_loop::<anyhow::Error>(&inputs.sources(), Some(SAMPLE_EVERY), || {
         // Truth before poses, observations before poses: a pose's truth and observation
         // were published before it, so they are in by the time the pose is.
-        truth.drain(|s| {
-            ends.saw(StreamId::GroundTruth, s.header.seq);
-            accept(validate::ground_truth(s.payload()), "ground truth", || {
-                rec.add_truth(s.payload());
-                mcap.truth(s.payload());
-            });
-        })?;
+        if let Some(truth) = truth {
+            truth.drain(|s| {
+                ends.saw(StreamId::GroundTruth, s.header.seq);
+                accept(validate::ground_truth(s.payload()), "ground truth", || {
+                    rec.add_truth(s.payload());
+                    mcap.truth(s.payload());
+                });
+            })?;
+        }
         odometry.drain(|s| {
             if !seen.fresh(StreamId::Odometry, s.header) {
                 return;
@@ -230,16 +261,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 || mcap.particles(s.user_header(), s.payload()),
             );
         })?;
-        true_map.drain(|s| {
-            accept(
-                validate::landmark_map(s.user_header(), s.payload()),
-                "true map",
-                || {
-                    rec.true_map = s.payload().to_vec();
-                    mcap.true_map(s.user_header(), s.payload());
-                },
-            );
-        })?;
+        if let Some(true_map) = true_map {
+            true_map.drain(|s| {
+                accept(
+                    validate::landmark_map(s.user_header(), s.payload()),
+                    "true map",
+                    || {
+                        rec.true_map = s.payload().to_vec();
+                        mcap.true_map(s.user_header(), s.payload());
+                    },
+                );
+            })?;
+        }
         let mut announced = false;
         eos.drain(|s| announced |= ends.announce(s.payload()))?;
         // A publisher that announced its end has done its work: sample its CPU time now,
@@ -272,6 +305,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut rec = alignment.apply(&rec);
     let mut metrics = Metrics::compute(&rec, ended == Ended::Done, alignment, args.score_at)
         .with_smoothed(&mut rec);
+    if let Some(relations) = &relations {
+        metrics = metrics.with_relations(&rec, relations, args.relations_epoch_s);
+        if metrics.estimate.relations.is_none() && !rec.estimates.is_empty() {
+            tracing::warn!(
+                relations = relations.len(),
+                epoch_s = args.relations_epoch_s,
+                "no relation has estimates within 0.1 s of both its times: is \
+                 --relations-epoch-s the data set's epoch?"
+            );
+        }
+    }
     if let Some(noise) = &noise {
         metrics = metrics.with_reference(&mut rec, noise);
     }
@@ -279,7 +323,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     mcap.finish(&metrics)?;
     tracing::info!(
         folder = %args.out.display(), complete = metrics.complete,
-        ate_m = metrics.estimate.ate_rmse_m, landmark_rmse_m = metrics.map.rmse_m,
+        ground_truth = metrics.ground_truth, ate_m = metrics.estimate.ate_rmse_m,
+        landmark_rmse_m = metrics.map.rmse_m,
+        relations_trans_m = metrics.estimate.relations.map(|r| r.trans_mean_m),
         "run folder written"
     );
     metrics.require_a_pose(&args.out)?;
@@ -299,6 +345,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         verdict.into_result()?;
     }
     Ok(())
+}
+
+/// The relations of the file at `path`, checked before the run starts.
+///
+/// # Errors
+/// The file and line of what is wrong with it, or a file without a relation.
+fn load_relations(path: &Path) -> anyhow::Result<Vec<Relation>> {
+    let relations = read_relations(path)?;
+    anyhow::ensure!(
+        !relations.is_empty(),
+        "{}: no relation in the file",
+        path.display()
+    );
+    Ok(relations)
 }
 
 /// Prints a progress line on stdout. A reader that went away (closed pipe) is not an

@@ -54,6 +54,9 @@ pub struct Sightings {
 pub struct Recording {
     /// Ground truth, one per control period.
     pub truth: Vec<StampedPose>,
+    /// The run had no ground truth (the client did not subscribe to it): nothing is
+    /// scored against truth (see [`crate::Metrics::ground_truth`]).
+    pub without_truth: bool,
     /// Dead-reckoned poses from the odometry messages.
     pub dead_reckoning: Vec<StampedPose>,
     /// The controls of the odometry messages.
@@ -155,6 +158,7 @@ impl Recording {
                 v: m.v,
                 omega: m.omega,
                 steering: m.steering,
+                ..Control::ZERO
             },
         });
     }

@@ -12,8 +12,8 @@
 //! dead reckoning.
 
 use crate::align::Se2;
-use crate::metrics::{AlignMode, ScoreAt, TrajectoryMetrics, fit_se2, interpolate, trajectory};
 use crate::recording::{Recording, StampedPose};
+use crate::scoring::{AlignMode, ScoreAt, TrajectoryMetrics, fit_se2, interpolate, trajectory};
 use fastslam_estimation::graph::{Feed, KernelKind, Smoother, SmootherConfig, SolveOptions};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -199,6 +199,7 @@ mod tests {
             v: 1.0,
             omega: 0.1,
             steering: 0.0,
+            ..Control::ZERO
         };
         let mut rec = Recording::default();
         let mut x = Pose2::default();
@@ -217,6 +218,7 @@ mod tests {
                 v: control.v + 0.1 * normal(),
                 omega: control.omega + 0.05 * normal(),
                 steering: 0.0,
+                ..Control::ZERO
             };
             rec.controls.push(StampedControl {
                 stamp_ns,

@@ -18,7 +18,7 @@ pub mod files {
     pub const METRICS: &str = "metrics.json";
     /// The service's estimates, TUM format.
     pub const ESTIMATE_TUM: &str = "estimate.tum";
-    /// Ground truth, TUM format.
+    /// Ground truth, TUM format (only when the run has ground truth).
     pub const TRUTH_TUM: &str = "truth.tum";
     /// Dead-reckoned odometry, TUM format.
     pub const DEAD_RECKONING_TUM: &str = "dead_reckoning.tum";
@@ -30,7 +30,7 @@ pub mod files {
     pub const SMOOTHED_MAP_CSV: &str = "smoothed_map.csv";
     /// The service's final landmark map.
     pub const MAP_CSV: &str = "map.csv";
-    /// The true landmark map.
+    /// The true landmark map (only when the run has ground truth).
     pub const TRUE_MAP_CSV: &str = "true_map.csv";
     /// One row per estimate (see [`crate::timeline`]).
     pub const METRICS_CSV: &str = "metrics.csv";
@@ -42,7 +42,8 @@ pub mod files {
     pub const MCAP: &str = "run.mcap";
 }
 
-/// Writes the run folder `dir` (created if needed).
+/// Writes the run folder `dir` (created if needed); without ground truth, without the
+/// files of the truth.
 ///
 /// # Errors
 /// When a file cannot be written.
@@ -52,7 +53,9 @@ pub fn write(dir: &Path, rec: &Recording, metrics: &Metrics) -> std::io::Result<
     fs::write(dir.join(files::METRICS), json + "\n")?;
     let estimates: Vec<StampedPose> = rec.estimates.iter().map(|e| e.pose).collect();
     write_tum(&dir.join(files::ESTIMATE_TUM), &estimates)?;
-    write_tum(&dir.join(files::TRUTH_TUM), &rec.truth)?;
+    if !rec.without_truth {
+        write_tum(&dir.join(files::TRUTH_TUM), &rec.truth)?;
+    }
     write_tum(&dir.join(files::DEAD_RECKONING_TUM), &rec.dead_reckoning)?;
     if !rec.reference.is_empty() {
         write_tum(&dir.join(files::REFERENCE_TUM), &rec.reference)?;
@@ -62,7 +65,9 @@ pub fn write(dir: &Path, rec: &Recording, metrics: &Metrics) -> std::io::Result<
         write_map(&dir.join(files::SMOOTHED_MAP_CSV), &rec.smoothed_map)?;
     }
     write_map(&dir.join(files::MAP_CSV), &rec.map)?;
-    write_map(&dir.join(files::TRUE_MAP_CSV), &rec.true_map)?;
+    if !rec.without_truth {
+        write_map(&dir.join(files::TRUE_MAP_CSV), &rec.true_map)?;
+    }
     if let Some((header, cells)) = &rec.grid {
         crate::occupancy::write(dir, header, cells)?;
     }

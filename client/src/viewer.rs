@@ -12,7 +12,7 @@
 //! messages rather than block. It exits once every stream of the stack has ended.
 
 use crate::foxglove_log::RunLog;
-use crate::inputs::{Ends, Inputs, Lidar};
+use crate::inputs::{Ends, Inputs, Lidar, TRUTH_WAIT_S, TruthWait};
 use fastslam_protocol::ipc::{Flow, Ipc, Received, Sub};
 use fastslam_protocol::{
     GroundTruth, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation, ObservationsHeader,
@@ -80,9 +80,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "viewer",
         Duration::from_secs_f64(args.wait_timeout_s.max(0.0)),
     )?;
-    let inputs = Inputs::open(&ipc)?;
+    let truth = TruthWait::Within(Duration::from_secs_f64(TRUTH_WAIT_S));
+    let inputs = Inputs::open(&ipc, truth)?;
     let mut newest = Newest::default();
-    let mut ends = Ends::new(inputs.lidar.stream());
+    let mut ends = Ends::new(inputs.lidar.stream(), inputs.ground_truth());
     let mut published = Instant::now();
     let mut resent = Instant::now();
     ipc.wake_loop::<anyhow::Error>(&inputs.sources(), Some(PUBLISH_EVERY), || {
@@ -184,12 +185,14 @@ impl Newest {
             odometry,
             pose,
         } = inputs;
-        truth.drain(|s| {
-            ends.saw(StreamId::GroundTruth, s.header.seq);
-            if validate::ground_truth(s.payload()).is_ok() {
-                self.truth.keep(*s.payload());
-            }
-        })?;
+        if let Some(truth) = truth {
+            truth.drain(|s| {
+                ends.saw(StreamId::GroundTruth, s.header.seq);
+                if validate::ground_truth(s.payload()).is_ok() {
+                    self.truth.keep(*s.payload());
+                }
+            })?;
+        }
         odometry.drain(|s| {
             ends.saw(StreamId::Odometry, s.header.seq);
             if validate::odometry(s.payload()).is_ok() {
@@ -250,11 +253,13 @@ impl Newest {
             validate::particles,
             |h, p| self.particles.keep_slice(*h, p),
         )?;
-        true_map.drain(|s| {
-            if validate::landmark_map(s.user_header(), s.payload()).is_ok() {
-                self.true_map.keep_slice(*s.user_header(), s.payload());
-            }
-        })?;
+        if let Some(true_map) = true_map {
+            true_map.drain(|s| {
+                if validate::landmark_map(s.user_header(), s.payload()).is_ok() {
+                    self.true_map.keep_slice(*s.user_header(), s.payload());
+                }
+            })?;
+        }
         eos.drain(|s| {
             ends.announce(s.payload());
         })?;

@@ -121,6 +121,9 @@ def main():
                              "subscribers (the client and any outside reader, such as "
                              "subscriber.py), so none of them misses the first poses")
     parser.add_argument("--unknown-ids", action="store_true", help="publish ids as -1")
+    parser.add_argument("--no-truth", action="store_true",
+                        help="publish no ground truth (as a real robot): the client then "
+                             "scores what needs no truth")
     args = parser.parse_args()
     random.seed(args.seed)
 
@@ -132,9 +135,11 @@ def main():
     name = iox.NodeName.new("python-publisher")
     node = iox.NodeBuilder.new().name(name).config(config).create(iox.ServiceType.Ipc)
 
-    truth = Port(node, args.prefix, fp.GROUND_TRUTH, fp.GroundTruth)
-    landmarks = Port(node, args.prefix, fp.TRUTH_LANDMARKS, iox.Slice[fp.MapLandmark],
-                     fp.LandmarkMapHeader)
+    truth = landmarks = None
+    if not args.no_truth:
+        truth = Port(node, args.prefix, fp.GROUND_TRUTH, fp.GroundTruth)
+        landmarks = Port(node, args.prefix, fp.TRUTH_LANDMARKS, iox.Slice[fp.MapLandmark],
+                         fp.LandmarkMapHeader)
     odometry = Port(node, args.prefix, fp.ODOMETRY, fp.Odometry)
     observations = Port(node, args.prefix, fp.OBSERVATIONS, iox.Slice[fp.Observation],
                         fp.ObservationsHeader)
@@ -145,7 +150,8 @@ def main():
     # that is still starting).
     while (odometry.subscribers() < args.wait_subscribers
            or observations.subscribers() < args.wait_subscribers
-           or truth.subscribers() < min(args.wait_subscribers - 1, 1)):
+           or (truth is not None
+               and truth.subscribers() < min(args.wait_subscribers - 1, 1))):
         node.wait(iox.Duration.from_millis(5))
     if args.wait_pose_subscribers > 0:
         pose = (node.service_builder(iox.ServiceName.new(f"{args.prefix}/{fp.POSE.name}"))
@@ -161,7 +167,8 @@ def main():
 
     true_map = [fp.MapLandmark(id=k, x=x, y=y) for k, (x, y) in enumerate(LANDMARKS)]
     map_header = fp.LandmarkMapHeader(header=fp.Header(0, 0), count=len(true_map))
-    landmarks.send_slice(map_header, true_map)
+    if landmarks is not None:
+        landmarks.send_slice(map_header, true_map)
 
     dt = 1.0 / ODOMETRY_HZ
     omega = SPEED_MPS / RADIUS_M
@@ -180,8 +187,9 @@ def main():
             dx += v_m * dt * math.cos(dtheta)
             dy += v_m * dt * math.sin(dtheta)
             dtheta += w_m * dt
-        truth.send(fp.GroundTruth(header=fp.Header(stamp_ns, k), x=x, y=y, theta=theta,
-                                  v=SPEED_MPS, omega=omega, steering=0.0))
+        if truth is not None:
+            truth.send(fp.GroundTruth(header=fp.Header(stamp_ns, k), x=x, y=y, theta=theta,
+                                      v=SPEED_MPS, omega=omega, steering=0.0))
         odometry.send(fp.Odometry(header=fp.Header(stamp_ns, k), v=v_m, omega=w_m,
                                   steering=0.0, x=dx, y=dy, theta=dtheta))
         if k > 0 and k % OBSERVE_EVERY == 0:
@@ -192,16 +200,19 @@ def main():
                                            max_bearing=HALF_FOV)
             observations.send_slice(header, seen)
 
-    map_header.header = fp.Header(truth.last.stamp_ns, 1)
-    landmarks.send_slice(map_header, true_map)
-    for port, stream in ((truth, fp.STREAM_GROUND_TRUTH), (odometry, fp.STREAM_ODOMETRY),
-                         (observations, fp.STREAM_OBSERVATIONS)):
+    ends = [(odometry, fp.STREAM_ODOMETRY), (observations, fp.STREAM_OBSERVATIONS)]
+    if truth is not None:
+        map_header.header = fp.Header(truth.last.stamp_ns, 1)
+        landmarks.send_slice(map_header, true_map)
+        ends.insert(0, (truth, fp.STREAM_GROUND_TRUTH))
+    for port, stream in ends:
         eos.send(fp.EndOfStream(header=port.last, stream=stream))
     # Slice samples live in this process's shared memory until they are received: stay
     # until the subscribers have taken everything and left (at most 60 s), or the last
     # scans would be lost with this process.
     for _ in range(12000):
-        if observations.subscribers() == 0 and landmarks.subscribers() == 0:
+        if observations.subscribers() == 0 and (landmarks is None
+                                                 or landmarks.subscribers() == 0):
             break
         node.wait(iox.Duration.from_millis(5))
     print(f"published {steps + 1} odometry messages and {observations.last.seq + 1} scans")

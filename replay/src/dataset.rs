@@ -39,6 +39,12 @@ pub struct DataSet {
     pub truth: Vec<GroundTruth>,
     /// True landmark positions for map metrics; empty when the data set has none.
     pub landmarks: Vec<MapLandmark>,
+    /// The laser's pose in the robot's base frame (REP-103: x forward, y left); the
+    /// identity when the laser sits at the base's origin.
+    pub laser_mount: Pose2,
+    /// The data set's epoch on its own clock (s): stamp 0 is this time, so a file on the
+    /// original clock (a relations file in Unix time) can be matched to the stamps.
+    pub epoch_s: f64,
 }
 
 /// One scan's observations as they go on the wire.
@@ -284,6 +290,7 @@ mod tests {
             v,
             omega,
             steering: 0.0,
+            ..Control::ZERO
         };
         let records = [
             (10.0, u(1.0, 0.0)),

@@ -90,7 +90,15 @@ pub fn load(dir: &Path, options: &Options) -> Result<DataSet> {
         .map(|row| {
             let [t, v, omega] = row.values;
             let steering = 0.0;
-            (t, Control { v, omega, steering })
+            (
+                t,
+                Control {
+                    v,
+                    omega,
+                    steering,
+                    ..Control::ZERO
+                },
+            )
         })
         .collect();
     let model = MotionModel::Unicycle(Unicycle::default());
@@ -105,6 +113,8 @@ pub fn load(dir: &Path, options: &Options) -> Result<DataSet> {
         })),
         landmarks: true_map(&landmarks, &frame)?,
         raw_scans: Vec::new(),
+        laser_mount: Pose2::default(),
+        epoch_s: clock.epoch_s(),
     };
     tracing::info!(
         robot = r,

@@ -28,11 +28,18 @@ pub enum Pacing {
 
 /// The player's output ports.
 struct Outputs {
-    truth: Pub<GroundTruth, ()>,
-    landmarks: Pub<[MapLandmark], LandmarkMapHeader>,
+    /// Ground truth and the true map: `None` for a recording without truth, whose client
+    /// runs with `--no-truth` and takes neither topic.
+    truth: Option<Truth>,
     odometry: Pub<Odometry, ()>,
     laser: Laser,
     eos: Pub<EndOfStream, ()>,
+}
+
+/// The ground-truth ports.
+struct Truth {
+    poses: Pub<GroundTruth, ()>,
+    landmarks: Pub<[MapLandmark], LandmarkMapHeader>,
 }
 
 /// The laser's port: observations or raw scans, whichever the data set holds.
@@ -77,7 +84,8 @@ pub fn schedule(data: &DataSet) -> Vec<(u64, Next)> {
 }
 
 /// Opens the player's publishers, waits for its consumers, then plays `data`: its raw
-/// scans on `scan` where it has any, else its observations on `observations`.
+/// scans on `scan` where it has any, else its observations on `observations`; ground
+/// truth and the true map only when the data set has any (a user's recording has none).
 ///
 /// `consumers` counts the processes that take the sensor streams: 1 = the service alone,
 /// 2 = the service and the client, 3 = also the live viewer. Play starts once odometry
@@ -91,9 +99,15 @@ pub fn schedule(data: &DataSet) -> Vec<(u64, Next)> {
 /// # Errors
 /// IPC failures, a timeout waiting for consumers, or a shutdown signal.
 pub fn play(ipc: &Ipc, data: &DataSet, pacing: Pacing, consumers: usize) -> Result<(), IpcError> {
+    let has_truth = !(data.truth.is_empty() && data.landmarks.is_empty());
     let out = Outputs {
-        truth: ipc.publisher(&topics::GROUND_TRUTH)?,
-        landmarks: ipc.slice_publisher(&topics::TRUE_LANDMARKS)?,
+        truth: match has_truth {
+            true => Some(Truth {
+                poses: ipc.publisher(&topics::GROUND_TRUTH)?,
+                landmarks: ipc.slice_publisher(&topics::TRUE_LANDMARKS)?,
+            }),
+            false => None,
+        },
         odometry: ipc.publisher(&topics::ODOMETRY)?,
         laser: if data.raw_scans.is_empty() {
             Laser::Observations(ipc.slice_publisher(&topics::OBSERVATIONS)?)
@@ -107,8 +121,11 @@ pub fn play(ipc: &Ipc, data: &DataSet, pacing: Pacing, consumers: usize) -> Resu
         Laser::Observations(p) => p.wait_for_subscribers(ipc, consumers)?,
         Laser::Scans(p) => p.wait_for_subscribers(ipc, consumers)?,
     }
-    out.truth
-        .wait_for_subscribers(ipc, consumers.saturating_sub(1))?;
+    if let Some(truth) = &out.truth {
+        truth
+            .poses
+            .wait_for_subscribers(ipc, consumers.saturating_sub(1))?;
+    }
     let order = schedule(data);
     let first_ns = order.first().map_or(0, |(stamp, _)| *stamp);
     let send_map = |stamp_ns: u64, seq: u64| {
@@ -117,7 +134,10 @@ pub fn play(ipc: &Ipc, data: &DataSet, pacing: Pacing, consumers: usize) -> Resu
             count: data.landmarks.len() as u32,
             reserved: 0,
         };
-        out.landmarks.send(header, &data.landmarks)
+        match &out.truth {
+            Some(truth) => truth.landmarks.send(header, &data.landmarks),
+            None => Ok(()),
+        }
     };
     send_map(first_ns, 0)?;
     tracing::info!(messages = order.len(), ?pacing, "playing");
@@ -132,7 +152,11 @@ pub fn play(ipc: &Ipc, data: &DataSet, pacing: Pacing, consumers: usize) -> Resu
             Pacing::AsFastAsPossible => {}
         }
         match (*next, &out.laser) {
-            (Next::Truth(i), _) => out.truth.send(data.truth[i])?,
+            (Next::Truth(i), _) => {
+                if let Some(truth) = &out.truth {
+                    truth.poses.send(data.truth[i])?;
+                }
+            }
             (Next::Odometry(i), _) => out.odometry.send(data.odometry[i])?,
             (Next::Scan(i), Laser::Observations(p)) => {
                 let scan = &data.scans[i];
@@ -158,11 +182,15 @@ pub fn play(ipc: &Ipc, data: &DataSet, pacing: Pacing, consumers: usize) -> Resu
             data.raw_scans.last().map(|s| s.header.header),
         ),
     };
-    for (stream, last) in [
-        (StreamId::GroundTruth, data.truth.last().map(|m| m.header)),
+    let truth_end = (StreamId::GroundTruth, data.truth.last().map(|m| m.header));
+    let sensors = [
         (StreamId::Odometry, data.odometry.last().map(|m| m.header)),
         laser,
-    ] {
+    ];
+    for (stream, last) in (out.truth.is_some().then_some(truth_end))
+        .into_iter()
+        .chain(sensors)
+    {
         out.eos.send(EndOfStream::new(stream, last))?;
     }
     tracing::info!(
@@ -203,8 +231,7 @@ mod tests {
                     ..Default::default()
                 })
                 .to_vec(),
-            landmarks: vec![],
-            raw_scans: vec![],
+            ..DataSet::default()
         };
         let order: Vec<Next> = schedule(&data).into_iter().map(|(_, n)| n).collect();
         let (t, o, s) = (Next::Truth, Next::Odometry, Next::Scan);

@@ -17,6 +17,10 @@ pub const BUILT_IN: &[(&str, &str)] = &[
         "victoria-park-scans",
         include_str!("../profiles/victoria-park-scans.toml"),
     ),
+    (
+        "planar-laser",
+        include_str!("../profiles/planar-laser.toml"),
+    ),
 ];
 
 /// What can be wrong with a profile.

@@ -40,6 +40,18 @@ pub enum DataError {
     /// The files parse but do not make a usable data set (no odometry, unknown robot…).
     #[error("{0}")]
     Unusable(String),
+    /// One message of a recorded bag does not decode, or holds values no sensor reports.
+    #[error("{path}: {topic} message {index}: {reason}")]
+    Message {
+        /// The storage file holding the message.
+        path: PathBuf,
+        /// The message's topic.
+        topic: String,
+        /// The message's position on its topic, from 0, in the bag's storage order.
+        index: usize,
+        /// What is wrong with it.
+        reason: String,
+    },
 }
 
 /// Result alias of the data-set readers.

@@ -83,6 +83,7 @@ pub fn laser_controls(v_e: f64, gamma: f64) -> Control {
         v: v_c * forward.hypot(sideways),
         omega: v_c * tan / WHEELBASE_M,
         steering: sideways.atan2(forward),
+        ..Control::ZERO
     }
 }
 
@@ -149,6 +150,8 @@ pub fn load(dir: &Path, sensor: &SensorSpec) -> Result<DataSet> {
         raw_scans,
         truth,
         landmarks: Vec::new(),
+        laser_mount: Pose2::default(),
+        epoch_s: clock.epoch_s(),
     };
     tracing::info!(
         epoch_s = clock.epoch_s(),

@@ -252,6 +252,21 @@ const RUN_COLUMNS: [(&str, Field); 15] = [
     ("latency_p99_ms", |m| m.cost.latency_ms.p99),
 ];
 
+/// The relation columns of `runs.csv`, after `run_folder` (empty for a run without
+/// relations): the estimate's mean and standard deviation of the translational relation
+/// error (m) and its mean rotational error (°).
+const RELATION_COLUMNS: [(&str, Field); 3] = [
+    ("relations_trans_mean_m", |m| {
+        m.estimate.relations.map_or(f64::NAN, |r| r.trans_mean_m)
+    }),
+    ("relations_trans_std_m", |m| {
+        m.estimate.relations.map_or(f64::NAN, |r| r.trans_std_m)
+    }),
+    ("relations_rot_mean_deg", |m| {
+        m.estimate.relations.map_or(f64::NAN, |r| r.rot_mean_deg)
+    }),
+];
+
 /// Runs the comparison, or the slice of it `--shard` names, or joins slices
 /// (`--merge`); returns the exit code (0 all runs finished, 1 some failed, 130
 /// interrupted).
@@ -490,7 +505,11 @@ fn write_tables(
     for (name, _) in RUN_COLUMNS {
         write!(csv, ",{name}").ok();
     }
-    csv.push_str(",run_folder\n");
+    csv.push_str(",run_folder");
+    for (name, _) in RELATION_COLUMNS {
+        write!(csv, ",{name}").ok();
+    }
+    csv.push('\n');
     for r in results {
         let status = r
             .metrics
@@ -511,7 +530,11 @@ fn write_tables(
         for (_, field) in RUN_COLUMNS {
             write!(csv, ",{}", cell(r.num(field))).ok();
         }
-        writeln!(csv, ",{}", r.folder.display()).ok();
+        write!(csv, ",{}", r.folder.display()).ok();
+        for (_, field) in RELATION_COLUMNS {
+            write!(csv, ",{}", cell(r.num(field))).ok();
+        }
+        csv.push('\n');
     }
     std::fs::write(out.join("runs.csv"), csv)?;
 
@@ -519,7 +542,8 @@ fn write_tables(
     let mut summary = String::from(
         "optimizer,proposal,correction,particles,runs,failed,service_cpu_s_mean,service_cpu_s_std,wall_s_mean,\
          ate_rmse_m_mean,ate_rmse_m_std,landmark_rmse_m_mean,landmark_rmse_m_std,\
-         nees_mean_mean,nees_within_95_mean\n",
+         nees_mean_mean,nees_within_95_mean,relations_trans_mean_m_mean,\
+         relations_trans_std_m_mean,relations_rot_mean_deg_mean\n",
     );
     let mut md = String::from(
         "| method | particles | runs | time (s, service CPU) | trajectory RMSE (m) | \
@@ -550,9 +574,10 @@ fn write_tables(
                 col(|m| m.consistency.nees_mean),
                 col(|m| m.consistency.nees_within_95),
             );
+            let relations = RELATION_COLUMNS.map(|(_, f)| cell(mean(&col(f))));
             writeln!(
                 summary,
-                "{},{},{},{n},{},{},{},{},{},{},{},{},{},{},{}",
+                "{},{},{},{n},{},{},{},{},{},{},{},{},{},{},{},{}",
                 o.optimizer,
                 o.proposal_cell(),
                 o.correction_cell(),
@@ -567,6 +592,7 @@ fn write_tables(
                 cell(std_dev(&lm)),
                 cell(mean(&nees)),
                 cell(mean(&within)),
+                relations.join(","),
             )
             .ok();
             let nees_text = if ok.is_empty() {

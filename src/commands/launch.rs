@@ -300,6 +300,47 @@ fn tail(path: &Path, n: usize) -> String {
 pub(crate) fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
     let m = Metrics::read(&out.join("metrics.json"))?;
     println!("run folder: {}", out.display());
+    if m.ground_truth {
+        print_truth_scores(&m);
+    } else {
+        println!("  no ground truth (no ATE, landmark or NEES scores)");
+        if let Some(s) = &m.smoothed {
+            println!(
+                "  smoothed       {:8} poses (smoothing back-end, {} solves; χ²/dof {:.2})",
+                s.trajectory.poses, s.solves, s.chi2_per_dof
+            );
+        }
+    }
+    if let Some(line) = relations_line(&m) {
+        println!("{line}");
+    }
+    let h = &m.filter;
+    println!(
+        "  noise check    {:>8}     (innovations' NIS per degree of freedom; 1 when the noise model fits)",
+        short(h.nis_mean)
+    );
+    println!("  wall time      {:8.2} s", wall.as_secs_f64());
+    // A window above the band now and then is chance; a tenth of the run is the model.
+    if !h.nis_suspect.is_empty() && h.nis_high_fraction >= 0.1 {
+        let suspect = fastslam_estimation::fastslam::noise_suspect(h.nis_suspect == "odometry");
+        println!(
+            "  warning: innovations larger than the noise model explains at {:.0} % of steps: {suspect} (docs/REPLAYS.md, fitting the noise)",
+            100.0 * h.nis_high_fraction
+        );
+    }
+    if m.inputs.rejected_total > 0 {
+        println!(
+            "  warning: the service dropped or rejected {} inputs ({}): see /inputs in \
+             metrics.json and logs/service.log",
+            m.inputs.rejected_total,
+            m.inputs.nonzero()
+        );
+    }
+    Ok(())
+}
+
+/// The summary's lines of a run with ground truth: trajectory, map and NEES errors.
+fn print_truth_scores(m: &Metrics) {
     println!(
         "  ATE RMSE       {:8.3} m   (dead reckoning {:.3} m)",
         m.estimate.ate_rmse_m, m.dead_reckoning.ate_rmse_m
@@ -343,27 +384,70 @@ pub(crate) fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
         100.0 * c.nees_within_95,
         c.singular
     );
-    let h = &m.filter;
-    println!(
-        "  noise check    {:>8}     (innovations' NIS per degree of freedom; 1 when the noise model fits)",
-        short(h.nis_mean)
-    );
-    println!("  wall time      {:8.2} s", wall.as_secs_f64());
-    // A window above the band now and then is chance; a tenth of the run is the model.
-    if !h.nis_suspect.is_empty() && h.nis_high_fraction >= 0.1 {
-        let suspect = fastslam_estimation::fastslam::noise_suspect(h.nis_suspect == "odometry");
-        println!(
-            "  warning: innovations larger than the noise model explains at {:.0} % of steps: {suspect} (docs/REPLAYS.md, fitting the noise)",
-            100.0 * h.nis_high_fraction
+}
+
+/// The summary's line of the relation errors, when the run was scored against relations:
+/// the estimate's mean translational and rotational error beside dead reckoning's and the
+/// smoothed trajectory's.
+fn relations_line(m: &Metrics) -> Option<String> {
+    let r = m.estimate.relations?;
+    let mut others: Vec<String> = Vec::new();
+    if let Some(d) = m.dead_reckoning.relations {
+        others.push(format!(
+            "dead reckoning {:.3} m {:.2}°",
+            d.trans_mean_m, d.rot_mean_deg
+        ));
+    }
+    if let Some(s) = m.smoothed.as_ref().and_then(|s| s.trajectory.relations) {
+        others.push(format!(
+            "smoothed {:.3} m {:.2}°",
+            s.trans_mean_m, s.rot_mean_deg
+        ));
+    }
+    others.push(format!("{} relations", r.count));
+    Some(format!(
+        "  relations      {:8.3} m  {:.2}°  ({})",
+        r.trans_mean_m,
+        r.rot_mean_deg,
+        others.join("; ")
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fastslam_client::Recording;
+    use fastslam_client::metrics::{Alignment, ScoreAt};
+    use fastslam_client::relations::RelationErrors;
+
+    fn errors(trans_mean_m: f64, rot_mean_deg: f64, count: usize) -> RelationErrors {
+        RelationErrors {
+            count,
+            trans_mean_m,
+            trans_std_m: 0.0,
+            trans_sq_mean_m2: 0.0,
+            trans_sq_std_m2: 0.0,
+            rot_mean_deg,
+            rot_std_deg: 0.0,
+            rot_sq_mean_deg2: 0.0,
+            rot_sq_std_deg2: 0.0,
+        }
+    }
+
+    #[test]
+    fn the_relations_line_puts_the_estimate_beside_dead_reckoning() {
+        let mut m = Metrics::compute(
+            &Recording::default(),
+            true,
+            Alignment::default(),
+            ScoreAt::default(),
+        );
+        assert_eq!(relations_line(&m), None, "no relations file");
+        m.estimate.relations = Some(errors(0.052, 0.41, 2984));
+        m.dead_reckoning.relations = Some(errors(7.37, 39.17, 2984));
+        assert_eq!(
+            relations_line(&m).unwrap(),
+            "  relations         0.052 m  0.41°  (dead reckoning 7.370 m 39.17°; 2984 relations)"
         );
     }
-    if m.inputs.rejected_total > 0 {
-        println!(
-            "  warning: the service dropped or rejected {} inputs ({}): see /inputs in \
-             metrics.json and logs/service.log",
-            m.inputs.rejected_total,
-            m.inputs.nonzero()
-        );
-    }
-    Ok(())
 }

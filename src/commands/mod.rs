@@ -18,6 +18,7 @@ pub mod monte_carlo;
 pub mod replay;
 pub mod run;
 pub mod scenarios;
+pub mod solve;
 pub mod test;
 pub mod ungm;
 

@@ -37,15 +37,22 @@ pub struct MonteCarloArgs {
     /// Service config file (default: the scenario's or the profile's [service] table).
     #[arg(long)]
     pub config: Option<PathBuf>,
+    /// A relations file for the data set of `--replay` (`t1 t2 x y z roll pitch yaw` per
+    /// line, times on the data set's clock): each run's estimate is also scored by its
+    /// relative motions against it (the relation columns).
+    #[arg(long, value_name = "FILE", requires = "replay")]
+    pub relations: Option<PathBuf>,
     /// Estimators, particle counts and seeds.
     #[command(flatten)]
     pub comparison: Comparison,
     /// Also write the rows to this CSV file, one per method, with the columns
     /// scenario,optimizer,correction,proposal,particles,seeds,ate_mean_m,ate_std_m,
     /// nees_within_95,singular_fraction,cpu_s_per_run,smoothed_ate_mean_m,smoothed_ate_std_m,
-    /// ate_max_m,landmarks_mean,true_landmarks,map,grid_precision,grid_recall (docs/CSV.md;
+    /// ate_max_m,landmarks_mean,true_landmarks,map,grid_precision,grid_recall,
+    /// relations_trans_mean_m,relations_trans_std_m,relations_rot_mean_deg (docs/CSV.md;
     /// correction: none, proposal or resample-move, empty without an optimiser; proposal:
-    /// motion or fastslam2; map: landmarks or grid).
+    /// motion or fastslam2; map: landmarks or grid; the relation columns NaN without
+    /// `--relations`).
     #[arg(long)]
     pub csv: Option<PathBuf>,
 }
@@ -54,7 +61,7 @@ pub struct MonteCarloArgs {
 pub const CSV_HEADER: &str = "scenario,optimizer,correction,proposal,particles,seeds,\
 ate_mean_m,ate_std_m,nees_within_95,singular_fraction,cpu_s_per_run,\
 smoothed_ate_mean_m,smoothed_ate_std_m,ate_max_m,landmarks_mean,true_landmarks,\
-map,grid_precision,grid_recall";
+map,grid_precision,grid_recall,relations_trans_mean_m,relations_trans_std_m,relations_rot_mean_deg";
 
 /// One line of `monte-carlo --csv`.
 fn csv_row(scenario: &str, row: &Row) -> String {
@@ -64,7 +71,7 @@ fn csv_row(scenario: &str, row: &Row) -> String {
         row.correction.name()
     };
     format!(
-        "{scenario},{},{correction},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+        "{scenario},{},{correction},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
         row.optimizer,
         row.proposal,
         row.particles,
@@ -81,7 +88,10 @@ fn csv_row(scenario: &str, row: &Row) -> String {
         row.true_landmarks,
         row.map.name(),
         row.grid_precision.mean,
-        row.grid_recall.mean
+        row.grid_recall.mean,
+        row.relations_trans.mean,
+        row.relations_trans_std.mean,
+        row.relations_rot.mean
     )
 }
 
@@ -120,19 +130,22 @@ pub fn run(args: &MonteCarloArgs) -> anyhow::Result<()> {
     super::write_csv(args.csv.as_deref(), csv)
 }
 
-/// The scenario, or the data set `--replay` names, loaded.
+/// The scenario, or the data set `--replay` names, loaded (with the relations of
+/// `--relations`).
 fn source(args: &MonteCarloArgs) -> anyhow::Result<Source> {
-    match args.replay {
-        None => Ok(Source::Simulation(Box::new(Scenario::load(
-            &args.scenario,
-        )?))),
+    let source = match args.replay {
+        None => Source::Simulation(Box::new(Scenario::load(&args.scenario)?)),
         Some(set) => Source::replay(
             set,
             args.data.as_deref(),
             args.robot,
             args.association,
             args.profile.as_deref(),
-        ),
+        )?,
+    };
+    match &args.relations {
+        Some(path) => source.with_relations(path),
+        None => Ok(source),
     }
 }
 
@@ -180,6 +193,14 @@ fn print_row(row: &Row) {
     } else {
         String::new()
     };
+    let relations = if row.relations_trans.n > 0 {
+        format!(
+            " · relations {:.3} ± {:.3} m, {:.2}°",
+            row.relations_trans.mean, row.relations_trans_std.mean, row.relations_rot.mean
+        )
+    } else {
+        String::new()
+    };
     let moves = row.moves.map_or(String::new(), |m| {
         format!(
             " · {}/{} ({:.1} %)",
@@ -189,7 +210,7 @@ fn print_row(row: &Row) {
         )
     });
     println!(
-        "  {:<28} {:>5}  {:>30}  {:>30}  {:>30}  {:>10.3}  {:>8.3}  {:>7.2} ± {:<4.2}  {:>8.2}  {:.3} / {:.3}  {:.1} ± {:.1} · {:.3} · {:.1} ± {:.1} / {}{moves}{smoothed}{grid}",
+        "  {:<28} {:>5}  {:>30}  {:>30}  {:>30}  {:>10.3}  {:>8.3}  {:>7.2} ± {:<4.2}  {:>8.2}  {:.3} / {:.3}  {:.1} ± {:.1} · {:.3} · {:.1} ± {:.1} / {}{moves}{smoothed}{grid}{relations}",
         row.method,
         row.particles,
         cell(&row.ate),

@@ -6,7 +6,9 @@ use crate::commands::launch::{Ended, LaunchArgs, Place, conclude, prepare};
 use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::Context;
 use fastslam_replay::dataset::Association;
+use fastslam_replay::processes::recording::{Source, TopicArgs};
 use fastslam_replay::profile::Profile;
+use fastslam_replay::recording::{Recording, merge_tables, planar_laser_settings};
 use fastslam_service::config::{EstimatorChoice, Overrides, ServiceConfig};
 use fastslam_stack::settings;
 use fastslam_stack::topology;
@@ -43,13 +45,35 @@ pub enum DataSet {
         #[command(flatten)]
         run: ReplayRunArgs,
     },
+    /// Your own ROS 2 bag (rosbag2: MCAP or sqlite3): its laser scans and odometry, the
+    /// laser's mounting from /tf_static; no ground truth needed (docs/REPLAYS.md).
+    Rosbag {
+        /// A rosbag2 folder (with metadata.yaml) or one .mcap / .db3 file.
+        path: PathBuf,
+        /// Topics and frames, where the bag leaves a choice.
+        #[command(flatten)]
+        topics: TopicArgs,
+        /// Flags every replay takes.
+        #[command(flatten)]
+        run: ReplayRunArgs,
+    },
+    /// A CARMEN log (.clf / .log, gzipped or not: FLASER, ROBOTLASER1, ODOM), such as the
+    /// Freiburg benchmark's; no ground truth needed (docs/REPLAYS.md).
+    Carmen {
+        /// The log file.
+        file: PathBuf,
+        /// Flags every replay takes.
+        #[command(flatten)]
+        run: ReplayRunArgs,
+    },
 }
 
 /// Flags of `replay` common to every data set.
 #[derive(Debug, Clone, clap::Args)]
 pub struct ReplayRunArgs {
-    /// Profile: a built-in name (mrclam, victoria-park) or a TOML file. Default: the data
-    /// set's own.
+    /// Profile: a built-in name (mrclam, victoria-park, victoria-park-scans,
+    /// planar-laser) or a TOML file. Default: the data set's own (planar-laser for a bag
+    /// or a log).
     #[arg(long)]
     pub profile: Option<String>,
     /// Seed of the filter.
@@ -62,9 +86,14 @@ pub struct ReplayRunArgs {
     #[arg(long)]
     pub particles: Option<usize>,
     /// Service config file (default: the profile's [service] table); its association
-    /// mode is set from the data set's flags either way.
+    /// mode is set from the data set's flags either way. For a bag or a log it goes over
+    /// the settings derived from the recording's laser.
     #[arg(long)]
     pub config: Option<PathBuf>,
+    /// Score every trajectory against this relations file (the Freiburg benchmark's
+    /// format: `t1 t2 x y z roll pitch yaw`); a bag or a log only.
+    #[arg(long)]
+    pub relations: Option<PathBuf>,
     /// Run folder (default: <runs-dir>/<data>_<method>_seed<seed>, the method as `run`
     /// names it).
     #[arg(long)]
@@ -75,14 +104,15 @@ pub struct ReplayRunArgs {
 }
 
 /// What the replay process needs beyond the common flags: its subcommand, run-folder
-/// name, default profile, association, and its own flags.
+/// name, default profile, association, its own flags (the data's path first), and the
+/// recording when it is a user's bag or log.
 struct Plan<'a> {
     process: &'static str,
     label: String,
     default_profile: &'static str,
     association: Association,
-    data: &'a Path,
     flags: Vec<String>,
+    recording: Option<Recording>,
     run: &'a ReplayRunArgs,
 }
 
@@ -100,6 +130,18 @@ impl DataSet {
                     .map_or_else(|| "data".to_string(), |n| n.to_string_lossy().into_owned()),
             )
         };
+        let canonical = |path: &Path| {
+            std::fs::canonicalize(path)
+                .with_context(|| format!("{}", path.display()))
+                .map(|p| p.display().to_string())
+        };
+        let stem = |path: &Path| {
+            let name = path.file_name().map_or_else(
+                || "recording".to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            );
+            name.split('.').next().unwrap_or("recording").to_string()
+        };
         Ok(match self {
             Self::Mrclam {
                 data,
@@ -115,13 +157,15 @@ impl DataSet {
                 ),
                 default_profile: "mrclam",
                 association: *association,
-                data,
                 flags: vec![
+                    "--data".into(),
+                    canonical(data)?,
                     "--robot".into(),
                     robot.to_string(),
                     "--association".into(),
                     association.service_mode().into(),
                 ],
+                recording: None,
                 run,
             },
             Self::VictoriaPark { data, run } => Plan {
@@ -129,8 +173,36 @@ impl DataSet {
                 label: folder(data)?,
                 default_profile: "victoria-park",
                 association: Association::Unknown,
-                data,
-                flags: Vec::new(),
+                flags: vec!["--data".into(), canonical(data)?],
+                recording: None,
+                run,
+            },
+            Self::Rosbag { path, topics, run } => {
+                let mut flags = vec!["--rosbag".into(), canonical(path)?];
+                flags.extend(topics.flags());
+                let source = Source {
+                    rosbag: Some(path.clone()),
+                    carmen: None,
+                };
+                Plan {
+                    process: "replay-recording",
+                    label: stem(path),
+                    default_profile: "planar-laser",
+                    association: Association::Unknown,
+                    flags,
+                    recording: Some(fastslam_replay::processes::recording::recording(
+                        &source, topics,
+                    )),
+                    run,
+                }
+            }
+            Self::Carmen { file, run } => Plan {
+                process: "replay-recording",
+                label: stem(file),
+                default_profile: "planar-laser",
+                association: Association::Unknown,
+                flags: vec!["--carmen".into(), canonical(file)?],
+                recording: Some(Recording::Carmen { path: file.clone() }),
                 run,
             },
         })
@@ -157,8 +229,28 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         args.launch.iox_root.as_deref(),
     )?;
     let (prefix, root) = (place.prefix.clone(), place.root.clone());
+    // A user's recording is read here first: a bad file fails before anything starts,
+    // and its laser gives the settings derived from it and its epoch the relations'.
+    if args.relations.is_some() && plan.recording.is_none() {
+        anyhow::bail!(
+            "--relations scores a bag or a log (replay rosbag, replay carmen): the relation \
+             times are on the recording's own clock"
+        );
+    }
+    let loaded = plan.recording.as_ref().map(Recording::load).transpose()?;
+    if let Some(loaded) = &loaded {
+        for warning in &loaded.warnings {
+            eprintln!("warning: {warning}");
+        }
+    }
     // The service's settings, checked here so a bad value fails before anything starts.
-    let table = settings::replay_service_table(args.config.as_deref(), &profile, plan.association)?;
+    let mut table =
+        settings::replay_service_table(args.config.as_deref(), &profile, plan.association)?;
+    if let Some(loaded) = &loaded {
+        let mut derived = planar_laser_settings(&loaded.data)?;
+        merge_tables(&mut derived, &table);
+        table = derived;
+    }
     let overrides = Overrides {
         particles: args.particles,
         seed: Some(args.seed),
@@ -194,14 +286,23 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
     client.extend(["--out".into(), out.display().to_string()]);
     client.extend(["--service-config".into(), config.display().to_string()]);
     client.extend(profile.client.flags.iter().cloned());
+    if let Some(loaded) = &loaded {
+        client.push("--no-truth".into());
+        if let Some(relations) = &args.relations {
+            client.extend([
+                "--relations".into(),
+                std::fs::canonicalize(relations)
+                    .with_context(|| format!("relations file {}", relations.display()))?
+                    .display()
+                    .to_string(),
+                "--relations-epoch-s".into(),
+                format!("{:?}", loaded.data.epoch_s),
+            ]);
+        }
+    }
     client.extend(args.launch.judge.flags());
     let mut replay = stack_flags.clone();
-    replay.extend([
-        "--data".into(),
-        std::fs::canonicalize(plan.data)?.display().to_string(),
-        "--profile".into(),
-        profile_arg_for_child(&profile_arg),
-    ]);
+    replay.extend(["--profile".into(), profile_arg_for_child(&profile_arg)]);
     replay.extend(plan.flags.iter().cloned());
     replay.extend(args.launch.pace.flags());
 

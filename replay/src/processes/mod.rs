@@ -2,4 +2,5 @@
 //! binary and by the launcher's hidden subcommand of the same name.
 
 pub mod mrclam;
+pub mod recording;
 pub mod victoria_park;

@@ -96,6 +96,7 @@ fn run(dir: &Path, config: FastSlamConfig) -> Result<(f64, f64), String> {
             v: c[2],
             omega: 0.0,
             steering: c[3],
+            ..Control::ZERO
         };
         slam.predict(&control, DT).map_err(|e| e.to_string())?;
         if scans.next_if(|&&s| s == k).is_none() {

@@ -1,16 +1,25 @@
-//! Vehicle motion models (docs/ALGORITHMS.md §2): the unicycle / differential drive of the
-//! ICOA paper (eq. 24) and the bicycle of the IBA paper (eq. 14), as data.
+//! Vehicle motion models (docs/ALGORITHMS.md §2), as data: two velocity models — the
+//! unicycle / differential drive of the ICOA paper (eq. 24) and the bicycle of the IBA
+//! paper (eq. 14) — and the pose-increment model of odometry that reports poses
+//! (wheel-encoder dead reckoning, `nav_msgs/Odometry`, a CARMEN log).
 //!
-//! Both models take two controls — (v, ω) for the unicycle, (v, γ) for the bicycle — with
-//! independent Gaussian noise on each. One [`Control`] carries everything odometry may
-//! report; the model picks the two it uses. For FastSLAM 2.0 and the optimisers' motion
-//! prior the module also gives the Jacobians and the control noise projected to the pose.
+//! The velocity models take two controls — (v, ω) for the unicycle, (v, γ) for the
+//! bicycle — with independent Gaussian noise on each, applied once per
+//! [`MotionModel::sample`] call, as in Bailey's simulator and the papers: their σ's belong
+//! to the odometry period the model is driven at. They serve sources that report
+//! velocities (the simulations, MRCLAM, Victoria Park).
 //!
-//! Noise is applied once per [`MotionModel::sample`] call, as in Bailey's simulator and the
-//! papers: the σ's belong to the odometry period the model is driven at.
+//! The [`Increment`] model takes the odometry's pose increment between two messages and
+//! adds noise whose *variance* grows with the distance travelled and the angle turned, so
+//! the noise over a path is the same however often the odometry is published, and a gap
+//! or a burst of stamps changes nothing ([`Increment`]).
+//!
+//! One [`Control`] carries everything odometry may report; the model picks what it uses.
+//! For FastSLAM 2.0 and the optimisers' motion prior the module also gives the Jacobians
+//! and the noise projected to the pose.
 
 use crate::check::{non_negative, positive};
-use crate::pose::Pose2;
+use crate::pose::{Pose2, wrap_angle};
 use crate::{Error, Result};
 use nalgebra::{Matrix2, Matrix3, Matrix3x2};
 use rand::{Rng, RngExt};
@@ -26,9 +35,37 @@ pub struct Control {
     pub omega: f64,
     /// Steering angle of the front wheel (rad), left positive; bicycle.
     pub steering: f64,
+    /// The odometry's pose increment over the interval, in the frame of the pose at its
+    /// start (m, m, rad); the [`Increment`] model.
+    pub increment: Pose2,
 }
 
 impl Control {
+    /// Every field zero: no motion.
+    pub const ZERO: Control = Control {
+        v: 0.0,
+        omega: 0.0,
+        steering: 0.0,
+        increment: Pose2 {
+            x: 0.0,
+            y: 0.0,
+            theta: 0.0,
+        },
+    };
+
+    /// The control of odometry that reports poses: the increment from `from` to `to`
+    /// (both in the odometry frame) in `from`'s frame, with the reported velocities.
+    pub fn between_poses(from: &Pose2, to: &Pose2, v: f64, omega: f64) -> Self {
+        let mut increment = from.inverse().compose(to);
+        increment.theta = wrap_angle(to.theta - from.theta);
+        Self {
+            v,
+            omega,
+            increment,
+            ..Self::ZERO
+        }
+    }
+
     /// Checks that every field is finite (including the ones the model ignores, so a
     /// broken odometry message is noticed whichever model runs).
     ///
@@ -39,6 +76,9 @@ impl Control {
             ("control.v", self.v),
             ("control.omega", self.omega),
             ("control.steering", self.steering),
+            ("control.increment.x", self.increment.x),
+            ("control.increment.y", self.increment.y),
+            ("control.increment.theta", self.increment.theta),
         ] {
             if !value.is_finite() {
                 return Err(Error::InvalidInput {
@@ -94,8 +134,56 @@ impl Default for Bicycle {
     }
 }
 
-/// The motion model, chosen in TOML by `model = "unicycle"` or `model = "bicycle"` next to
-/// that model's fields. Default: Bailey's bicycle.
+/// Odometry that reports poses: the pose moves by the measured increment `δ = (δx, δy,
+/// δθ)` (in the frame of the pose at the interval's start) plus Gaussian noise on each
+/// component, with variances that grow linearly with the distance `d = √(δx² + δy²)` and
+/// the turn `|δθ|`:
+///
+/// `σ²_x = σ²_y = translation_per_m² · d + translation_per_rad² · |δθ|`,
+/// `σ²_θ = rotation_per_m² · d + rotation_per_rad² · |δθ|`.
+///
+/// Variances (not σ's) proportional to the motion make the noise a random walk along the
+/// path: split an interval in two and the two halves' noise adds up to the whole's, so the
+/// publishing rate does not matter. The four constants are GMapping's `srr`, `str`, `srt`,
+/// `stt` (Grisetti et al. 2007) read as σ over one metre or one radian of motion; the
+/// defaults are GMapping's.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Increment {
+    /// Translation σ after 1 m travelled (m/√m); GMapping `srr` 0.1.
+    pub translation_per_m: f64,
+    /// Translation σ after 1 rad turned (m/√rad); GMapping `str` 0.1.
+    pub translation_per_rad: f64,
+    /// Rotation σ after 1 m travelled (rad/√m); GMapping `srt` 0.2.
+    pub rotation_per_m: f64,
+    /// Rotation σ after 1 rad turned (rad/√rad); GMapping `stt` 0.2.
+    pub rotation_per_rad: f64,
+}
+
+impl Default for Increment {
+    fn default() -> Self {
+        Self {
+            translation_per_m: 0.1,
+            translation_per_rad: 0.1,
+            rotation_per_m: 0.2,
+            rotation_per_rad: 0.2,
+        }
+    }
+}
+
+impl Increment {
+    /// The noise variances `[σ²_x, σ²_y, σ²_θ]` of increment `delta`.
+    fn variances(&self, delta: &Pose2) -> [f64; 3] {
+        let d = delta.x.hypot(delta.y);
+        let turn = delta.theta.abs();
+        let trans = self.translation_per_m.powi(2) * d + self.translation_per_rad.powi(2) * turn;
+        let rot = self.rotation_per_m.powi(2) * d + self.rotation_per_rad.powi(2) * turn;
+        [trans, trans, rot]
+    }
+}
+
+/// The motion model, chosen in TOML by `model = "unicycle"`, `"bicycle"` or
+/// `"increment"` next to that model's fields. Default: Bailey's bicycle.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "model", rename_all = "snake_case")]
 pub enum MotionModel {
@@ -103,6 +191,8 @@ pub enum MotionModel {
     Unicycle(Unicycle),
     /// Control (v, γ) with a wheelbase.
     Bicycle(Bicycle),
+    /// Control: the odometry's pose increment.
+    Increment(Increment),
 }
 
 impl Default for MotionModel {
@@ -136,22 +226,36 @@ impl MotionModel {
                 non_negative("motion.sigma_v", b.sigma_v)?;
                 non_negative("motion.sigma_steering", b.sigma_steering)
             }
+            Self::Increment(i) => {
+                non_negative("motion.translation_per_m", i.translation_per_m)?;
+                non_negative("motion.translation_per_rad", i.translation_per_rad)?;
+                non_negative("motion.rotation_per_m", i.rotation_per_m)?;
+                non_negative("motion.rotation_per_rad", i.rotation_per_rad)
+            }
         }
     }
 
-    /// The two controls this model uses: (v, ω) or (v, γ).
+    /// True for a model driven by the odometry's pose increments rather than velocities.
+    pub fn uses_increments(&self) -> bool {
+        matches!(self, Self::Increment(_))
+    }
+
+    /// The two controls a velocity model uses: (v, ω) or (v, γ); none for the increment
+    /// model.
     fn controls(&self, control: &Control) -> [f64; 2] {
         match self {
-            Self::Unicycle(_) => [control.v, control.omega],
+            Self::Unicycle(_) | Self::Increment(_) => [control.v, control.omega],
             Self::Bicycle(_) => [control.v, control.steering],
         }
     }
 
-    /// Noise-free step from `pose` with the model's two controls `u` over `dt` seconds.
+    /// Noise-free step of a velocity model from `pose` with its two controls `u` over `dt`
+    /// seconds (the increment model does not step by velocities: see
+    /// [`Self::propagate`]).
     fn step(&self, pose: &Pose2, u: [f64; 2], dt: f64) -> Pose2 {
         let [v, second] = u;
         match self {
-            Self::Unicycle(_) => Pose2::new(
+            Self::Unicycle(_) | Self::Increment(_) => Pose2::new(
                 pose.x + v * dt * pose.theta.cos(),
                 pose.y + v * dt * pose.theta.sin(),
                 pose.theta + second * dt,
@@ -167,14 +271,28 @@ impl MotionModel {
         }
     }
 
-    /// Deterministic (noise-free) propagation of `pose` by `control` over `dt` seconds.
+    /// Deterministic (noise-free) propagation of `pose` by `control` over `dt` seconds (the
+    /// increment model ignores `dt`: `pose ⊕ δ`).
     pub fn propagate(&self, pose: &Pose2, control: &Control, dt: f64) -> Pose2 {
-        self.step(pose, self.controls(control), dt)
+        match self {
+            Self::Increment(_) => pose.compose(&control.increment),
+            _ => self.step(pose, self.controls(control), dt),
+        }
     }
 
-    /// Draws the next pose from `p(x' | x, u)`: Gaussian noise on the two controls, then
-    /// the noise-free step.
+    /// Draws the next pose from `p(x' | x, u)`: Gaussian noise on the controls (the two
+    /// velocities, or the increment's three components), then the noise-free step.
     pub fn sample(&self, pose: &Pose2, control: &Control, dt: f64, rng: &mut impl Rng) -> Pose2 {
+        if let Self::Increment(model) = self {
+            let d = control.increment;
+            let [vx, vy, vt] = model.variances(&d);
+            let noisy = Pose2::new(
+                d.x + vx.sqrt() * rng.sample::<f64, _>(StandardNormal),
+                d.y + vy.sqrt() * rng.sample::<f64, _>(StandardNormal),
+                d.theta + vt.sqrt() * rng.sample::<f64, _>(StandardNormal),
+            );
+            return pose.compose(&noisy);
+        }
         let [v, second] = self.controls(control);
         let [sv, ss] = self.sigmas();
         let noisy = [
@@ -184,31 +302,55 @@ impl MotionModel {
         self.step(pose, noisy, dt)
     }
 
-    /// Standard deviations of the two controls' noise.
+    /// Standard deviations of a velocity model's two controls' noise (none for the
+    /// increment model, whose noise depends on the increment).
     fn sigmas(&self) -> [f64; 2] {
         match self {
             Self::Unicycle(u) => [u.sigma_v, u.sigma_omega],
             Self::Bicycle(b) => [b.sigma_v, b.sigma_steering],
+            Self::Increment(_) => [0.0, 0.0],
         }
     }
 
-    /// Covariance `Q` of the two controls' noise, `diag(σ_v², σ²)`.
-    pub fn control_noise(&self) -> Matrix2<f64> {
+    /// Covariance `Q` of a velocity model's two controls' noise, `diag(σ_v², σ²)`.
+    fn control_noise(&self) -> Matrix2<f64> {
         let [sv, ss] = self.sigmas();
         Matrix2::new(sv * sv, 0.0, 0.0, ss * ss)
     }
 
-    /// Jacobians of [`propagate`](Self::propagate) at (`pose`, `control`, `dt`).
+    /// Jacobians of [`propagate`](Self::propagate) at (`pose`, `control`, `dt`); for the
+    /// increment model `wrt_control` is ∂(pose ⊕ δ)/∂(δx, δy) (its heading column is in
+    /// [`Self::pose_noise`]).
     pub fn jacobians(&self, pose: &Pose2, control: &Control, dt: f64) -> MotionJacobians {
+        if matches!(self, Self::Increment(_)) {
+            let d = control.increment;
+            let (s, c) = pose.theta.sin_cos();
+            return MotionJacobians {
+                wrt_pose: Matrix3::new(
+                    1.0,
+                    0.0,
+                    -s * d.x - c * d.y,
+                    0.0,
+                    1.0,
+                    c * d.x - s * d.y,
+                    0.0,
+                    0.0,
+                    1.0,
+                ),
+                wrt_control: Matrix3x2::new(c, -s, s, c, 0.0, 0.0),
+            };
+        }
         let [v, second] = self.controls(control);
         let heading = match self {
-            Self::Unicycle(_) => pose.theta,
+            Self::Unicycle(_) | Self::Increment(_) => pose.theta,
             Self::Bicycle(_) => pose.theta + second,
         };
         let (s, c) = heading.sin_cos();
         let wrt_pose = Matrix3::new(1.0, 0.0, -v * dt * s, 0.0, 1.0, v * dt * c, 0.0, 0.0, 1.0);
         let wrt_control = match self {
-            Self::Unicycle(_) => Matrix3x2::new(dt * c, 0.0, dt * s, 0.0, 0.0, dt),
+            Self::Unicycle(_) | Self::Increment(_) => {
+                Matrix3x2::new(dt * c, 0.0, dt * s, 0.0, 0.0, dt)
+            }
             Self::Bicycle(b) => Matrix3x2::new(
                 dt * c,
                 -v * dt * s,
@@ -226,9 +368,16 @@ impl MotionModel {
 
     /// Control noise projected to the pose, `F_u Q F_uᵀ` (3×3), for one step.
     ///
-    /// Its rank is at most 2 (two noisy controls move three pose coordinates); a consumer
-    /// that inverts it (a motion prior) must regularise it.
+    /// A velocity model's has rank at most 2 (two noisy controls move three pose
+    /// coordinates); a consumer that inverts it (a motion prior) must regularise it. The
+    /// increment model's is `R Σ Rᵀ`, its noise `Σ` rotated into the map frame.
     pub fn pose_noise(&self, pose: &Pose2, control: &Control, dt: f64) -> Matrix3<f64> {
+        if let Self::Increment(model) = self {
+            let [vx, vy, vt] = model.variances(&control.increment);
+            let (s, c) = pose.theta.sin_cos();
+            let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
+            return r * Matrix3::from_diagonal(&nalgebra::Vector3::new(vx, vy, vt)) * r.transpose();
+        }
         let f_u = self.jacobians(pose, control, dt).wrt_control;
         f_u * self.control_noise() * f_u.transpose()
     }
@@ -252,6 +401,7 @@ mod tests {
         v: 3.0,
         omega: 0.4,
         steering: 0.3,
+        ..Control::ZERO
     };
 
     fn pose_diff(a: &Pose2, b: &Pose2) -> Vector3<f64> {
@@ -326,6 +476,90 @@ mod tests {
         }
     }
 
+    /// A turn-and-drive increment seen from a start pose, for the increment model.
+    fn increment_control() -> Control {
+        Control::between_poses(
+            &Pose2::new(2.0, -1.0, 2.5),
+            &Pose2::new(2.0 + 0.8 * 2.7f64.cos(), -1.0 + 0.8 * 2.7f64.sin(), 2.9),
+            0.0,
+            0.0,
+        )
+    }
+
+    #[test]
+    fn increment_between_poses_composes_back_to_the_end_pose() {
+        let (from, to) = (Pose2::new(1.0, 2.0, 3.0), Pose2::new(-0.5, 2.2, -3.1));
+        let control = Control::between_poses(&from, &to, 0.3, 0.1);
+        let model = MotionModel::Increment(Increment::default());
+        let end = model.propagate(&from, &control, 123.0);
+        assert!(pose_diff(&end, &to).norm() < 1e-12);
+        assert!((control.increment.theta - wrap_angle(-6.1)).abs() < 1e-12);
+        assert_eq!((control.v, control.omega), (0.3, 0.1));
+    }
+
+    #[test]
+    fn increment_samples_match_mean_and_projected_covariance() {
+        let model = MotionModel::Increment(Increment::default());
+        let pose = Pose2::new(0.0, 0.0, 0.7);
+        let control = increment_control();
+        let mean = model.propagate(&pose, &control, 0.0);
+        let predicted = model.pose_noise(&pose, &control, 0.0);
+        let j = model.jacobians(&pose, &control, 0.0);
+        let mut rng = seeded(22);
+        let n = 40_000;
+        let mut cov = Matrix3::zeros();
+        for _ in 0..n {
+            let d = pose_diff(&model.sample(&pose, &control, 0.0, &mut rng), &mean);
+            cov += d * d.transpose() / n as f64;
+        }
+        // The heading noise moves the end point too (second order in the small-noise
+        // limit): compare the linearised covariance with a 10 % tolerance.
+        for r in 0..3 {
+            for c in 0..3 {
+                let tol = 0.1 * (predicted[(r, r)] * predicted[(c, c)]).sqrt();
+                assert!(
+                    (cov[(r, c)] - predicted[(r, c)]).abs() < tol,
+                    "({r},{c}): {} vs {}",
+                    cov[(r, c)],
+                    predicted[(r, c)]
+                );
+            }
+        }
+        // ∂(pose ⊕ δ)/∂pose, by finite differences.
+        let h = 1e-6;
+        for k in 0..3 {
+            let mut p = [pose.x, pose.y, pose.theta];
+            p[k] += h;
+            let moved = model.propagate(&Pose2::new(p[0], p[1], p[2]), &control, 0.0);
+            let d = pose_diff(&moved, &mean) / h;
+            assert!((d - j.wrt_pose.column(k)).norm() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn increment_noise_does_not_depend_on_the_publishing_rate() {
+        // Straight ahead 2 m in one message, or in 1 000 messages of 2 mm: the noise
+        // variances add up to the same.
+        let model = MotionModel::Increment(Increment::default());
+        let whole = Control {
+            increment: Pose2::new(2.0, 0.0, 0.0),
+            ..Control::ZERO
+        };
+        let part = Control {
+            increment: Pose2::new(0.002, 0.0, 0.0),
+            ..Control::ZERO
+        };
+        let pose = Pose2::default();
+        let one = model.pose_noise(&pose, &whole, 1.0);
+        let mut many = Matrix3::zeros();
+        for _ in 0..1000 {
+            many += model.pose_noise(&pose, &part, 0.001);
+        }
+        assert!((one - many).norm() < 1e-12 * one.norm().max(1.0));
+        assert!((one[(0, 0)] - 0.1f64.powi(2) * 2.0).abs() < 1e-15);
+        assert!((one[(2, 2)] - 0.2f64.powi(2) * 2.0).abs() < 1e-15);
+    }
+
     #[test]
     fn control_with_nan_is_rejected() {
         assert!(CONTROL.validate().is_ok());
@@ -355,6 +589,15 @@ mod tests {
         let m: MotionModel = toml::from_str("model = \"bicycle\"").unwrap();
         assert_eq!(m, MotionModel::default());
         assert!(toml::from_str::<MotionModel>("model = \"bicycle\"\nsigma_omega = 1.0").is_err());
+        let m: MotionModel =
+            toml::from_str("model = \"increment\"\nrotation_per_m = 0.05").unwrap();
+        assert_eq!(
+            m,
+            MotionModel::Increment(Increment {
+                rotation_per_m: 0.05,
+                ..Increment::default()
+            })
+        );
         let bad = MotionModel::Bicycle(Bicycle {
             wheelbase: 0.0,
             ..Bicycle::default()

@@ -30,6 +30,7 @@ pub const CONTROL: Control = Control {
     v: 3.0,
     omega: 0.0,
     steering: 0.05,
+    ..Control::ZERO
 };
 
 /// One benchmark case: a filter ready for a step, its scan, and the optimiser of step 2.

@@ -113,6 +113,7 @@ fn steady_step(filter: &mut FastSlam, scan: &[Observation]) -> Counts {
         v: 0.5,
         omega: 0.0,
         steering: 0.0,
+        ..Control::ZERO
     };
     for _ in 0..5 {
         filter.predict(&control, 0.1).unwrap();

@@ -93,6 +93,7 @@ fn run(proposal: Proposal, seed: u64) -> Outcome {
         v: SPEED,
         omega: TURN,
         steering: 0.0,
+        ..Control::ZERO
     };
     let landmarks = landmarks();
     let (mut matched, mut created) = (0, 0);
@@ -111,6 +112,7 @@ fn run(proposal: Proposal, seed: u64) -> Outcome {
                 v: SPEED + 0.02 * normal(),
                 omega: TURN + DRIFT + 0.02 * normal(),
                 steering: 0.0,
+                ..Control::ZERO
             };
             slam.predict(&odometry, DT).unwrap();
             if !sensing || period % PERIODS_PER_SCAN != 0 {

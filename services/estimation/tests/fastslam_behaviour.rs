@@ -70,6 +70,7 @@ impl Sim {
             v: SPEED,
             omega: 0.0,
             steering,
+            ..Control::ZERO
         };
         self.truth = self.model.propagate(&self.truth, &truth, DT);
         let MotionModel::Bicycle(bicycle) = &self.model else {
@@ -80,6 +81,7 @@ impl Sim {
             v: SPEED + sv * self.normal(),
             omega: 0.0,
             steering: steering + sg * self.normal(),
+            ..Control::ZERO
         };
         self.dead_reckoning = self.model.propagate(&self.dead_reckoning, &reported, DT);
         reported
@@ -459,6 +461,7 @@ fn bad_inputs_are_rejected_without_touching_the_filter() {
         v: 3.0,
         omega: 0.0,
         steering: 0.1,
+        ..Control::ZERO
     };
     slam.predict(&good, DT).unwrap();
     let before: Vec<Pose2> = slam.particles().iter().map(|p| *p.pose()).collect();

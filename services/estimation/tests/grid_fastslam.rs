@@ -107,12 +107,14 @@ fn drive(slam: &mut GridFastSlam) -> Vec<(Pose2, Pose2, Pose2)> {
             v,
             omega,
             steering: 0.0,
+            ..Control::ZERO
         };
         truth = model.propagate(&truth, &exact, DT);
         let measured = Control {
             v: v + 0.02 * rng.sample::<f64, _>(StandardNormal),
             omega: omega + BIAS + 0.01 * rng.sample::<f64, _>(StandardNormal),
             steering: 0.0,
+            ..Control::ZERO
         };
         reckoned = model.propagate(&reckoned, &measured, DT);
         slam.predict(&measured, DT).unwrap();

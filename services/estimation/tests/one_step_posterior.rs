@@ -27,6 +27,7 @@ const CONTROL: Control = Control {
     v: 2.0,
     omega: 0.1,
     steering: 0.0,
+    ..Control::ZERO
 };
 const CONTROLS: usize = 10;
 const DT: f64 = 0.1;

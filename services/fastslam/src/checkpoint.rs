@@ -16,6 +16,7 @@
 //! corrupt is refused with a [`CheckpointError`] that says which.
 
 use crate::per_input::{PerInput, Stream};
+use fastslam_estimation::Pose2;
 use fastslam_estimation::fastslam::FilterState;
 use fastslam_estimation::fastslam::NisWindow;
 use fastslam_estimation::graph::Feed;
@@ -28,7 +29,7 @@ use std::path::{Path, PathBuf};
 /// The first bytes of every checkpoint file.
 pub const MAGIC: [u8; 8] = *b"FSLMCKPT";
 /// The payload layout written by this build; bumped whenever [`Checkpoint`] changes.
-pub const FORMAT_VERSION: u32 = 7;
+pub const FORMAT_VERSION: u32 = 8;
 /// Bytes before the payload: magic, version, length, hash.
 const HEADER_LEN: usize = 28;
 
@@ -90,6 +91,8 @@ pub struct Checkpoint {
     pub filter: FilterState,
     /// Stamp of the last odometry the filter predicted to (ns), if any.
     pub last_odometry_ns: Option<u64>,
+    /// Pose of that odometry in the odometry frame (the increment model's start).
+    pub last_odometry_pose: Option<Pose2>,
     /// Stamps of the last inputs processed per stream (ns). Older inputs after a resume
     /// are skipped.
     pub processed_ns: PerInput<u64>,
@@ -351,6 +354,7 @@ mod tests {
             seed: 7,
             filter: slam.state(),
             last_odometry_ns: Some(900),
+            last_odometry_pose: Some(Pose2::new(1.0, 2.0, 0.5)),
             processed_ns: PerInput {
                 odometry: 900,
                 lidar: 1000,

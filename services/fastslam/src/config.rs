@@ -104,6 +104,46 @@ pub struct ServiceConfig {
     pub smoother: SmootherConfig,
     /// What each particle maps: landmarks, or an occupancy grid (docs/ALGORITHMS.md §9).
     pub map: MapConfig,
+    /// Where the laser sits on the robot.
+    pub laser: LaserConfig,
+}
+
+/// Where the laser sits on the robot (`[laser]`): the estimate is the base frame's pose,
+/// and raw scans are placed through this mount (a ROS bag's `/tf_static` base → laser).
+///
+/// ```toml
+/// mount = [0.2, 0.0, 0.0]
+/// ```
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LaserConfig {
+    /// The laser's pose in the base frame (REP-103: x forward, y left): x (m), y (m),
+    /// yaw (rad). Default: at the base's origin, facing forward.
+    pub mount: [f64; 3],
+}
+
+impl LaserConfig {
+    /// The mount as a pose.
+    pub fn mount(&self) -> fastslam_estimation::Pose2 {
+        let [x, y, yaw] = self.mount;
+        fastslam_estimation::Pose2::new(x, y, yaw)
+    }
+
+    /// Checks that the mount is finite.
+    ///
+    /// # Errors
+    /// [`ConfigError::Invalid`] naming `laser.mount`.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if self.mount.iter().all(|v| v.is_finite()) {
+            Ok(())
+        } else {
+            Err(fastslam_estimation::Error::InvalidParameter {
+                name: "laser.mount",
+                reason: format!("{:?} must be three finite numbers", self.mount),
+            }
+            .into())
+        }
+    }
 }
 
 /// What each particle maps (`[map]`).
@@ -444,6 +484,7 @@ impl ServiceConfig {
         self.input.validate()?;
         self.smoother.validate()?;
         self.map.matching.validate()?;
+        self.laser.validate()?;
         Ok(())
     }
 

@@ -64,8 +64,13 @@ impl PersistArgs {
                     config.filter.seed
                 );
             }
-            let slam = Slam::resume(config, &checkpoint.filter, checkpoint.last_odometry_ns)
-                .with_context(|| format!("checkpoint {}", path.display()))?;
+            let slam = Slam::resume(
+                config,
+                &checkpoint.filter,
+                checkpoint.last_odometry_ns,
+                checkpoint.last_odometry_pose,
+            )
+            .with_context(|| format!("checkpoint {}", path.display()))?;
             (slam, Some(checkpoint))
         } else if let Some(path) = &self.load_map {
             let map = map_file::load(path)?;

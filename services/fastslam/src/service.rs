@@ -442,6 +442,7 @@ impl Core {
             seed: self.config.filter.seed,
             filter: self.slam.state(),
             last_odometry_ns: self.slam.last_odometry_ns(),
+            last_odometry_pose: self.slam.last_odometry_pose(),
             processed_ns: self.sequencer.released(),
             steps: self.health.steps(),
             resamplings: self.health.resamplings(),

@@ -35,6 +35,8 @@ pub struct Slam {
     grid_filter: Option<GridFastSlam>,
     refiner: Option<OptimiserRefiner>,
     last_odometry_ns: Option<u64>,
+    /// The last odometry's pose in the odometry frame: the increment model's start.
+    last_odometry_pose: Option<Pose2>,
     /// The last odometry's control, for coasting.
     last_control: Option<Control>,
     /// Odometry is quiet: scans first predict with the last control (see
@@ -50,6 +52,8 @@ pub struct Slam {
     /// With re-anchoring: the delay (scans) and the estimates of the last scans (stamp,
     /// mean), to compare a solution's last pose with what the filter said then.
     reanchor: Option<(u64, VecDeque<(u64, Pose2)>)>,
+    /// The laser's pose in the base frame (`[laser] mount`); `None` at the origin.
+    mount: Option<Pose2>,
 }
 
 /// Where an observation step sends its pose the moment the filter has it, before the
@@ -156,8 +160,8 @@ impl Slam {
         Self::around(config, filter)
     }
 
-    /// The filter continuing from `state`, the last odometry stamp being
-    /// `last_odometry_ns` (a checkpoint's contents).
+    /// The filter continuing from `state`, the last odometry being at `last_odometry_ns`
+    /// with pose `last_odometry_pose` (a checkpoint's contents).
     ///
     /// # Errors
     /// As [`new`](Self::new), and when the state does not fit the configuration.
@@ -165,9 +169,11 @@ impl Slam {
         config: &ServiceConfig,
         state: &FilterState,
         last_odometry_ns: Option<u64>,
+        last_odometry_pose: Option<Pose2>,
     ) -> fastslam_estimation::Result<Self> {
         let mut slam = Self::around(config, FastSlam::from_state(config.filter_config(), state)?)?;
         slam.last_odometry_ns = last_odometry_ns;
+        slam.last_odometry_pose = last_odometry_pose;
         Ok(slam)
     }
 
@@ -231,15 +237,20 @@ impl Slam {
 
     fn around(config: &ServiceConfig, filter: FastSlam) -> fastslam_estimation::Result<Self> {
         config.features.validate()?;
+        let mount = config.laser.mount();
         let grid_filter = match config.map.kind {
             MapKind::Landmarks => None,
-            MapKind::Grid => Some(GridFastSlam::new(
-                config.filter_config(),
-                config.grid.clone(),
-                config.map.matching.clone(),
-                &config.optimizer,
-                config.moves.clone(),
-            )?),
+            MapKind::Grid => {
+                let mut grid = GridFastSlam::new(
+                    config.filter_config(),
+                    config.grid.clone(),
+                    config.map.matching.clone(),
+                    &config.optimizer,
+                    config.moves.clone(),
+                )?;
+                grid.set_laser_mount(mount);
+                Some(grid)
+            }
         };
         let refiner = match grid_filter {
             Some(_) => None,
@@ -261,6 +272,7 @@ impl Slam {
             grid_filter,
             refiner,
             last_odometry_ns: None,
+            last_odometry_pose: None,
             last_control: None,
             coasting: false,
             extractor: config.features.clone(),
@@ -268,6 +280,7 @@ impl Slam {
             observations: Vec::new(),
             backend: None,
             reanchor: None,
+            mount: (mount != Pose2::default()).then_some(mount),
         })
     }
 
@@ -286,9 +299,16 @@ impl Slam {
         self.last_odometry_ns
     }
 
+    /// Pose of the odometry the filter last predicted to (odometry frame), for a
+    /// checkpoint.
+    pub fn last_odometry_pose(&self) -> Option<Pose2> {
+        self.last_odometry_pose
+    }
+
     /// Applies one input: odometry predicts over the interval since the previous odometry
-    /// stamp; a scan updates, hands its pose to `publish` as soon as it is known, and
-    /// yields a [`Step`].
+    /// (with the velocities it reports, or with its pose increment under the increment
+    /// motion model); a scan updates, hands its pose to `publish` as soon as it is known,
+    /// and yields a [`Step`].
     ///
     /// # Errors
     /// The filter's error (bad input, degenerate weights); the filter is then unchanged,
@@ -301,11 +321,19 @@ impl Slam {
         match input {
             Input::Odometry(m) => {
                 let now = m.header.stamp_ns;
+                let pose = Pose2::new(m.x, m.y, m.theta);
+                let previous_pose = self.last_odometry_pose.replace(pose);
                 if let Some(previous) = self.last_odometry_ns.replace(now) {
-                    let control = Control {
-                        v: m.v,
-                        omega: m.omega,
-                        steering: m.steering,
+                    let control = match previous_pose {
+                        Some(from) if self.uses_increments() => {
+                            Control::between_poses(&from, &pose, m.v, m.omega)
+                        }
+                        _ => Control {
+                            v: m.v,
+                            omega: m.omega,
+                            steering: m.steering,
+                            ..Control::ZERO
+                        },
                     };
                     self.predict(&control, previous, now)?;
                     self.last_control = Some(control);
@@ -363,9 +391,11 @@ impl Slam {
         self.coasting = on;
     }
 
-    /// While coasting, predicts up to `stamp_ns` with the last control.
+    /// While coasting, predicts up to `stamp_ns` with the last control (a velocity model
+    /// only: odometry that reports poses carries the whole motion of a gap in the
+    /// increment of the message that ends it, so nothing is guessed).
     fn coast_to(&mut self, stamp_ns: u64) -> fastslam_estimation::Result<()> {
-        if !self.coasting {
+        if !self.coasting || self.uses_increments() {
             return Ok(());
         }
         if let (Some(previous), Some(control)) = (self.last_odometry_ns, self.last_control)
@@ -374,6 +404,11 @@ impl Slam {
             self.last_odometry_ns = Some(stamp_ns);
         }
         Ok(())
+    }
+
+    /// True when the motion model is driven by the odometry's pose increments.
+    fn uses_increments(&self) -> bool {
+        self.filter.config().motion.uses_increments()
     }
 
     /// Predicts with `control` from stamp `from` to `to` (ns); false when `to` is not
@@ -426,13 +461,22 @@ impl Slam {
         if let Some(grid_filter) = &mut self.grid_filter {
             return Self::grid_step(grid_filter, h.header, &scan, publish);
         }
-        // 1. Poles in the scan.
+        // 1. Poles in the scan, seen from the base.
+        let mount = self.mount;
         let observations: Vec<Observation> = extract(&scan, &self.extractor)
             .iter()
-            .map(|f| Observation {
-                range: f.range,
-                bearing: f.bearing,
-                id: None,
+            .map(|f| {
+                let (range, bearing) = mount.map_or((f.range, f.bearing), |m| {
+                    let (x, y) = (f.range * f.bearing.cos(), f.range * f.bearing.sin());
+                    let (s, c) = m.theta.sin_cos();
+                    let (bx, by) = (m.x + c * x - s * y, m.y + s * x + c * y);
+                    (bx.hypot(by), by.atan2(bx))
+                });
+                Observation {
+                    range,
+                    bearing,
+                    id: None,
+                }
             })
             .collect();
         // 2. The filter step; poles are found up to the extractor's range.
@@ -440,7 +484,8 @@ impl Slam {
         let sensor = self.sensor(max_range, scan.angle_min, h.angle_max());
         let step = self.update(h.header, &observations, &sensor, publish)?;
         // 3. A keyframe for the grid: every particle records its pose.
-        let estimate = Pose2::new(step.pose.x, step.pose.y, step.pose.theta);
+        let base = Pose2::new(step.pose.x, step.pose.y, step.pose.theta);
+        let estimate = mount.map_or(base, |m| base.compose(&m));
         if let Some(keyframe) = self.mapper.offer(&scan, estimate) {
             self.filter.record_poses(keyframe);
         }
@@ -860,7 +905,13 @@ mod tests {
         drive(&mut first, 0..400);
         let (state, feed) = (first.state(), first.smoother_feed());
         assert!(!feed.is_empty());
-        let mut resumed = Slam::resume(&config, &state, first.last_odometry_ns()).unwrap();
+        let mut resumed = Slam::resume(
+            &config,
+            &state,
+            first.last_odometry_ns(),
+            first.last_odometry_pose(),
+        )
+        .unwrap();
         resumed.start_smoother(&config, feed).unwrap();
         drive(&mut resumed, 400..800);
         let solution = resumed.finish_smoothing().expect("a solution");

@@ -122,16 +122,16 @@ _Static_assert(offsetof(fastslam_GroundTruth, v) == 40, "fastslam_GroundTruth mu
 _Static_assert(offsetof(fastslam_GroundTruth, omega) == 48, "fastslam_GroundTruth must match the Rust layout");
 _Static_assert(offsetof(fastslam_GroundTruth, steering) == 56, "fastslam_GroundTruth must match the Rust layout");
 
-/* fastslam::Odometry: measured speed, yaw rate, steering; dead-reckoned pose */
+/* fastslam::Odometry: odometry pose in `odom`; measured speed, yaw rate, steering */
 #define FASTSLAM_ODOMETRY_TYPE_NAME "fastslam::Odometry"
 typedef struct fastslam_Odometry {
     fastslam_Header header;
-    double v; /* m/s: measured forward speed */
-    double omega; /* rad/s: measured yaw rate (differential drive) */
+    double v; /* m/s: measured forward speed (0 when unknown) */
+    double omega; /* rad/s: measured yaw rate (differential drive; 0 when unknown) */
     double steering; /* rad: measured steering angle (car-like) */
-    double x; /* m: dead-reckoned x, frame `odom` */
-    double y; /* m: dead-reckoned y */
-    double theta; /* rad: dead-reckoned heading */
+    double x; /* m: odometry x, frame `odom` */
+    double y; /* m: odometry y */
+    double theta; /* rad: odometry heading */
 } fastslam_Odometry;
 _Static_assert(sizeof(fastslam_Odometry) == 64, "fastslam_Odometry must match the Rust layout");
 _Static_assert(_Alignof(fastslam_Odometry) == 8, "fastslam_Odometry must match the Rust layout");

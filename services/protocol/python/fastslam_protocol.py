@@ -98,16 +98,16 @@ class GroundTruth(ctypes.Structure):
 
 
 class Odometry(ctypes.Structure):
-    """`fastslam::Odometry` (64 bytes, alignment 8): measured speed, yaw rate, steering; dead-reckoned pose."""
+    """`fastslam::Odometry` (64 bytes, alignment 8): odometry pose in `odom`; measured speed, yaw rate, steering."""
 
     _fields_ = [
         ("header", Header),
-        ("v", ctypes.c_double),  # m/s: measured forward speed
-        ("omega", ctypes.c_double),  # rad/s: measured yaw rate (differential drive)
+        ("v", ctypes.c_double),  # m/s: measured forward speed (0 when unknown)
+        ("omega", ctypes.c_double),  # rad/s: measured yaw rate (differential drive; 0 when unknown)
         ("steering", ctypes.c_double),  # rad: measured steering angle (car-like)
-        ("x", ctypes.c_double),  # m: dead-reckoned x, frame `odom`
-        ("y", ctypes.c_double),  # m: dead-reckoned y
-        ("theta", ctypes.c_double),  # rad: dead-reckoned heading
+        ("x", ctypes.c_double),  # m: odometry x, frame `odom`
+        ("y", ctypes.c_double),  # m: odometry y
+        ("theta", ctypes.c_double),  # rad: odometry heading
     ]
 
     @staticmethod

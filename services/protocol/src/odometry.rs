@@ -4,13 +4,19 @@ use crate::header::Header;
 use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::*;
 
-/// Odometry over the interval that ends at `header.stamp_ns` and started at the previous
-/// odometry message's stamp (like a wheel-encoder report).
+/// Odometry at `header.stamp_ns`: the robot's pose in the `odom` frame (what wheel
+/// encoders, `nav_msgs/Odometry` or a log report), with the velocities over the interval
+/// since the previous odometry message where the source knows them.
 ///
-/// A differential-drive robot fills `v` and `omega`; a car-like (bicycle) vehicle fills
-/// `v` and `steering` (and may fill `omega` = v·sin(steering)/wheelbase). The service's
-/// motion model says which it uses. `x`, `y`, `theta` are the dead-reckoned pose in the
-/// `odom` frame, for clients; the filter does not use them.
+/// The service's motion model says what it uses:
+/// - `model = "increment"` (recordings, a user's robot): the pose increment between
+///   consecutive messages, `(x, y, θ)ₖ₋₁⁻¹ ⊕ (x, y, θ)ₖ`, with noise that grows with the
+///   distance and angle travelled — so the publishing rate, bursts of stamps and gaps do
+///   not matter; the velocities are not needed (0 when unknown).
+/// - `model = "unicycle"` / `"bicycle"` (the simulations, velocity-only sources): `v` and
+///   `omega` (differential drive) or `v` and `steering` (car-like; `omega` may be filled
+///   with v·sin(steering)/wheelbase), held over the interval; the pose is then the
+///   dead-reckoned one, for clients.
 #[derive(Debug, Clone, Copy, Default, PartialEq, ZeroCopySend, Pod, Zeroable)]
 #[type_name("fastslam::Odometry")]
 #[repr(C)]

@@ -182,7 +182,7 @@ pub struct StepReport {
 /// use fastslam_estimation::Pose2;
 ///
 /// let mut slam = FastSlam::new(FastSlamConfig::default(), Pose2::default()).unwrap();
-/// slam.predict(&Control { v: 3.0, omega: 0.0, steering: 0.0 }, 0.025).unwrap();
+/// slam.predict(&Control { v: 3.0, ..Control::ZERO }, 0.025).unwrap();
 /// let seen = [Observation { range: 10.0, bearing: 0.2, id: None }];
 /// let report = slam.update(&seen).unwrap();
 /// assert_eq!(report.new_landmarks, 100); // one per particle

@@ -55,7 +55,7 @@ impl MotionPrior {
     /// The prior after one more control period.
     pub(crate) fn predict(&self, motion: &MotionModel, control: &Control, dt: f64) -> Self {
         let j = motion.jacobians(&self.mean, control, dt);
-        let noise = j.wrt_control * motion.control_noise() * j.wrt_control.transpose();
+        let noise = motion.pose_noise(&self.mean, control, dt);
         let covariance = j.wrt_pose * self.covariance * j.wrt_pose.transpose() + noise;
         Self {
             mean: motion.propagate(&self.mean, control, dt),
@@ -222,6 +222,7 @@ mod tests {
             v: 3.0,
             omega: 0.0,
             steering: 0.2,
+            ..Control::ZERO
         };
         let floor = Matrix3::from_diagonal(&Vector3::new(1e-6, 1e-6, 1e-8));
         let start = Pose2::new(1.0, 2.0, 0.3);

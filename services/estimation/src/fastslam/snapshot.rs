@@ -246,6 +246,7 @@ mod tests {
             v: 2.0,
             omega: 0.1,
             steering: 0.0,
+            ..Control::ZERO
         };
         for k in from..to {
             slam.predict(&control, 0.1).unwrap();

@@ -77,9 +77,10 @@ pub fn duplicates(
 }
 
 impl Graph {
-    /// Fuses each group of landmarks into its first: the others' sightings name the first,
-    /// and the others are removed (the first keeps its estimate). Returns, for every
-    /// landmark index before, its index after (a fused one's is its group's first).
+    /// Fuses each group of landmarks into its first: the others' sightings and offsets
+    /// name the first, and the others are removed (the first keeps its estimate).
+    /// Returns, for every landmark index before, its index after (a fused one's is its
+    /// group's first).
     ///
     /// # Panics
     /// When a group names a landmark the graph does not have, or one twice.
@@ -105,6 +106,9 @@ impl Graph {
         for s in &mut self.sightings {
             s.landmark = after[s.landmark];
         }
+        for o in &mut self.offsets {
+            o.landmark = after[o.landmark];
+        }
         after
     }
 }
@@ -119,8 +123,10 @@ fn mahalanobis(d: &nalgebra::Vector2<f64>, s: &Matrix2<f64>) -> Option<f64> {
 /// Pairs `(a, b)`, `a < b`, of landmarks that one pose saw both of.
 fn covisible(graph: &Graph) -> HashSet<(usize, usize)> {
     let mut by_pose: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
-    for s in &graph.sightings {
-        by_pose.entry(s.pose).or_default().push(s.landmark);
+    let seen = (graph.sightings.iter().map(|s| (s.pose, s.landmark)))
+        .chain(graph.offsets.iter().map(|o| (o.pose, o.landmark)));
+    for (pose, landmark) in seen {
+        by_pose.entry(pose).or_default().push(landmark);
     }
     let mut pairs = HashSet::new();
     for seen in by_pose.values() {

@@ -1,6 +1,6 @@
 //! Odometry between two poses of a [`Graph`](super::Graph) as one [`Between`] factor.
 
-use super::Between;
+use super::{Between, PoseResidual};
 use crate::motion::{Control, MotionModel};
 use crate::pose::Pose2;
 use nalgebra::Matrix3;
@@ -35,7 +35,7 @@ impl OdometryIntegrator {
     /// Adds `control` held for `dt` seconds.
     pub fn add(&mut self, control: &Control, dt: f64) {
         let j = self.motion.jacobians(&self.delta, control, dt);
-        let noise = j.wrt_control * self.motion.control_noise() * j.wrt_control.transpose();
+        let noise = self.motion.pose_noise(&self.delta, control, dt);
         let covariance = j.wrt_pose * self.covariance * j.wrt_pose.transpose() + noise;
         self.covariance = 0.5 * (covariance + covariance.transpose());
         self.delta = self.motion.propagate(&self.delta, control, dt);
@@ -56,6 +56,7 @@ impl OdometryIntegrator {
             to,
             delta: self.delta,
             information: 0.5 * (information + information.transpose()),
+            residual: PoseResidual::Componentwise,
         };
         (self.delta, self.covariance, self.controls) = (Pose2::default(), Matrix3::zeros(), 0);
         information.iter().all(|v| v.is_finite()).then_some(factor)

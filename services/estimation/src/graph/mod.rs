@@ -11,21 +11,31 @@
 //!   factors (a range–bearing observation of a landmark from a pose).
 //! - [`Graph::solve`] runs Levenberg–Marquardt on the normal equations `(H + λ D) δ = −g`,
 //!   `H = Σ Jᵀ W J`, solved by a sparse Cholesky factorisation (faer, fill-reducing
-//!   ordering) whose symbolic part is computed once per graph shape.
+//!   ordering) whose structure and symbolic part are computed once per solve; each
+//!   iteration writes the factors' fixed-size blocks straight into the matrix. The
+//!   [`Damping`] schedule and the [`PoseUpdate`] are options:
+//!   [`SolveOptions::pose_graph`] picks GTSAM's (Levenberg's damping, the exponential
+//!   update), which converge in a few iterations on pose graphs with long loops.
 //! - A robust kernel ([`Kernel`]) down-weights sightings whose normalised residual is
 //!   large, so a wrong association bends the solution less than a right one.
 //! - [`OdometryIntegrator`] turns the controls between two scans into a [`Between`]
 //!   factor with the filter's own motion model and noise.
+//! - [`g2o`] reads and writes pose graphs in the g2o text format (2D: `VERTEX_SE2`,
+//!   `EDGE_SE2`, `VERTEX_XY`, `EDGE_SE2_XY`, `FIX`): their pose edges are [`Between`]
+//!   factors with the SE(2) logarithm residual ([`PoseResidual::Logmap`]) and their
+//!   landmark edges [`Offset`] factors.
 
 mod duplicates;
+pub mod g2o;
 mod integrate;
 mod smoother;
 mod solve;
+mod system;
 
 pub use duplicates::duplicates;
 pub use integrate::OdometryIntegrator;
 pub use smoother::{Feed, KernelKind, NoiseModel, Smoother, SmootherConfig, Solution};
-pub use solve::{Covariances, Kernel, SolveOptions, SolveReport};
+pub use solve::{Covariances, Damping, Kernel, PoseUpdate, SolveOptions, SolveReport};
 
 use crate::observation::{Observation, predict};
 use crate::pose::{Pose2, wrap_angle};
@@ -33,7 +43,7 @@ use crate::{Error, Result};
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};
 
 /// An odometry factor: pose `to` seen from pose `from` is `delta` (in `from`'s frame),
-/// with information (inverse covariance) `information`.
+/// with information (inverse covariance) `information`, a full symmetric 3 × 3 matrix.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Between {
     /// Index of the earlier pose.
@@ -44,6 +54,36 @@ pub struct Between {
     pub delta: Pose2,
     /// Inverse covariance of `delta` (in `from`'s frame).
     pub information: Matrix3<f64>,
+    /// How the mismatch between `delta` and the estimates' relative pose is measured.
+    pub residual: PoseResidual,
+}
+
+/// The residual of a [`Between`] factor, `p = from⁻¹ ∘ to` being the estimates' relative
+/// pose, `R(·)` a rotation and `t` a translation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PoseResidual {
+    /// Translation and heading apart: `(t_p − t_δ, θ_p − θ_δ)`, both in `from`'s frame —
+    /// the odometry factors' form.
+    #[default]
+    Componentwise,
+    /// The SE(2) logarithm of `δ⁻¹ ∘ p`: `(V(φ)⁻¹ R(θ_δ)ᵀ (t_p − t_δ), φ)`, `φ = θ_p − θ_δ`
+    /// and `V(φ)⁻¹ = [[a, φ/2], [−φ/2, a]]`, `a = (φ/2) cot(φ/2)` — the pose-graph
+    /// convention of GTSAM's between factor, used for g2o edges.
+    Logmap,
+}
+
+/// A landmark's position measured in a pose's frame (x ahead, y left): a g2o
+/// `EDGE_SE2_XY`. Its residual is `R(θ)ᵀ (m − t) − offset`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Offset {
+    /// Index of the observing pose.
+    pub pose: usize,
+    /// Index of the landmark.
+    pub landmark: usize,
+    /// The landmark in the pose's frame (m).
+    pub offset: Vector2<f64>,
+    /// Inverse covariance of `offset`.
+    pub information: Matrix2<f64>,
 }
 
 /// A landmark observation factor: landmark `landmark` seen from pose `pose` at range and
@@ -84,13 +124,17 @@ pub struct Graph {
     pub betweens: Vec<Between>,
     /// Observation factors.
     pub sightings: Vec<Sighting>,
+    /// Landmark positions measured in a pose's frame.
+    pub offsets: Vec<Offset>,
 }
 
 /// One factor's residual and its Jacobians with respect to the variables it touches.
 pub(crate) enum Linearised {
     /// Residual (3) and Jacobian w.r.t. one pose.
     Prior { r: Vector3<f64>, j: Matrix3<f64> },
-    /// Residual (3) and Jacobians w.r.t. the two poses.
+    /// Residual (3) and Jacobians w.r.t. the two poses (the solver takes them from
+    /// [`Between::jacobians`] directly).
+    #[cfg(test)]
     Between {
         r: Vector3<f64>,
         j_from: Matrix3<f64>,
@@ -120,20 +164,139 @@ impl Prior {
 }
 
 impl Between {
-    /// Residual `(from⁻¹ ∘ to) ⊖ delta` at the two poses, with its Jacobians.
+    /// Residual ([`PoseResidual`]) at the two poses, with its Jacobians.
+    #[cfg(test)]
     pub(crate) fn linearise(&self, from: &Pose2, to: &Pose2) -> Linearised {
+        let (r, j_from, j_to) = self.jacobians(from, to);
+        Linearised::Between { r, j_from, j_to }
+    }
+
+    /// `to` in `from`'s frame (translation) and the heading mismatch `θ_p − θ_δ`, wrapped.
+    fn relative(&self, from: &Pose2, to: &Pose2) -> (f64, f64, Vector2<f64>, f64) {
         let (s, c) = from.theta.sin_cos();
         let (dx, dy) = (to.x - from.x, to.y - from.y);
-        // `to` in `from`'s frame.
         let local = Vector2::new(c * dx + s * dy, -s * dx + c * dy);
-        let r = Vector3::new(
-            local.x - self.delta.x,
-            local.y - self.delta.y,
-            wrap_angle(to.theta - from.theta - self.delta.theta),
+        let phi = wrap_angle(to.theta - from.theta - self.delta.theta);
+        (s, c, local, phi)
+    }
+
+    /// The residual at the two poses.
+    pub(crate) fn residual(&self, from: &Pose2, to: &Pose2) -> Vector3<f64> {
+        let (_, _, local, phi) = self.relative(from, to);
+        let u = Vector2::new(local.x - self.delta.x, local.y - self.delta.y);
+        match self.residual {
+            PoseResidual::Componentwise => Vector3::new(u.x, u.y, phi),
+            PoseResidual::Logmap => {
+                let ((te, _), (a, _)) = (self.unrotate(&u), half_cot(phi, false));
+                let h = 0.5 * phi;
+                Vector3::new(a * te.x + h * te.y, -h * te.x + a * te.y, phi)
+            }
+        }
+    }
+
+    /// `R(θ_δ)ᵀ u` and `R(θ_δ)ᵀ` itself.
+    fn unrotate(&self, u: &Vector2<f64>) -> (Vector2<f64>, Matrix2<f64>) {
+        let (sz, cz) = self.delta.theta.sin_cos();
+        let te = Vector2::new(cz * u.x + sz * u.y, -sz * u.x + cz * u.y);
+        (te, Matrix2::new(cz, sz, -sz, cz))
+    }
+
+    /// The residual and its Jacobians with respect to `from` and `to` (in the solver's
+    /// `(x, y, θ)` increments).
+    pub(crate) fn jacobians(
+        &self,
+        from: &Pose2,
+        to: &Pose2,
+    ) -> (Vector3<f64>, Matrix3<f64>, Matrix3<f64>) {
+        let (s, c, local, phi) = self.relative(from, to);
+        let u = Vector2::new(local.x - self.delta.x, local.y - self.delta.y);
+        match self.residual {
+            PoseResidual::Componentwise => {
+                let r = Vector3::new(u.x, u.y, phi);
+                let j_from = Matrix3::new(-c, -s, local.y, s, -c, -local.x, 0.0, 0.0, -1.0);
+                let j_to = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0);
+                (r, j_from, j_to)
+            }
+            PoseResidual::Logmap => {
+                let ((te, rz), (a, da)) = (self.unrotate(&u), half_cot(phi, true));
+                let h = 0.5 * phi;
+                let r = Vector3::new(a * te.x + h * te.y, -h * te.x + a * te.y, phi);
+                // ∂e/∂φ through V(φ)⁻¹, and V(φ)⁻¹ R(θ_δ)ᵀ, the map from the local
+                // translation to the residual's.
+                let dphi = Vector2::new(da * te.x + 0.5 * te.y, -0.5 * te.x + da * te.y);
+                let m = Matrix2::new(a, h, -h, a) * rz;
+                let dt = m * Matrix2::new(c, s, -s, c);
+                let dtheta = m * Vector2::new(local.y, -local.x) - dphi;
+                let j_to = Matrix3::new(
+                    dt[(0, 0)],
+                    dt[(0, 1)],
+                    dphi.x,
+                    dt[(1, 0)],
+                    dt[(1, 1)],
+                    dphi.y,
+                    0.0,
+                    0.0,
+                    1.0,
+                );
+                let j_from = Matrix3::new(
+                    -dt[(0, 0)],
+                    -dt[(0, 1)],
+                    dtheta.x,
+                    -dt[(1, 0)],
+                    -dt[(1, 1)],
+                    dtheta.y,
+                    0.0,
+                    0.0,
+                    -1.0,
+                );
+                (r, j_from, j_to)
+            }
+        }
+    }
+}
+
+/// `a(φ) = (φ/2) cot(φ/2)`, the diagonal of `V(φ)⁻¹`, and (when `derivative`) `a′(φ)`;
+/// a series near zero, where the closed form cancels.
+fn half_cot(phi: f64, derivative: bool) -> (f64, f64) {
+    let p2 = phi * phi;
+    if phi.abs() < 1e-3 {
+        return (
+            1.0 - p2 / 12.0 - p2 * p2 / 720.0,
+            -phi / 6.0 - phi * p2 / 180.0,
         );
-        let j_from = Matrix3::new(-c, -s, local.y, s, -c, -local.x, 0.0, 0.0, -1.0);
-        let j_to = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0);
-        Linearised::Between { r, j_from, j_to }
+    }
+    let h = 0.5 * phi;
+    let (sh, ch) = h.sin_cos();
+    let cot = ch / sh;
+    let da = if derivative {
+        0.5 * (cot - h / (sh * sh))
+    } else {
+        0.0
+    };
+    (h * cot, da)
+}
+
+impl Offset {
+    /// The residual `R(θ)ᵀ (m − t) − offset` at `pose` and `landmark`, with its Jacobians
+    /// with respect to both.
+    pub(crate) fn jacobians(
+        &self,
+        pose: &Pose2,
+        landmark: &Vector2<f64>,
+    ) -> (Vector2<f64>, Matrix2x3<f64>, Matrix2<f64>) {
+        let (s, c) = pose.theta.sin_cos();
+        let (dx, dy) = (landmark.x - pose.x, landmark.y - pose.y);
+        let local = Vector2::new(c * dx + s * dy, -s * dx + c * dy);
+        let r = local - self.offset;
+        let j_pose = Matrix2x3::new(-c, -s, local.y, s, -c, -local.x);
+        (r, j_pose, Matrix2::new(c, s, -s, c))
+    }
+
+    /// The residual alone.
+    pub(crate) fn residual(&self, pose: &Pose2, landmark: &Vector2<f64>) -> Vector2<f64> {
+        let (s, c) = pose.theta.sin_cos();
+        let (dx, dy) = (landmark.x - pose.x, landmark.y - pose.y);
+        Vector2::new(c * dx + s * dy, -s * dx + c * dy) - self.offset
     }
 }
 
@@ -210,9 +373,11 @@ impl Graph {
         3 * self.poses.len() + 2 * self.landmarks.len()
     }
 
-    /// Number of scalar residuals (3 per prior and odometry factor, 2 per sighting).
+    /// Number of scalar residuals (3 per prior and odometry factor, 2 per sighting and
+    /// offset).
     pub fn residuals(&self) -> usize {
-        3 * (self.priors.len() + self.betweens.len()) + 2 * self.sightings.len()
+        3 * (self.priors.len() + self.betweens.len())
+            + 2 * (self.sightings.len() + self.offsets.len())
     }
 
     /// `χ² = Σ rᵀ Ω r` over every factor at the current estimates (no robust kernel):
@@ -224,12 +389,17 @@ impl Graph {
                 chi2 += (r.transpose() * p.information * r)[0];
             }
         }
+        chi2 + self.chi2_measurements()
+    }
+
+    /// [`chi2`](Self::chi2) without the priors: `Σ rᵀ Ω r` over the measurements (odometry
+    /// factors, sightings, offsets) — what a pose-graph tool reports for a graph whose
+    /// priors only anchor it.
+    pub fn chi2_measurements(&self) -> f64 {
+        let mut chi2 = 0.0;
         for b in &self.betweens {
-            if let Linearised::Between { r, .. } =
-                b.linearise(&self.poses[b.from], &self.poses[b.to])
-            {
-                chi2 += (r.transpose() * b.information * r)[0];
-            }
+            let r = b.residual(&self.poses[b.from], &self.poses[b.to]);
+            chi2 += (r.transpose() * b.information * r)[0];
         }
         for s in &self.sightings {
             if let Some(Linearised::Sighting { r, .. }) =
@@ -237,6 +407,10 @@ impl Graph {
             {
                 chi2 += (r.transpose() * s.information * r)[0];
             }
+        }
+        for o in &self.offsets {
+            let r = o.residual(&self.poses[o.pose], &self.landmarks[o.landmark]);
+            chi2 += (r.transpose() * o.information * r)[0];
         }
         chi2
     }
@@ -267,6 +441,7 @@ mod tests {
             to: 1,
             delta: Pose2::new(1.0, 0.2, 0.1),
             information: Matrix3::identity(),
+            residual: PoseResidual::Componentwise,
         };
         let (from, to) = ([0.3, -0.2, 0.7], [1.4, 0.9, 0.95]);
         let r = |f: [f64; 3], t: [f64; 3]| match b
@@ -286,6 +461,62 @@ mod tests {
             "{j_from}"
         );
         assert!((j_to - numeric(to, |t| r(from, t))).norm() < 1e-6, "{j_to}");
+    }
+
+    #[test]
+    fn logmap_between_residual_and_jacobians() {
+        let b = Between {
+            from: 0,
+            to: 1,
+            delta: Pose2::new(1.0, 0.2, 0.1),
+            information: Matrix3::identity(),
+            residual: PoseResidual::Logmap,
+        };
+        // Against the SE(2) logarithm of δ⁻¹ ∘ from⁻¹ ∘ to written out: V(φ)⁻¹ t.
+        let (from, to) = (Pose2::new(0.3, -0.2, 0.7), Pose2::new(1.4, 0.9, 2.95));
+        let e = b.delta.inverse().compose(&from.inverse().compose(&to));
+        let phi = e.theta;
+        let v = Matrix2::new(phi.sin(), phi.cos() - 1.0, 1.0 - phi.cos(), phi.sin()) / phi;
+        let t = v.try_inverse().unwrap() * Vector2::new(e.x, e.y);
+        let r = b.residual(&from, &to);
+        assert!((r - Vector3::new(t.x, t.y, phi)).norm() < 1e-12, "{r}");
+        for (from, to) in [
+            ([0.3, -0.2, 0.7], [1.4, 0.9, 2.95]),
+            ([0.3, -0.2, 0.7], [1.3, 0.0, 0.8]),
+            ([0.3, -0.2, 0.7], [1.3, 0.0, 0.80004]),
+            ([-2.0, 1.0, 3.0], [-3.0, 1.5, -3.0]),
+        ] {
+            let r = |f: [f64; 3], t: [f64; 3]| {
+                b.residual(&Pose2::new(f[0], f[1], f[2]), &Pose2::new(t[0], t[1], t[2]))
+            };
+            let (_, j_from, j_to) = b.jacobians(
+                &Pose2::new(from[0], from[1], from[2]),
+                &Pose2::new(to[0], to[1], to[2]),
+            );
+            let (n_from, n_to) = (numeric(from, |f| r(f, to)), numeric(to, |t| r(from, t)));
+            assert!((j_from - n_from).norm() < 1e-6, "{j_from} vs {n_from}");
+            assert!((j_to - n_to).norm() < 1e-6, "{j_to} vs {n_to}");
+        }
+    }
+
+    #[test]
+    fn offset_jacobians_match_finite_differences() {
+        let o = Offset {
+            pose: 0,
+            landmark: 0,
+            offset: Vector2::new(2.0, -1.0),
+            information: Matrix2::identity(),
+        };
+        let (pose, landmark) = ([0.3, -0.2, 0.7], [3.0, 4.0]);
+        let r = |p: [f64; 3], m: [f64; 2]| {
+            o.residual(&Pose2::new(p[0], p[1], p[2]), &Vector2::new(m[0], m[1]))
+        };
+        let (_, j_pose, j_landmark) = o.jacobians(
+            &Pose2::new(pose[0], pose[1], pose[2]),
+            &Vector2::new(landmark[0], landmark[1]),
+        );
+        assert!((j_pose - numeric(pose, |p| r(p, landmark))).norm() < 1e-6);
+        assert!((j_landmark - numeric(landmark, |m| r(pose, m))).norm() < 1e-6);
     }
 
     #[test]
@@ -356,6 +587,7 @@ mod solve_tests {
             v: 1.0,
             omega: 0.1,
             steering: 0.0,
+            ..Control::ZERO
         };
         let mut truth = vec![Pose2::default()];
         let (mut x, mut dead) = (Pose2::default(), Pose2::default());
@@ -374,6 +606,7 @@ mod solve_tests {
                     v: control.v + sv * normal(),
                     omega: control.omega + sw * normal(),
                     steering: 0.0,
+                    ..Control::ZERO
                 };
                 odometry.add(&measured, DT);
                 dead = motion.propagate(&dead, &measured, DT);

@@ -546,6 +546,7 @@ mod tests {
             v: 1.0,
             omega: std::f64::consts::TAU / 100.0,
             steering: 0.0,
+            ..Control::ZERO
         };
         (landmarks, control)
     }
@@ -576,6 +577,7 @@ mod tests {
                 v: truth_control.v + normal(0.1),
                 omega: truth_control.omega + normal(0.05),
                 steering: 0.0,
+                ..Control::ZERO
             };
             smoother.feed(&Feed::Control {
                 from_ns,

@@ -97,6 +97,8 @@ pub struct GridFastSlam {
     /// Odometry distance (m) and absolute turn (rad) since the last keyframe.
     travelled: (f64, f64),
     stats: MoveStats,
+    /// The laser's pose in the base frame; `None` when it sits at the origin.
+    mount: Option<Pose2>,
 }
 
 impl GridFastSlam {
@@ -136,7 +138,14 @@ impl GridFastSlam {
             keyframes: 0,
             travelled: (0.0, 0.0),
             stats: MoveStats::default(),
+            mount: None,
         })
+    }
+
+    /// Places the laser at `mount` in the base frame (the particles' poses stay the
+    /// base's): scan points are matched and rays traced from `pose ⊕ mount`.
+    pub fn set_laser_mount(&mut self, mount: Pose2) {
+        self.mount = (mount != Pose2::default()).then_some(mount);
     }
 
     /// The particles.
@@ -205,7 +214,14 @@ impl GridFastSlam {
             });
         }
         let beams = self.grid.kept_beams(scan);
-        let points = self.matcher.end_points(scan);
+        let mut points = self.matcher.end_points(scan);
+        if let Some(m) = &self.mount {
+            let (s, c) = m.theta.sin_cos();
+            for p in &mut points {
+                *p = [m.x + c * p[0] - s * p[1], m.y + s * p[0] + c * p[1]];
+            }
+        }
+        let mount = self.mount;
         let streams = Streams::new(self.filter.seed, &[self.keyframes]);
         let floor = &self.filter.prior_floor;
         let floor = Matrix3::from_diagonal(&Vector3::new(
@@ -274,7 +290,8 @@ impl GridFastSlam {
                 p.predicted = d.pose;
                 p.covariance = Matrix3::zeros();
                 p.spread = d.spread;
-                p.grid.integrate(&d.pose, &beams, grid);
+                let origin = mount.map_or(d.pose, |m| d.pose.compose(&m));
+                p.grid.integrate(&origin, &beams, grid);
             });
         if mover.is_some() && !first {
             self.stats.steps += 1;

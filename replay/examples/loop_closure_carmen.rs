@@ -1,0 +1,315 @@
+//! An offline check of the grid-SLAM loop-closing back-end on a CARMEN log. A front end
+//! turns the log into keyframes — the raw odometry poses (`odometry`, keyframes every
+//! 0.5 m or 15°), or grid FastSLAM driven by the odometry increments (`gridslam[:N]`, N
+//! particles, its own keyframes and estimate covariance) — and the back-end matches,
+//! closes loops and solves as the service would drive it. Prints the loop closures found
+//! and accepted, the time per keyframe and per solve, and, when `<name>.relations` sits
+//! next to the log, the Freiburg relation errors of the front end and of the back-end's
+//! trajectory. Writes the back-end's map as a PGM image.
+//!
+//! ```text
+//! cargo run --release -p fastslam-replay --example loop_closure_carmen -- \
+//!     /work/shared/data/freiburg/intel/intel.clf.gz [odometry|gridslam[:N]] [map.pgm]
+//! ```
+
+use fastslam_estimation::fastslam::FastSlamConfig;
+use fastslam_estimation::grid::GridConfig;
+use fastslam_estimation::gridslam::{GridFastSlam, ScanMatchConfig};
+use fastslam_estimation::loop_closure::{Keyframe, LoopClosureConfig, PoseGraphMapper};
+use fastslam_estimation::motion::{Control, Increment, MotionModel};
+use fastslam_estimation::moves::MoveConfig;
+use fastslam_estimation::optimise::{OptimiserConfig, OptimiserKind};
+use fastslam_estimation::scan::{Beam, RangeScan};
+use fastslam_estimation::{Pose2, wrap_angle};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// What a front end says at a scan: its pose, and when the scan is a keyframe, the
+/// covariance of the motion since the previous keyframe.
+type Estimate = (Pose2, Option<[[f64; 3]; 3]>);
+
+/// Where the keyframes come from.
+enum FrontEnd {
+    /// Raw odometry, a keyframe every 0.5 m or 15°; covariance from GMapping's odometry
+    /// noise over the motion since the last keyframe.
+    Odometry { last: Option<Pose2> },
+    /// Grid FastSLAM with the increment motion model.
+    GridSlam(Box<GridFastSlam>),
+}
+
+impl FrontEnd {
+    /// Takes the odometry increment since the previous scan and the scan.
+    fn step(&mut self, odometry: &Pose2, increment: &Pose2, scan: &RangeScan<'_>) -> Estimate {
+        match self {
+            Self::Odometry { last } => {
+                let moved = last.map(|l| l.inverse().compose(odometry));
+                let due = moved.is_none_or(|d| d.x.hypot(d.y) >= 0.5 || d.theta.abs() >= 0.2618);
+                if !due {
+                    return (*odometry, None);
+                }
+                *last = Some(*odometry);
+                let d = moved.unwrap_or_default();
+                let (dist, turn) = (d.x.hypot(d.y), d.theta.abs());
+                let (vxy, vt) = (0.01 * dist + 0.01 * turn, 0.04 * dist + 0.04 * turn);
+                let c = [[vxy, 0.0, 0.0], [0.0, vxy, 0.0], [0.0, 0.0, vt]];
+                (*odometry, Some(c))
+            }
+            Self::GridSlam(slam) => {
+                let control = Control {
+                    increment: *increment,
+                    ..Control::ZERO
+                };
+                slam.predict(&control, 0.1).expect("a finite increment");
+                let step = slam.observe(scan).expect("weights stay finite");
+                let e = slam.estimate();
+                let c = e.covariance;
+                let covariance = std::array::from_fn(|i| std::array::from_fn(|j| c[(i, j)]));
+                (e.mean, step.keyframe.then_some(covariance))
+            }
+        }
+    }
+}
+
+fn main() -> anyhow::Result<()> {
+    let mut args = std::env::args().skip(1);
+    let path = PathBuf::from(
+        args.next()
+            .unwrap_or_else(|| "/work/shared/data/freiburg/intel/intel.clf.gz".into()),
+    );
+    let front = args.next().unwrap_or_else(|| "odometry".into());
+    let image = PathBuf::from(
+        args.next()
+            .unwrap_or_else(|| "/tmp/loop_closure_map.pgm".into()),
+    );
+    let log = fastslam_replay::carmen::load(&path)?;
+    println!("{log}");
+    let data = &log.data;
+    let odometry: Vec<(u64, Pose2)> = (data.odometry.iter())
+        .map(|o| (o.header.stamp_ns, Pose2::new(o.x, o.y, o.theta)))
+        .collect();
+    let grid = GridConfig {
+        resolution: 0.05,
+        ..GridConfig::default()
+    };
+    let mut front_end = match front.split_once(':').map_or((front.as_str(), "30"), |p| p) {
+        ("odometry", _) => FrontEnd::Odometry { last: None },
+        ("gridslam", n) => {
+            let filter = FastSlamConfig {
+                particles: n.parse()?,
+                seed: 1,
+                motion: MotionModel::Increment(Increment::default()),
+                ..FastSlamConfig::default()
+            };
+            let optimiser = OptimiserConfig {
+                kind: OptimiserKind::Hill,
+                ..OptimiserConfig::default()
+            };
+            let matcher = ScanMatchConfig::default();
+            let mut slam = GridFastSlam::new(
+                filter,
+                grid.clone(),
+                matcher,
+                &optimiser,
+                MoveConfig::default(),
+            )?;
+            slam.set_laser_mount(data.laser_mount);
+            FrontEnd::GridSlam(Box::new(slam))
+        }
+        (other, _) => anyhow::bail!("unknown front end `{other}`"),
+    };
+    let config = LoopClosureConfig::default();
+    let mut mapper = PoseGraphMapper::new(config.clone())?;
+    let (mut found, mut solves, mut solve_s, mut add_s, mut worst_add) = (0, 0, 0.0, 0.0, 0.0f64);
+    // (stamp, front end's pose, keyframe before it) of every scan; the front end's pose
+    // at each keyframe.
+    let mut scans: Vec<(u64, Pose2, usize)> = Vec::new();
+    let mut keyframe_poses: Vec<Pose2> = Vec::new();
+    let mut front_s = 0.0;
+    let mut previous: Option<Pose2> = None;
+    let started = Instant::now();
+    for raw in &data.raw_scans {
+        let stamp = raw.header.header.stamp_ns;
+        let Some(pose) = pose_at(&odometry, stamp) else {
+            continue;
+        };
+        let increment = previous.map_or_else(Pose2::default, |p| p.inverse().compose(&pose));
+        previous = Some(pose);
+        let h = &raw.header;
+        let scan = RangeScan {
+            angle_min: f64::from(h.angle_min),
+            angle_increment: f64::from(h.angle_increment),
+            range_min: f64::from(h.range_min),
+            range_max: f64::from(h.range_max),
+            ranges: &raw.ranges,
+        };
+        let t0 = Instant::now();
+        let (estimate, covariance) = front_end.step(&pose, &increment, &scan);
+        front_s += t0.elapsed().as_secs_f64();
+        if let Some(c) = covariance {
+            let mount = data.laser_mount;
+            let points = (0..scan.len())
+                .filter_map(|i| match scan.beam(i) {
+                    Beam::Hit(r) if r <= config.max_range => {
+                        let a = scan.angle(i);
+                        let p = mount.compose(&Pose2::new(r * a.cos(), r * a.sin(), 0.0));
+                        Some([p.x, p.y])
+                    }
+                    _ => None,
+                })
+                .collect();
+            let mut keyframe = Keyframe {
+                stamp_ns: stamp,
+                pose: estimate,
+                covariance: Default::default(),
+                points,
+                beams: grid.kept_beams(&scan),
+                sensor: mount,
+            };
+            for (i, row) in c.iter().enumerate() {
+                for (j, v) in row.iter().enumerate() {
+                    keyframe.covariance[(i, j)] = *v;
+                }
+            }
+            let t0 = Instant::now();
+            let report = mapper.add_keyframe(keyframe)?;
+            let dt = t0.elapsed().as_secs_f64();
+            add_s += dt;
+            worst_add = worst_add.max(dt);
+            found += report.closures.len();
+            keyframe_poses.push(estimate);
+            if report.solve_due {
+                let solution = mapper.solve()?;
+                solves += 1;
+                solve_s += solution.seconds;
+            }
+        }
+        if let Some(k) = mapper.keyframes().checked_sub(1) {
+            scans.push((stamp, estimate, k));
+        }
+    }
+    let solution = mapper.solve()?;
+    solves += 1;
+    solve_s += solution.seconds;
+    let total = started.elapsed().as_secs_f64();
+    let n = mapper.keyframes();
+    println!(
+        "front end `{front}`: {:.1} s; {n} keyframes, {} submaps; loop closures found {found}, \
+         accepted {} of {} at the end; back-end {:.1} ms per keyframe (worst {:.0} ms), \
+         {solves} solves of {:.0} ms on average; {:.1} s in all; {:.0} MB of submaps and beams",
+        front_s,
+        mapper.submaps().len(),
+        solution.accepted,
+        solution.closures,
+        1e3 * add_s / n as f64,
+        1e3 * worst_add,
+        1e3 * solve_s / solves as f64,
+        total,
+        mapper.bytes() as f64 / 1e6,
+    );
+    // Every scan's pose: its keyframe's optimised pose moved by the front end since.
+    let optimised: Vec<(u64, Pose2)> = (scans.iter())
+        .map(|&(stamp, pose, k)| {
+            let since = keyframe_poses[k].inverse().compose(&pose);
+            (stamp, mapper.poses()[k].compose(&since))
+        })
+        .collect();
+    let own: Vec<(u64, Pose2)> = scans.iter().map(|&(s, p, _)| (s, p)).collect();
+    if let Some(relations) = relations_of(&path) {
+        let relations = std::fs::read_to_string(&relations)?;
+        for (name, track) in [("front end", &own), ("back-end", &optimised)] {
+            if let Some((t, r, count)) = score(&relations, track, data.epoch_s) {
+                println!(
+                    "{name}: relation errors over {count}: translation {:.3} ± {:.3} m, \
+                     rotation {:.2} ± {:.2}°",
+                    t.0, t.1, r.0, r.1
+                );
+            }
+        }
+    }
+    if let Some(map) = mapper.render(&grid) {
+        let mut bytes = format!("P5\n{} {}\n255\n", map.width, map.height).into_bytes();
+        for j in (0..map.height).rev() {
+            for i in 0..map.width {
+                let c = map.cells[j * map.width + i];
+                bytes.push(if c < 0 {
+                    205
+                } else {
+                    (255 - 255 * i32::from(c) / 100) as u8
+                });
+            }
+        }
+        std::fs::write(&image, bytes)?;
+        println!("map written to {}", image.display());
+    }
+    Ok(())
+}
+
+/// The odometry pose at `stamp`, interpolated between the poses around it.
+fn pose_at(odometry: &[(u64, Pose2)], stamp: u64) -> Option<Pose2> {
+    let k = odometry.partition_point(|(s, _)| *s < stamp);
+    let (s1, p1) = *odometry.get(k)?;
+    if s1 == stamp || k == 0 {
+        return (s1 == stamp).then_some(p1);
+    }
+    let (s0, p0) = odometry[k - 1];
+    let f = (stamp - s0) as f64 / (s1 - s0) as f64;
+    Some(Pose2::new(
+        p0.x + f * (p1.x - p0.x),
+        p0.y + f * (p1.y - p0.y),
+        p0.theta + f * wrap_angle(p1.theta - p0.theta),
+    ))
+}
+
+/// `<dir>/<name>.relations` for `<dir>/<name>.clf[.gz]`, when it exists.
+fn relations_of(log: &Path) -> Option<PathBuf> {
+    let name = log.file_name()?.to_str()?;
+    let stem = name.split('.').next()?;
+    let path = log.with_file_name(format!("{stem}.relations"));
+    path.exists().then_some(path)
+}
+
+/// Mean and standard deviation of the translational (m) and rotational (°) relation
+/// errors, and how many relations were scored.
+type Scores = ((f64, f64), (f64, f64), usize);
+
+/// Mean ± standard deviation of the relation errors (translation m, rotation °) of
+/// `track` against the Freiburg relations in `text` (times on the log's clock), each end
+/// taken from the nearest pose within 0.1 s; and how many relations were scored.
+fn score(text: &str, track: &[(u64, Pose2)], epoch_s: f64) -> Option<Scores> {
+    let nearest = |t: f64| -> Option<Pose2> {
+        let stamp = ((t - epoch_s) * 1e9).round();
+        if stamp < 0.0 {
+            return None;
+        }
+        let stamp = stamp as u64;
+        let k = track.partition_point(|(s, _)| *s < stamp);
+        let candidates = [k.checked_sub(1), Some(k)];
+        let (s, p) = (candidates.iter().flatten())
+            .filter_map(|&i| track.get(i))
+            .min_by_key(|(s, _)| s.abs_diff(stamp))?;
+        (s.abs_diff(stamp) <= 100_000_000).then_some(*p)
+    };
+    let (mut translation, mut rotation) = (Vec::new(), Vec::new());
+    for line in text.lines() {
+        let f: Vec<f64> = line
+            .split_ascii_whitespace()
+            .filter_map(|v| v.parse().ok())
+            .collect();
+        if f.len() < 8 {
+            continue;
+        }
+        let (Some(a), Some(b)) = (nearest(f[0]), nearest(f[1])) else {
+            continue;
+        };
+        let d = a.inverse().compose(&b);
+        translation.push((d.x - f[2]).hypot(d.y - f[3]));
+        rotation.push(wrap_angle(d.theta - f[7]).abs().to_degrees());
+    }
+    let stats = |v: &[f64]| {
+        let n = v.len() as f64;
+        let mean = v.iter().sum::<f64>() / n;
+        let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+        (mean, var.sqrt())
+    };
+    (!translation.is_empty()).then(|| (stats(&translation), stats(&rotation), translation.len()))
+}

@@ -1,0 +1,753 @@
+//! CARMEN logs (`.clf`, `.log`; plain or gzipped, told apart by the gzip magic bytes): the
+//! format of the Freiburg 2D-lidar SLAM benchmark (Kümmerle et al., Autonomous Robots
+//! 2009), read into a [`DataSet`] of raw scans and odometry poses.
+//!
+//! How the lines map onto the stack's messages (one message per line, fields separated by
+//! white space, `#` lines are comments, blank lines are ignored):
+//! - `FLASER n r1…rn x y θ odom_x odom_y odom_θ ipc_timestamp hostname logger_timestamp`:
+//!   a scan of `n` ranges spread evenly from −90° to +90° (`angle_min` −π/2, increment
+//!   π/(n−1)), the laser at the robot's origin; the odometry pose
+//!   (`odom_x odom_y odom_θ`) is the robot's pose at the scan.
+//! - `ROBOTLASER1 laser_type start_angle fov angular_res max_range accuracy remission_mode
+//!   n r1…rn m rem1…remm laser_x laser_y laser_θ robot_x robot_y robot_θ tv rv
+//!   forward_safety side_safety turn_axis ipc_timestamp hostname logger_timestamp`: beam `i`
+//!   points at `start_angle + i·angular_res`; the laser's mount is `robot⁻¹ ⊕ laser`, which
+//!   must stay within [`MOUNT_TOLERANCE_M`] and [`MOUNT_TOLERANCE_RAD`] of the first
+//!   line's over the whole log (FLASER lines count as the identity mount).
+//! - `ODOM x y θ tv rv accel ipc_timestamp hostname logger_timestamp`: an odometry pose.
+//! - Every other message type (`PARAM`, `SYNC`, `RAWLASER1`, `TRUEPOS`, …) is counted by
+//!   name and skipped. A first field that is not an upper-case message name is an error.
+//!
+//! **Time** is `ipc_timestamp` (s on the log's clock, Unix time in most logs); stamp 0 is
+//! the earliest time of a laser or odometry line ([`DataSet::epoch_s`]).
+//!
+//! **Odometry as poses.** Every laser line's robot pose becomes one [`Odometry`] message
+//! carrying the raw odometry pose as recorded (not re-integrated), `v` = tv and `omega` =
+//! rv where the line has them (0 for FLASER), `steering` 0, as GMapping reads these logs.
+//! `ODOM` lines are read and counted but not published: the laser lines' poses are copies
+//! of them stamped at the scan (0.1–1 s apart in the Freiburg logs), so both together
+//! would step the pose back and forth.
+//!
+//! **Strictly increasing stamps** within each stream. Records are sorted by time, keeping
+//! file order among equal times. A record whose stamp is not later than the previous kept
+//! one is dropped when it repeats it (the same pose; for a scan, the same beams), and is
+//! otherwise moved to 1 ns after it. Both are counted ([`StampRepairs`]).
+//!
+//! **No return.** FLASER lines do not carry the laser's maximum range, so it is taken as
+//! the largest reading of all FLASER lines of the log (these logs write a fixed value for
+//! "no return": 81.83 or 81.91 m, 50 m on ACES). For ROBOTLASER1 it is the line's
+//! `max_range`. A reading from that maximum minus [`NO_RETURN_MARGIN_M`] on becomes `+∞`
+//! (REP-117 no return) and the header's `range_max` is the maximum minus the margin; a
+//! reading ≤ 0 or not finite becomes NaN (invalid). A log whose longest FLASER reading is
+//! a real echo loses that one reading to "no return".
+
+use crate::dataset::{Clock, DataSet, RawScan};
+use crate::text::{DataError, Result};
+use fastslam_estimation::{Pose2, wrap_angle};
+use fastslam_protocol::validate::MAX_SCAN_BEAMS;
+use fastslam_protocol::{Header, LaserScanHeader, Odometry};
+use flate2::read::MultiGzDecoder;
+use std::collections::BTreeMap;
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::fmt;
+use std::fs::File;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+
+/// Readings this close to the laser's maximum range (or beyond) are "no return" (m).
+pub const NO_RETURN_MARGIN_M: f64 = 0.01;
+/// Largest change of the laser's mount position over a log (m).
+pub const MOUNT_TOLERANCE_M: f64 = 1e-3;
+/// Largest change of the laser's mount heading over a log (rad): 0.1°.
+pub const MOUNT_TOLERANCE_RAD: f64 = 0.1 * PI / 180.0;
+
+/// How many records of a stream had their stamp repaired to keep stamps strictly
+/// increasing (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct StampRepairs {
+    /// Records moved to 1 ns after the previous one.
+    pub nudged: usize,
+    /// Records dropped as repeats of the previous one.
+    pub dropped: usize,
+}
+
+/// What the log held, line by line.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct MessageCounts {
+    /// `FLASER` lines.
+    pub flaser: usize,
+    /// `ROBOTLASER1` lines.
+    pub robotlaser1: usize,
+    /// `ODOM` lines.
+    pub odom: usize,
+    /// Lines of every other message type, by type name.
+    pub skipped: BTreeMap<String, usize>,
+}
+
+/// A CARMEN log read into messages, with what was read, skipped and repaired.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CarmenLog {
+    /// The file read.
+    pub path: PathBuf,
+    /// The messages: raw scans and odometry poses; no truth, landmarks or observations.
+    pub data: DataSet,
+    /// The lines read, by type.
+    pub messages: MessageCounts,
+    /// Stamp repairs in the odometry stream.
+    pub odometry_repairs: StampRepairs,
+    /// Stamp repairs in the scan stream.
+    pub scan_repairs: StampRepairs,
+    /// The FLASER lines' maximum range, their largest reading (m); `None` without FLASER.
+    pub flaser_max_range_m: Option<f64>,
+    /// From the first to the last time of the log's laser and odometry lines (s).
+    pub duration_s: f64,
+}
+
+impl fmt::Display for CarmenLog {
+    /// One line: the file, its messages, duration, repairs and skipped types.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (m, o, s) = (&self.messages, self.odometry_repairs, self.scan_repairs);
+        let (scans, poses) = (self.data.raw_scans.len(), self.data.odometry.len());
+        let (path, duration) = (self.path.display(), self.duration_s);
+        write!(f, "{path}: {scans} scans ({} FLASER, ", m.flaser)?;
+        write!(f, "{} ROBOTLASER1), {poses} odometry poses ", m.robotlaser1)?;
+        write!(f, "({} ODOM lines) over {duration:.1} s; ", m.odom)?;
+        write!(
+            f,
+            "nudged/dropped stamps: odometry {}/{}, ",
+            o.nudged, o.dropped
+        )?;
+        write!(f, "scans {}/{}", s.nudged, s.dropped)?;
+        if let Some(max) = self.flaser_max_range_m {
+            write!(
+                f,
+                "; FLASER no return from {:.2} m",
+                max - NO_RETURN_MARGIN_M
+            )?;
+        }
+        let skipped: Vec<String> = (m.skipped.iter())
+            .map(|(k, n)| format!("{k} {n}"))
+            .collect();
+        match skipped.is_empty() {
+            true => write!(f, "; nothing skipped"),
+            false => write!(f, "; skipped {}", skipped.join(", ")),
+        }
+    }
+}
+
+/// Reads the CARMEN log at `path`, plain or gzipped (see the module doc).
+///
+/// # Errors
+/// [`DataError::Io`] naming the file when it cannot be read (a truncated gzip stream
+/// too); [`DataError::Malformed`] with file and line for a line with missing or extra
+/// fields, a field that is not a number, a non-finite pose or time, a beam count that
+/// does not match; [`DataError::Unusable`] for a log without laser lines, whose laser
+/// mount varies, or whose FLASER lines have no valid reading.
+pub fn load(path: &Path) -> Result<CarmenLog> {
+    let io = |e: std::io::Error| DataError::Io {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    };
+    let mut file = BufReader::new(File::open(path).map_err(io)?);
+    let gzipped = file.fill_buf().map_err(io)?.starts_with(&[0x1f, 0x8b]);
+    let mut reader: Box<dyn BufRead> = match gzipped {
+        true => Box::new(BufReader::new(MultiGzDecoder::new(file))),
+        false => Box::new(file),
+    };
+    let mut records = Records::default();
+    let (mut buffer, mut number) = (Vec::new(), 0);
+    while reader.read_until(b'\n', &mut buffer).map_err(io)? > 0 {
+        number += 1;
+        let text = String::from_utf8_lossy(&buffer);
+        let fields = text.split_ascii_whitespace().collect();
+        records.add(&Line {
+            path,
+            number,
+            fields,
+        })?;
+        buffer.clear();
+    }
+    build(path, records)
+}
+
+/// A laser line, before its stamp is known.
+#[derive(Debug, Clone, PartialEq)]
+struct LaserRecord {
+    t_s: f64,
+    line: usize,
+    mount: Pose2,
+    /// The line's maximum range; `None` for FLASER (the log's largest reading).
+    max_range: Option<f64>,
+    /// The scan before the no-return rule (invalid readings already NaN).
+    scan: RawScan,
+}
+
+/// A pose-carrying line, before its stamp is known.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PoseRecord {
+    t_s: f64,
+    odometry: Odometry,
+}
+
+/// A pose record at `t_s`: the raw pose `x y θ`, speed and yaw rate `v ω`.
+fn pose(t_s: f64, [x, y, theta]: [f64; 3], [v, omega]: [f64; 2]) -> PoseRecord {
+    let (header, steering) = (Header::default(), 0.0);
+    let odometry = Odometry {
+        header,
+        v,
+        omega,
+        steering,
+        x,
+        y,
+        theta,
+    };
+    PoseRecord { t_s, odometry }
+}
+
+/// Everything read so far.
+#[derive(Debug, Default)]
+struct Records {
+    lasers: Vec<LaserRecord>,
+    poses: Vec<PoseRecord>,
+    messages: MessageCounts,
+}
+
+impl Records {
+    /// Takes in one line of the log.
+    fn add(&mut self, line: &Line) -> Result<()> {
+        let (laser, pose) = match line.fields.first() {
+            None => return Ok(()),
+            Some(kind) if kind.starts_with('#') => return Ok(()),
+            Some(&"FLASER") => flaser(line)?,
+            Some(&"ROBOTLASER1") => robotlaser1(line)?,
+            Some(&"ODOM") => {
+                // Read for its errors; its pose is a laser line's too (module doc).
+                self.messages.odom += 1;
+                odom(line)?;
+                return Ok(());
+            }
+            Some(kind) if is_message_name(kind) => {
+                *self.messages.skipped.entry(kind.to_string()).or_default() += 1;
+                return Ok(());
+            }
+            Some(kind) => return Err(line.malformed(format!("`{kind}` is not a message type"))),
+        };
+        match laser.max_range {
+            None => self.messages.flaser += 1,
+            Some(_) => self.messages.robotlaser1 += 1,
+        }
+        self.lasers.push(laser);
+        self.poses.push(pose);
+        Ok(())
+    }
+}
+
+/// An upper-case name such as `PARAM` or `RAWLASER1`.
+fn is_message_name(kind: &str) -> bool {
+    kind.starts_with(|c: char| c.is_ascii_uppercase())
+        && (kind.chars()).all(|c| c.is_ascii_uppercase() || c.is_ascii_digit() || c == '_')
+}
+
+/// One line's fields, with where it is for error messages.
+struct Line<'a> {
+    path: &'a Path,
+    number: usize,
+    fields: Vec<&'a str>,
+}
+
+impl Line<'_> {
+    /// A [`DataError::Malformed`] about this line.
+    fn malformed(&self, reason: impl Into<String>) -> DataError {
+        let (path, line, reason) = (self.path.to_path_buf(), self.number, reason.into());
+        DataError::Malformed { path, line, reason }
+    }
+
+    /// Field `i` (from 0, the type's) as text.
+    fn text(&self, i: usize) -> Result<&str> {
+        let only = || self.malformed(format!("only {} fields", self.fields.len()));
+        self.fields.get(i).copied().ok_or_else(only)
+    }
+
+    /// Field `i` as any number (NaN and infinities allowed: readings).
+    fn reading(&self, i: usize) -> Result<f64> {
+        let text = self.text(i)?;
+        let bad = |_| self.malformed(format!("field {} is not a number: `{text}`", i + 1));
+        text.parse::<f64>().map_err(bad)
+    }
+
+    /// The `N` fields from `start` on as finite numbers, named `names` for errors.
+    fn numbers<const N: usize>(&self, start: usize, names: [&str; N]) -> Result<[f64; N]> {
+        let mut values = [0.0; N];
+        for (k, (value, name)) in values.iter_mut().zip(names).enumerate() {
+            *value = self.reading(start + k)?;
+            if !value.is_finite() {
+                return Err(self.malformed(format!("{name} is not finite: {value}")));
+            }
+        }
+        Ok(values)
+    }
+
+    /// Field `i` as a count from `min` to `max`.
+    fn count(&self, i: usize, name: &str, min: usize, max: usize) -> Result<usize> {
+        let text = self.text(i)?;
+        let bad = || self.malformed(format!("{name} is not from {min} to {max}: `{text}`"));
+        (text.parse().ok())
+            .filter(|n| (min..=max).contains(n))
+            .ok_or_else(bad)
+    }
+
+    /// Checks the line has exactly `expected` fields.
+    fn expect_fields(&self, expected: usize, shape: &str) -> Result<()> {
+        let found = self.fields.len();
+        if found == expected {
+            return Ok(());
+        }
+        let reason = format!("{shape}: expected {expected} fields, found {found}");
+        Err(self.malformed(reason))
+    }
+
+    /// The `n` readings from field `start` on as ranges: NaN where ≤ 0 or not finite.
+    fn ranges(&self, start: usize, n: usize) -> Result<Vec<f32>> {
+        let valid = |r: f64| (r.is_finite() && r > 0.0).then_some(r as f32);
+        (start..start + n)
+            .map(|i| Ok(valid(self.reading(i)?).unwrap_or(f32::NAN)))
+            .collect()
+    }
+
+    /// A laser record of this line, its scan laid out from `angles` (first, step).
+    fn laser(&self, t_s: f64, angles: [f64; 2], ranges: Vec<f32>) -> LaserRecord {
+        let header = LaserScanHeader {
+            angle_min: angles[0] as f32,
+            angle_increment: angles[1] as f32,
+            ranges: ranges.len() as u32,
+            ..LaserScanHeader::default()
+        };
+        let (line, mount, max_range) = (self.number, Pose2::default(), None);
+        let scan = RawScan { header, ranges };
+        LaserRecord {
+            t_s,
+            line,
+            mount,
+            max_range,
+            scan,
+        }
+    }
+}
+
+/// A FLASER line's scan and robot pose.
+fn flaser(line: &Line) -> Result<(LaserRecord, PoseRecord)> {
+    let n = line.count(1, "the beam count", 2, MAX_SCAN_BEAMS)?;
+    line.expect_fields(n + 11, &format!("FLASER with {n} beams"))?;
+    let ranges = line.ranges(2, n)?;
+    line.numbers(2 + n, ["laser x", "laser y", "laser θ"])?;
+    let odometry = line.numbers(5 + n, ["odom_x", "odom_y", "odom_θ"])?;
+    let [t_s] = line.numbers(8 + n, ["ipc_timestamp"])?;
+    line.numbers(10 + n, ["logger_timestamp"])?;
+    let laser = line.laser(t_s, [-FRAC_PI_2, PI / (n - 1) as f64], ranges);
+    Ok((laser, pose(t_s, odometry, [0.0; 2])))
+}
+
+/// A ROBOTLASER1 line's scan and robot pose.
+fn robotlaser1(line: &Line) -> Result<(LaserRecord, PoseRecord)> {
+    let [start, _, step, max_range] =
+        line.numbers(2, ["start_angle", "fov", "angular_res", "max_range"])?;
+    let n = line.count(8, "the beam count", 1, MAX_SCAN_BEAMS)?;
+    let m = line.count(9 + n, "the remission count", 0, line.fields.len())?;
+    let tail = 10 + n + m;
+    let shape = format!("ROBOTLASER1 with {n} beams, {m} remissions");
+    line.expect_fields(tail + 14, &shape)?;
+    if step <= 0.0 || step * (n - 1) as f64 > TAU + 1e-4 {
+        let sweep = format!("angular_res {step} must be > 0, {n} beams sweeping at most 2π");
+        return Err(line.malformed(sweep));
+    }
+    if max_range <= NO_RETURN_MARGIN_M {
+        return Err(line.malformed(format!("max_range {max_range} must exceed 0.01 m")));
+    }
+    let ranges = line.ranges(9, n)?;
+    line.ranges(10 + n, m)?;
+    let [lx, ly, lt] = line.numbers(tail, ["laser_x", "laser_y", "laser_θ"])?;
+    let [x, y, theta] = line.numbers(tail + 3, ["robot_x", "robot_y", "robot_θ"])?;
+    let rates = line.numbers(tail + 6, ["tv", "rv"])?;
+    let [t_s] = line.numbers(tail + 11, ["ipc_timestamp"])?;
+    line.numbers(tail + 13, ["logger_timestamp"])?;
+    let mut laser = line.laser(t_s, [start, step], ranges);
+    laser.mount = (Pose2::new(x, y, theta).inverse()).compose(&Pose2::new(lx, ly, lt));
+    laser.max_range = Some(max_range);
+    Ok((laser, pose(t_s, [x, y, theta], rates)))
+}
+
+/// An ODOM line's pose and velocities.
+fn odom(line: &Line) -> Result<PoseRecord> {
+    line.expect_fields(10, "ODOM")?;
+    let [x, y, theta, tv, rv, _, t_s] =
+        line.numbers(1, ["x", "y", "θ", "tv", "rv", "accel", "ipc_timestamp"])?;
+    line.numbers(9, ["logger_timestamp"])?;
+    Ok(pose(t_s, [x, y, theta], [tv, rv]))
+}
+
+/// The laser's mount: the first laser line's, checked against every other line's.
+fn mount(path: &Path, lasers: &[LaserRecord]) -> Result<Pose2> {
+    let Some(first) = lasers.first() else {
+        return Ok(Pose2::default());
+    };
+    let differs = |l: &&LaserRecord| {
+        let (a, b) = (first.mount, l.mount);
+        (a.x - b.x).hypot(a.y - b.y) > MOUNT_TOLERANCE_M
+            || wrap_angle(a.theta - b.theta).abs() > MOUNT_TOLERANCE_RAD
+    };
+    let varying: Vec<&LaserRecord> = lasers.iter().filter(differs).collect();
+    let Some(other) = varying.first() else {
+        return Ok(first.mount);
+    };
+    let show = |l: &LaserRecord| {
+        let (x, y, deg, line) = (l.mount.x, l.mount.y, l.mount.theta.to_degrees(), l.line);
+        format!("line {line}: ({x:.3}, {y:.3}) m, {deg:.2}°")
+    };
+    let (path, a, b, count) = (path.display(), show(first), show(other), varying.len());
+    Err(DataError::Unusable(format!(
+        "{path}: the laser's mount on the robot varies ({a} vs {b}; {count} lines differ \
+         from the first by more than 1 mm or 0.1°), so no fixed mount describes it"
+    )))
+}
+
+/// Stamps strictly increasing over records sorted by stamp: a record not later than the
+/// previous kept one is dropped when `absorb` takes it into that one (a repeat), and is
+/// otherwise moved to 1 ns after it.
+fn strictly_increasing<T>(
+    records: impl IntoIterator<Item = (u64, T)>,
+    mut absorb: impl FnMut(&mut T, &T) -> bool,
+) -> (Vec<(u64, T)>, StampRepairs) {
+    let mut kept: Vec<(u64, T)> = Vec::new();
+    let mut repairs = StampRepairs::default();
+    for (mut stamp_ns, record) in records {
+        if let Some((last_ns, last)) = kept.last_mut()
+            && stamp_ns <= *last_ns
+        {
+            if absorb(last, &record) {
+                repairs.dropped += 1;
+                continue;
+            }
+            stamp_ns = last_ns.saturating_add(1);
+            repairs.nudged += 1;
+        }
+        kept.push((stamp_ns, record));
+    }
+    (kept, repairs)
+}
+
+/// Applies the no-return rule of the module doc to `scan` for the laser's `max_range`.
+fn no_return(scan: &mut RawScan, max_range: f64) {
+    let limit = max_range - NO_RETURN_MARGIN_M;
+    scan.header.range_max = limit as f32;
+    for r in scan.ranges.iter_mut().filter(|r| f64::from(**r) >= limit) {
+        *r = f32::INFINITY;
+    }
+}
+
+/// The messages from the records read.
+fn build(path: &Path, records: Records) -> Result<CarmenLog> {
+    let (mut lasers, mut poses, messages) = (records.lasers, records.poses, records.messages);
+    let unusable = |why: &str| Err(DataError::Unusable(format!("{}: {why}", path.display())));
+    if lasers.is_empty() {
+        return unusable("no laser line (FLASER or ROBOTLASER1) in the log");
+    }
+    let laser_mount = mount(path, &lasers)?;
+    let flaser_max_range_m = (lasers.iter().filter(|l| l.max_range.is_none()))
+        .flat_map(|l| l.scan.ranges.iter().copied().filter(|r| !r.is_nan()))
+        .map(f64::from)
+        .reduce(f64::max);
+    if messages.flaser > 0 && flaser_max_range_m.is_none_or(|m| m <= NO_RETURN_MARGIN_M) {
+        return unusable("the FLASER lines have no reading over 0.01 m: no maximum range");
+    }
+    let times = || (poses.iter().map(|p| p.t_s)).chain(lasers.iter().map(|l| l.t_s));
+    let clock = Clock::starting_at(times())?;
+    let duration_s = times().fold(clock.epoch_s(), f64::max) - clock.epoch_s();
+    // `sort_by` is stable: file order among equal times.
+    poses.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
+    lasers.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
+    let scan_time = match (lasers.first(), lasers.last()) {
+        (Some(first), Some(last)) if lasers.len() > 1 => {
+            ((last.t_s - first.t_s) / (lasers.len() - 1) as f64) as f32
+        }
+        _ => 0.0,
+    };
+    for l in &mut lasers {
+        l.scan.header.scan_time = scan_time;
+        let max_range = l.max_range.or(flaser_max_range_m);
+        no_return(&mut l.scan, max_range.unwrap_or(f64::MAX));
+    }
+    let (poses, odometry_repairs) = strictly_increasing(
+        poses.into_iter().map(|p| (clock.stamp(p.t_s), p)),
+        |last, p| {
+            let at = |o: &Odometry| [o.x, o.y, o.theta];
+            at(&last.odometry) == at(&p.odometry)
+        },
+    );
+    let bits = |s: &RawScan| s.ranges.iter().map(|r| r.to_bits()).collect::<Vec<u32>>();
+    let (lasers, scan_repairs) = strictly_increasing(
+        lasers.into_iter().map(|l| (clock.stamp(l.t_s), l.scan)),
+        |last, s| last.header == s.header && bits(last) == bits(s),
+    );
+    let stamped = |seq: usize, stamp_ns: u64| Header {
+        stamp_ns,
+        seq: seq as u64,
+    };
+    let odometry = (poses.iter().enumerate())
+        .map(|(seq, &(stamp_ns, p))| Odometry {
+            header: stamped(seq, stamp_ns),
+            ..p.odometry
+        })
+        .collect();
+    let raw_scans = (lasers.into_iter().enumerate())
+        .map(|(seq, (stamp_ns, mut scan))| {
+            scan.header.header = stamped(seq, stamp_ns);
+            scan
+        })
+        .collect();
+    let data = DataSet {
+        odometry,
+        raw_scans,
+        laser_mount,
+        epoch_s: clock.epoch_s(),
+        ..DataSet::default()
+    };
+    let log = CarmenLog {
+        path: path.to_path_buf(),
+        data,
+        messages,
+        odometry_repairs,
+        scan_repairs,
+        flaser_max_range_m,
+        duration_s,
+    };
+    tracing::info!(summary = %log, "CARMEN log read");
+    Ok(log)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fastslam_protocol::validate;
+    use std::io::Write;
+
+    /// Writes `bytes` to a fresh file `name` in the temp dir.
+    fn file(name: &str, bytes: &[u8]) -> PathBuf {
+        let path = std::env::temp_dir().join(format!("carmen-{}-{name}", std::process::id()));
+        std::fs::write(&path, bytes).unwrap();
+        path
+    }
+
+    fn gzip(text: &str) -> Vec<u8> {
+        let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        gz.write_all(text.as_bytes()).unwrap();
+        gz.finish().unwrap()
+    }
+
+    fn load_bytes(name: &str, bytes: &[u8]) -> Result<CarmenLog> {
+        let path = file(name, bytes);
+        let log = load(&path);
+        std::fs::remove_file(path).unwrap();
+        log
+    }
+
+    fn load_text(name: &str, text: &str) -> Result<CarmenLog> {
+        load_bytes(name, text.as_bytes())
+    }
+
+    fn join(values: &[f64]) -> String {
+        values.iter().map(|v| format!(" {v}")).collect()
+    }
+
+    fn flaser(ranges: &[f64], [x, y, th]: [f64; 3], t: f64) -> String {
+        let (n, r) = (ranges.len(), join(ranges));
+        format!("FLASER {n}{r} {x} {y} {th} {x} {y} {th} {t} host 0.5\n")
+    }
+
+    fn odom([x, y, th]: [f64; 3], tv: f64, rv: f64, t: f64) -> String {
+        format!("ODOM {x} {y} {th} {tv} {rv} 0 {t} host 0.5\n")
+    }
+
+    fn robotlaser(ranges: &[f64], laser: [f64; 3], robot: [f64; 3], t: f64) -> String {
+        let (n, r, l, p) = (ranges.len(), join(ranges), join(&laser), join(&robot));
+        format!("ROBOTLASER1 0 -1.5 3.0 0.75 40 0.01 0 {n}{r} 2 7 8{l}{p} 0.4 0.1 0 0 0 {t} h 1\n")
+    }
+
+    fn close(a: Pose2, b: [f64; 3]) -> bool {
+        (a.x - b[0]).abs() < 1e-12 && (a.y - b[1]).abs() < 1e-12 && (a.theta - b[2]).abs() < 1e-12
+    }
+
+    #[test]
+    fn flaser_and_odom_lines_become_scans_and_poses() {
+        let text = "# a comment\n\n".to_owned()
+            + &odom([0.0; 3], 0.3, 0.05, 100.0)
+            + &flaser(&[1.0, 2.0, 81.83], [1.0, 2.0, 0.5], 100.25)
+            + &odom([1.5, 2.0, 0.5], 0.2, -0.1, 100.5);
+        let log = load_text("kinds.clf", &text).unwrap();
+        let d = &log.data;
+        // Stamp 0 is the first published record's time: the laser line's.
+        assert_eq!((d.epoch_s, log.duration_s), (100.25, 0.0));
+        let row = |o: &Odometry| (o.header.stamp_ns, o.header.seq, o.x, o.theta, o.v, o.omega);
+        let odo: Vec<_> = d.odometry.iter().map(row).collect();
+        // The laser line's pose is the odometry; ODOM lines are read, not published.
+        assert_eq!(odo, [(0, 0, 1.0, 0.5, 0.0, 0.0)]);
+        let (s, h) = (&d.raw_scans[0], &d.raw_scans[0].header);
+        assert_eq!((h.header.stamp_ns, h.header.seq), (0, 0));
+        assert!((f64::from(h.angle_min) + FRAC_PI_2).abs() < 1e-7);
+        assert!((h.angle_max() - FRAC_PI_2).abs() < 1e-6);
+        assert_eq!(s.ranges, [1.0, 2.0, f32::INFINITY]);
+        validate::laser_scan(h, &s.ranges).unwrap();
+        assert_eq!(d.laser_mount, Pose2::default());
+        assert!(d.truth.is_empty() && d.landmarks.is_empty() && d.scans.is_empty());
+        let m = &log.messages;
+        assert_eq!((m.flaser, m.robotlaser1, m.odom), (1, 0, 2));
+    }
+
+    #[test]
+    fn robotlaser1_lines_carry_angles_range_and_mount() {
+        let ranges = [3.0, 39.995, 5.0, 0.0, 6.0];
+        let text = robotlaser(&ranges, [1.2, 0.1, 0.05], [1.0, 0.0, 0.0], 7.0);
+        let log = load_text("robotlaser.log", &text).unwrap();
+        let (s, h) = (&log.data.raw_scans[0], log.data.raw_scans[0].header);
+        assert_eq!((h.angle_min, h.angle_increment), (-1.5, 0.75));
+        assert_eq!((h.range_max, h.ranges), (39.99, 5));
+        let r = &s.ranges;
+        assert!(r[1].is_infinite() && r[3].is_nan() && r[4] == 6.0, "{r:?}");
+        let o = log.data.odometry[0];
+        assert_eq!((o.x, o.v, o.omega), (1.0, 0.4, 0.1));
+        assert!(close(log.data.laser_mount, [0.2, 0.1, 0.05]));
+        assert_eq!(log.messages.robotlaser1, 1);
+        // The mount is robot⁻¹ ⊕ laser: 0.3 m ahead of a robot facing +y, turned 0.1 rad.
+        let (laser, robot) = ([2.0, 1.3, FRAC_PI_2 + 0.1], [2.0, 1.0, FRAC_PI_2]);
+        let turned = robotlaser(&[1.0; 4], laser, robot, 1.0);
+        let same = robotlaser(&[1.0; 4], [5.3, 1.0, 0.1], [5.0, 1.0, 0.0], 2.0);
+        let mount = load_text("mount.log", &(turned.clone() + &same))
+            .unwrap()
+            .data
+            .laser_mount;
+        assert!(close(mount, [0.3, 0.0, 0.1]), "{mount:?}");
+        let aside = robotlaser(&[1.0; 4], [5.0, 1.3, 0.1], [5.0, 1.0, 0.0], 2.0);
+        let err = load_text("mount.log", &(turned + &aside)).unwrap_err();
+        let err = err.to_string();
+        assert!(err.contains("mount.log") && err.contains("varies"), "{err}");
+        assert!(err.contains("line 1:") && err.contains("line 2:"), "{err}");
+    }
+
+    #[test]
+    fn gzipped_and_plain_logs_read_the_same_whatever_their_name() {
+        let text = odom([0.0; 3], 0.0, 0.0, 5.0) + &flaser(&[1.0, 50.0], [0.1, 0.0, 0.0], 5.5);
+        let plain = load_text("same.clf.gz", &text).unwrap();
+        let gzipped = load_bytes("same.clf", &gzip(&text)).unwrap();
+        assert_eq!(plain.data, gzipped.data);
+        assert_eq!(plain.messages, gzipped.messages);
+        let cut = gzip(&flaser(&[1.0; 90], [0.0; 3], 1.0).repeat(50));
+        let err = load_bytes("cut.clf.gz", &cut[..cut.len() / 2]).unwrap_err();
+        assert!(matches!(err, DataError::Io { .. }), "{err}");
+        assert!(err.to_string().contains("cut.clf.gz"), "{err}");
+    }
+
+    #[test]
+    fn other_message_types_are_counted_by_name() {
+        let text = "PARAM robot_x 1 host 0\nSYNC 1 host 0\nPARAM a b c\nRAWLASER1 1 2\n".to_owned()
+            + &flaser(&[1.0, 2.0], [0.0; 3], 1.0);
+        let log = load_text("skip.clf", &text).unwrap();
+        let skipped = &log.messages.skipped;
+        let count = |name: &str| skipped.get(name).copied();
+        assert_eq!(skipped.len(), 3);
+        assert_eq!(
+            (count("PARAM"), count("RAWLASER1"), count("SYNC")),
+            (Some(2), Some(1), Some(1))
+        );
+        let summary = log.to_string();
+        assert!(summary.contains("1 scans") && summary.contains("PARAM 2, RAWLASER1 1"));
+    }
+
+    #[test]
+    fn bad_lines_name_file_and_line() {
+        let good = flaser(&[1.0, 2.0], [0.0; 3], 1.0);
+        let cases = [
+            (
+                "FLASER 2 1.0 x 0 0 0 0 0 0 1 h 0",
+                "field 4 is not a number",
+            ),
+            (
+                "FLASER 3 1 2 0 0 0 0 0 0 1 h 0",
+                "expected 14 fields, found 13",
+            ),
+            ("FLASER 2 1 2 0 0 0 0 nan 0 1 h 0", "odom_y is not finite"),
+            ("FLASER -2 1 2", "the beam count is not from 2"),
+            ("ODOM 1 2 3 4 5 6 inf h 0", "ipc_timestamp is not finite"),
+            ("ODOM 1 2 3", "ODOM: expected 10 fields, found 4"),
+            (
+                "ROBOTLASER1 0 0 3 0.1 40 0 0 2 1 1 999",
+                "the remission count",
+            ),
+            ("12.5 3 4", "`12.5` is not a message type"),
+        ];
+        for (bad, expected) in cases {
+            let err = load_text("bad.clf", &format!("{good}\n{bad}\n")).unwrap_err();
+            let text = err.to_string();
+            assert!(
+                matches!(err, DataError::Malformed { line: 3, .. }),
+                "{text}"
+            );
+            assert!(
+                text.contains("bad.clf:3:") && text.contains(expected),
+                "{text}"
+            );
+        }
+        let err = load_text("laserless.clf", &odom([0.0; 3], 0.0, 0.0, 1.0)).unwrap_err();
+        let err = err.to_string();
+        assert!(err.contains("laserless.clf: no laser line"), "{err}");
+    }
+
+    #[test]
+    fn the_longest_reading_means_no_return_and_bad_readings_are_nan() {
+        let ranges = [81.83, 81.825, 81.8, 5.0, 0.0, -1.0, f64::NAN, f64::INFINITY];
+        let text = flaser(&ranges, [0.0; 3], 1.0) + &flaser(&[3.0, 4.0], [0.0; 3], 2.0);
+        let log = load_text("noreturn.clf", &text).unwrap();
+        assert!((log.flaser_max_range_m.unwrap() - 81.83).abs() < 1e-5);
+        let (s, last) = (&log.data.raw_scans[0], &log.data.raw_scans[1]);
+        assert!((s.header.range_max - 81.82).abs() < 1e-5, "{:?}", s.header);
+        assert_eq!(
+            last.header.range_max, s.header.range_max,
+            "one maximum per log"
+        );
+        assert_eq!(s.ranges[..4], [f32::INFINITY, f32::INFINITY, 81.8, 5.0]);
+        assert!(s.ranges[4..].iter().all(|r| r.is_nan()), "{:?}", s.ranges);
+        let none = load_text("noreading.clf", &flaser(&[0.0, f64::NAN], [0.0; 3], 1.0));
+        let err = none.unwrap_err().to_string();
+        assert!(err.contains("no maximum range"), "{err}");
+    }
+
+    #[test]
+    fn bursts_of_equal_or_backward_stamps_are_dropped_or_nudged() {
+        let (p, q) = ([1.0, 2.0, 0.3], [1.3, 2.0, 0.3]);
+        let text = [
+            flaser(&[1.0, 2.0], [0.9, 2.0, 0.3], 9.5),
+            flaser(&[1.0, 2.0], p, 10.0),
+            flaser(&[1.0, 2.0], p, 10.0), // the same pose and beams, same time: dropped
+            flaser(&[1.0, 3.0], [1.1, 2.0, 0.3], 10.0), // another pose: nudged
+            flaser(&[1.0, 4.0], q, 8.0),  // out of order: sorted first
+            odom([5.0, 5.0, 0.0], 0.0, 0.0, 10.0), // read, not published
+        ];
+        let log = load_text("burst.clf", &text.concat()).unwrap();
+        let row = |o: &Odometry| (o.header.stamp_ns, o.x);
+        let odo: Vec<_> = log.data.odometry.iter().map(row).collect();
+        let s = 500_000_000;
+        assert_eq!(
+            odo,
+            [(0, 1.3), (3 * s, 0.9), (4 * s, 1.0), (4 * s + 1, 1.1)]
+        );
+        let repairs = |r: StampRepairs| (r.nudged, r.dropped);
+        assert_eq!(repairs(log.odometry_repairs), (1, 1));
+        let stamp = |r: &RawScan| r.header.header.stamp_ns;
+        let scans: Vec<u64> = log.data.raw_scans.iter().map(stamp).collect();
+        assert_eq!(scans, [0, 3 * s, 4 * s, 4 * s + 1]);
+        assert_eq!(repairs(log.scan_repairs), (1, 1));
+        assert_eq!(log.messages.odom, 1);
+        let mut check = validate::StreamCheck::new(u64::MAX);
+        for o in &log.data.odometry {
+            check.accept(o.header).unwrap();
+        }
+    }
+}

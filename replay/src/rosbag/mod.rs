@@ -1,0 +1,703 @@
+//! ROS 2 bags (rosbag2): a robot's laser scans and odometry as a [`DataSet`], so a
+//! recording a ROS 2 user brings replays like the data sets the stack ships.
+//!
+//! [`load`] reads a rosbag2 folder (`metadata.yaml` and its MCAP or SQLite storage files)
+//! or one `.mcap` / `.db3` file ([`storage`]), decodes the CDR messages it needs
+//! ([`cdr`]) and turns them into the stack's messages:
+//! - **Scans**: the one `sensor_msgs/msg/LaserScan` topic (or the one named) becomes
+//!   [`DataSet::raw_scans`], ranges after REP-117 and beams counter-clockwise
+//!   ([`streams`]); intensities are dropped; a scan without beams is skipped.
+//! - **Odometry**: the one `nav_msgs/msg/Odometry` topic (or the one named) becomes one
+//!   [`Odometry`] per message: `x`, `y`, `theta` the 2D pose in the odometry frame (yaw
+//!   from the quaternion), `v` = `twist.linear.x`, `omega` = `twist.angular.z`, steering
+//!   0. A bag without an Odometry topic (or with `--odom-topic /tf`) takes the pose of the
+//!   base frame in the odometry frame from `/tf` instead ([`frames`]), chained through any
+//!   frames between them, with `v` and `omega` 0.
+//! - **Laser mounting**: the scan frame's pose in the base frame, from `/tf_static` (or
+//!   `/tf` when the static transforms lack it), projected to x, y, yaw, goes into
+//!   [`DataSet::laser_mount`]. Without one the laser is taken to sit at the base's
+//!   origin, with a warning. A laser mounted upside down has its scans mirrored (its
+//!   beams turn clockwise in the robot's frame).
+//! - **Stamps**: each message's `header.stamp` (the bag's receive time when that is
+//!   zero), as nanoseconds since the earliest scan or odometry stamp, which is
+//!   [`DataSet::epoch_s`] (Unix seconds for a live recording). Each stream is put in
+//!   strictly increasing stamp order ([`StampRepairs`]).
+//!
+//! The base frame is the Odometry messages' `child_frame_id`, or for tf `base_link` when
+//! the odometry frame reaches it, else the odometry frame's only child; the odometry
+//! frame for tf is `odom`. [`TopicChoice`] overrides each. Every other topic is counted
+//! and skipped. Ground truth, landmarks and observations stay empty.
+//!
+//! Every problem is an error naming the file, never a panic: a missing or unknown storage
+//! file, a file cut short or corrupt, a message that does not decode (with its topic and
+//! index), no scan topic or several without a choice (listing them).
+
+pub mod cdr;
+pub mod frames;
+mod mcap_storage;
+mod sqlite_storage;
+pub mod storage;
+pub mod streams;
+#[cfg(test)]
+mod tests;
+
+use crate::dataset::{Clock, DataSet, RawScan};
+use crate::text::{DataError, Result};
+use fastslam_estimation::Pose2;
+use fastslam_protocol::{Header, Odometry};
+use frames::{TfTree, Transform};
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use storage::{Contents, RawMessage, Topic};
+pub use streams::StampRepairs;
+
+/// The laser scan message type.
+pub const LASER_SCAN: &str = "sensor_msgs/msg/LaserScan";
+/// The odometry message type.
+pub const ODOMETRY: &str = "nav_msgs/msg/Odometry";
+/// The tf message type.
+pub const TF_MESSAGE: &str = "tf2_msgs/msg/TFMessage";
+/// The topic of moving transforms.
+pub const TF_TOPIC: &str = "/tf";
+/// The topic of fixed transforms.
+pub const TF_STATIC_TOPIC: &str = "/tf_static";
+/// The flag that picks the odometry topic, as error messages name it.
+const ODOM_FLAG: &str = "--odom-topic (or --odom-topic /tf for odometry from tf)";
+/// Tilt of the laser from level beyond which the bag warns (rad, 5°).
+const TILT_WARNING_RAD: f64 = 5.0 * std::f64::consts::PI / 180.0;
+
+/// Which topics and frames to use where the bag leaves a choice; `None` picks the one
+/// there is (see the module doc).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct TopicChoice {
+    /// The `sensor_msgs/msg/LaserScan` topic (`--scan-topic`).
+    pub scan_topic: Option<String>,
+    /// The `nav_msgs/msg/Odometry` topic, or `/tf` for odometry from tf (`--odom-topic`).
+    pub odom_topic: Option<String>,
+    /// The odometry frame, for odometry from tf (`--odom-frame`, default `odom`).
+    pub odom_frame: Option<String>,
+    /// The robot's frame: whose pose the odometry is and where the laser mounting is
+    /// measured from (`--base-frame`).
+    pub base_frame: Option<String>,
+}
+
+/// Where the odometry came from.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum OdometrySource {
+    /// A `nav_msgs/msg/Odometry` topic.
+    Topic(String),
+    /// The transform between two frames on `/tf`.
+    Tf {
+        /// The odometry frame.
+        odom_frame: String,
+        /// The base frame.
+        base_frame: String,
+    },
+}
+
+impl std::fmt::Display for OdometrySource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Topic(topic) => write!(f, "{topic}"),
+            Self::Tf {
+                odom_frame,
+                base_frame,
+            } => write!(f, "tf {odom_frame}→{base_frame}"),
+        }
+    }
+}
+
+/// A topic and its message count.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TopicCount {
+    /// The topic name.
+    pub name: String,
+    /// Its message type.
+    pub type_name: String,
+    /// Its messages in the bag.
+    pub count: usize,
+}
+
+/// A bag read into a data set, with what a caller reports about it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bag {
+    /// The messages to publish.
+    pub data: DataSet,
+    /// The storage files read, in order.
+    pub files: Vec<PathBuf>,
+    /// The scan topic used.
+    pub scan_topic: String,
+    /// Where the odometry came from.
+    pub odometry: OdometrySource,
+    /// The scans' frame (`header.frame_id`).
+    pub laser_frame: String,
+    /// The robot's base frame.
+    pub base_frame: String,
+    /// Whether the mounting came from tf (else it is the identity).
+    pub mount_from_tf: bool,
+    /// The topics not read, with their types and counts.
+    pub skipped: Vec<TopicCount>,
+    /// How the scans' stamps were put in order.
+    pub scan_stamps: StampRepairs,
+    /// How the odometry's stamps were put in order.
+    pub odometry_stamps: StampRepairs,
+    /// Things a user should know (no mounting found, a file without summary…).
+    pub warnings: Vec<String>,
+}
+
+impl Bag {
+    /// One line saying what was read.
+    pub fn summary(&self) -> String {
+        let m = self.data.laser_mount;
+        let mount = if self.mount_from_tf {
+            format!(
+                "mounted at x {:.3} m, y {:.3} m, yaw {:.2}° in {}",
+                m.x,
+                m.y,
+                m.theta.to_degrees(),
+                self.base_frame
+            )
+        } else {
+            format!("mount not in tf: at {}'s origin", self.base_frame)
+        };
+        let skipped = if self.skipped.is_empty() {
+            "none".to_string()
+        } else {
+            (self.skipped.iter())
+                .map(|t| format!("{} ({}, {})", t.name, t.type_name, t.count))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let mut line = format!(
+            "{} scans from {} (frame {}, {mount}) · {} odometry from {} · epoch {:.6} s · \
+             skipped: {skipped}",
+            self.data.raw_scans.len(),
+            self.scan_topic,
+            self.laser_frame,
+            self.data.odometry.len(),
+            self.odometry,
+            self.data.epoch_s,
+        );
+        for (stream, repairs) in [
+            ("scan", self.scan_stamps),
+            ("odometry", self.odometry_stamps),
+        ] {
+            if !repairs.is_clean() {
+                line += &format!(" · {stream} stamps: {repairs}");
+            }
+        }
+        if !self.warnings.is_empty() {
+            line += &format!(" · {} warning(s)", self.warnings.len());
+        }
+        line
+    }
+}
+
+/// Reads the bag at `path` (a rosbag2 folder, or one `.mcap` / `.db3` file) with the
+/// topics and frames of `topics` (see the module doc).
+///
+/// # Errors
+/// [`DataError`] naming the file: a missing, unknown, truncated or corrupt storage file;
+/// a message that does not decode ([`DataError::Message`]); no scan topic, no odometry,
+/// or several candidates without a choice ([`DataError::Unusable`], listing them and
+/// the flag that picks one).
+pub fn load(path: &Path, topics: &TopicChoice) -> Result<Bag> {
+    let keep = |name: &str, type_name: &str| {
+        type_name == LASER_SCAN
+            || type_name == ODOMETRY
+            || (type_name == TF_MESSAGE && (name == TF_TOPIC || name == TF_STATIC_TOPIC))
+    };
+    let contents = storage::read(path, &keep)?;
+    let bag = Reader {
+        path,
+        contents: &contents,
+        warnings: contents.warnings.clone(),
+        used: BTreeSet::new(),
+    };
+    bag.build(topics)
+}
+
+/// One load in progress.
+struct Reader<'a> {
+    path: &'a Path,
+    contents: &'a Contents,
+    warnings: Vec<String>,
+    /// Topics read (by index), so the rest are reported as skipped.
+    used: BTreeSet<usize>,
+}
+
+/// One odometry sample: the base's pose in the odometry frame and the measured speeds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Sample {
+    pose: Pose2,
+    v: f64,
+    omega: f64,
+}
+
+/// Odometry samples with their absolute stamps (ns).
+type Samples = Vec<(u64, Sample)>;
+
+impl Reader<'_> {
+    /// The bag as a data set, with the topics and frames of `choice`.
+    fn build(mut self, choice: &TopicChoice) -> Result<Bag> {
+        let scan_topic = self.choose(LASER_SCAN, choice.scan_topic.as_deref(), "--scan-topic")?;
+        let odom_topic = match choice.odom_topic.as_deref() {
+            Some(TF_TOPIC) => None,
+            wanted => {
+                let none_is_fine = wanted.is_none() && self.candidates(ODOMETRY).is_empty();
+                if none_is_fine {
+                    None
+                } else {
+                    Some(self.choose(ODOMETRY, wanted, ODOM_FLAG)?)
+                }
+            }
+        };
+        let scans = self.decode(scan_topic, cdr::laser_scan)?;
+        let laser_frame = (scans.first())
+            .map(|(_, s)| s.header.frame_id.clone())
+            .unwrap_or_default();
+        if scans.iter().any(|(_, s)| s.header.frame_id != laser_frame) {
+            self.warnings.push(format!(
+                "scans name more than one frame: the mounting is that of `{laser_frame}`, the \
+                 first scan's"
+            ));
+        }
+        let mut full_tf = None;
+        let (odometry_source, base_frame, samples) =
+            self.odometry(choice, odom_topic, &mut full_tf)?;
+        let first_scan_ns = scans.iter().map(|(t, _)| *t).min().unwrap_or(0);
+        let mount = self.find_mount(&base_frame, &laser_frame, first_scan_ns, full_tf)?;
+        let (mount_pose, mirrored) = self.mount(mount, &base_frame, &laser_frame);
+        let raw_scans = self.scans(scan_topic, scans, mirrored)?;
+        let (raw_scans, scan_stamps) = streams::order(raw_scans, same_scan);
+        let (samples, odometry_stamps) = streams::order(samples, |a, b| a == b);
+        let path = self.path.display();
+        let (Some(first_scan), Some(first_sample)) = (raw_scans.first(), samples.first()) else {
+            let what = if raw_scans.is_empty() {
+                format!(
+                    "no scan with beams on {}",
+                    self.contents.topics[scan_topic].name
+                )
+            } else {
+                format!("no odometry from {odometry_source}")
+            };
+            return Err(DataError::Unusable(format!("{path}: {what}")));
+        };
+        let epoch_ns = first_scan.0.min(first_sample.0);
+        let clock = Clock::starting_at([epoch_ns as f64 * 1e-9])?;
+        let data = DataSet {
+            odometry: (samples.iter().enumerate())
+                .map(|(seq, (t, s))| Odometry {
+                    header: header(*t - epoch_ns, seq),
+                    v: s.v,
+                    omega: s.omega,
+                    steering: 0.0,
+                    x: s.pose.x,
+                    y: s.pose.y,
+                    theta: s.pose.theta,
+                })
+                .collect(),
+            raw_scans: (raw_scans.into_iter().enumerate())
+                .map(|(seq, (t, mut scan))| {
+                    scan.header.header = header(t - epoch_ns, seq);
+                    scan
+                })
+                .collect(),
+            laser_mount: mount_pose,
+            epoch_s: clock.epoch_s(),
+            ..DataSet::default()
+        };
+        let skipped = (self.contents.topics.iter().enumerate())
+            .filter(|(k, _)| !self.used.contains(k))
+            .map(|(_, t)| TopicCount {
+                name: t.name.clone(),
+                type_name: t.type_name.clone(),
+                count: t.count,
+            })
+            .collect();
+        Ok(Bag {
+            data,
+            files: self.contents.files.clone(),
+            scan_topic: self.contents.topics[scan_topic].name.clone(),
+            odometry: odometry_source,
+            laser_frame,
+            base_frame,
+            mount_from_tf: mount.is_some(),
+            skipped,
+            scan_stamps,
+            odometry_stamps,
+            warnings: self.warnings,
+        })
+    }
+
+    /// The odometry's source, base frame and samples: from the chosen Odometry topic, or
+    /// from tf (the tree then left in `full_tf`).
+    fn odometry(
+        &mut self,
+        choice: &TopicChoice,
+        odom_topic: Option<usize>,
+        full_tf: &mut Option<TfTree>,
+    ) -> Result<(OdometrySource, String, Samples)> {
+        if let Some(topic) = odom_topic {
+            let messages = self.decode(topic, cdr::odometry)?;
+            let child = (messages.iter())
+                .map(|(_, m)| m.child_frame_id.as_str())
+                .find(|c| !c.is_empty());
+            let base = (choice.base_frame.clone())
+                .or(child.map(str::to_string))
+                .unwrap_or_else(|| "base_link".into());
+            let samples = self.odometry_samples(topic, messages)?;
+            let name = self.contents.topics[topic].name.clone();
+            return Ok((OdometrySource::Topic(name), base, samples));
+        }
+        let tf = full_tf.insert(self.tf(&[TF_STATIC_TOPIC, TF_TOPIC])?);
+        let odom = choice.odom_frame.clone().unwrap_or_else(|| "odom".into());
+        let base = self.tf_base(tf, &odom, choice.base_frame.as_deref())?;
+        let samples = self.tf_samples(tf, &odom, &base)?;
+        let source = OdometrySource::Tf {
+            odom_frame: odom,
+            base_frame: base.clone(),
+        };
+        Ok((source, base, samples))
+    }
+
+    /// The laser's pose in the base frame: from `/tf_static`, else from all of tf (the
+    /// tree `full_tf` when already read) at the first scan; `None` when tf lacks it or the
+    /// laser is the base.
+    fn find_mount(
+        &mut self,
+        base: &str,
+        laser: &str,
+        first_scan_ns: u64,
+        full_tf: Option<TfTree>,
+    ) -> Result<Option<Transform>> {
+        if laser.is_empty() || laser == base {
+            return Ok(None);
+        }
+        if let Some(mount) = self
+            .tf(&[TF_STATIC_TOPIC])?
+            .lookup(base, laser, first_scan_ns)
+        {
+            return Ok(Some(mount));
+        }
+        let tf = match full_tf {
+            Some(tf) => tf,
+            None => self.tf(&[TF_STATIC_TOPIC, TF_TOPIC])?,
+        };
+        let mount = tf.lookup(base, laser, first_scan_ns);
+        if mount.is_some() && !tf.is_fixed(base, laser) {
+            self.warnings.push(format!(
+                "the laser mounting {base}→{laser} moves on {TF_TOPIC}: taken at the first scan"
+            ));
+        }
+        Ok(mount)
+    }
+
+    /// The `cdr` topics of type `type_name`.
+    fn candidates(&self, type_name: &str) -> Vec<usize> {
+        (self.contents.topics.iter().enumerate())
+            .filter(|(_, t)| t.type_name == type_name && t.encoding == "cdr")
+            .map(|(k, _)| k)
+            .collect()
+    }
+
+    /// The topic of type `type_name`: the one named `wanted`, else the only one.
+    fn choose(&mut self, type_name: &str, wanted: Option<&str>, flag: &str) -> Result<usize> {
+        let candidates = self.candidates(type_name);
+        let topics = &self.contents.topics;
+        let list = |ks: &[usize]| listing(ks.iter().map(|&k| &topics[k]));
+        let all: Vec<usize> = (0..topics.len()).collect();
+        let found = match wanted {
+            Some(name) => candidates.iter().copied().find(|&k| topics[k].name == name),
+            None if candidates.len() == 1 => Some(candidates[0]),
+            None => None,
+        };
+        if let Some(k) = found {
+            self.used.insert(k);
+            return Ok(k);
+        }
+        let problem = match (wanted, candidates.len()) {
+            (Some(name), 0) => format!(
+                "no {type_name} topic `{name}`: the bag has no {type_name} topic; its topics: {}",
+                list(&all)
+            ),
+            (Some(name), _) => format!(
+                "no {type_name} topic `{name}`; the {type_name} topics: {}",
+                list(&candidates)
+            ),
+            (None, 0) => format!("no {type_name} topic; the bag's topics: {}", list(&all)),
+            (None, n) => format!("{n} {type_name} topics: {}", list(&candidates)),
+        };
+        Err(DataError::Unusable(format!(
+            "{}: {problem}; pick one with {flag}",
+            self.path.display()
+        )))
+    }
+
+    /// The messages of `topic` decoded by `decode`, each with its stamp (header stamp, or
+    /// receive time when that is zero).
+    fn decode<M: Stamped>(
+        &self,
+        topic: usize,
+        decode: fn(&[u8]) -> cdr::DecodeResult<M>,
+    ) -> Result<Vec<(u64, M)>> {
+        self.messages(topic)
+            .map(|m| {
+                let msg = decode(&m.data).map_err(|e| self.message_error(m, e))?;
+                let stamp = msg.stamp().ns().map_err(|e| self.message_error(m, e))?;
+                Ok((stamp.unwrap_or(m.receive_ns), msg))
+            })
+            .collect()
+    }
+
+    /// The kept messages of `topic`, in storage order.
+    fn messages(&self, topic: usize) -> impl Iterator<Item = &RawMessage> {
+        self.contents
+            .messages
+            .iter()
+            .filter(move |m| m.topic == topic)
+    }
+
+    /// A [`DataError::Message`] about `m`.
+    fn message_error(&self, m: &RawMessage, reason: String) -> DataError {
+        DataError::Message {
+            path: self.contents.files[m.file].clone(),
+            topic: self.contents.topics[m.topic].name.clone(),
+            index: m.index,
+            reason,
+        }
+    }
+
+    /// The transforms on the tf topics `names` (the first static), as one tree.
+    fn tf(&mut self, names: &[&str]) -> Result<TfTree> {
+        let mut tree = TfTree::default();
+        for (k, topic) in self.contents.topics.iter().enumerate() {
+            let Some(n) = names.iter().position(|n| *n == topic.name) else {
+                continue;
+            };
+            if topic.type_name != TF_MESSAGE {
+                continue;
+            }
+            self.used.insert(k);
+            for m in self.messages(k) {
+                let transforms = cdr::tf_message(&m.data).map_err(|e| self.message_error(m, e))?;
+                for t in transforms {
+                    let stamp = t.header.stamp.ns().map_err(|e| self.message_error(m, e))?;
+                    let transform = Transform::new(t.translation, t.rotation)
+                        .map_err(|e| self.message_error(m, e))?;
+                    let (parent, child) = (&t.header.frame_id, &t.child_frame_id);
+                    let stamp = stamp.unwrap_or(m.receive_ns);
+                    tree.add(parent, child, stamp, transform, n == 0);
+                }
+            }
+        }
+        tree.finish();
+        for w in &tree.warnings {
+            if !self.warnings.contains(w) {
+                self.warnings.push(w.clone());
+            }
+        }
+        Ok(tree)
+    }
+
+    /// Odometry messages as samples.
+    fn odometry_samples(
+        &self,
+        topic: usize,
+        messages: Vec<(u64, cdr::Odometry)>,
+    ) -> Result<Samples> {
+        let raw: Vec<&RawMessage> = self.messages(topic).collect();
+        (messages.into_iter().zip(raw))
+            .map(|((t, m), raw)| {
+                let pose = Transform::new(m.position, m.orientation)
+                    .map_err(|e| self.message_error(raw, format!("pose: {e}")))?
+                    .pose2();
+                let (v, omega) = (m.linear[0], m.angular[2]);
+                if !(v.is_finite() && omega.is_finite()) {
+                    let reason = format!("twist {v} m/s, {omega} rad/s is not finite");
+                    return Err(self.message_error(raw, reason));
+                }
+                Ok((t, Sample { pose, v, omega }))
+            })
+            .collect()
+    }
+
+    /// The base frame for odometry from tf (see the module doc).
+    fn tf_base(&self, tf: &TfTree, odom: &str, wanted: Option<&str>) -> Result<String> {
+        if let Some(base) = wanted {
+            return Ok(base.to_string());
+        }
+        if tf.lookup(odom, "base_link", 0).is_some() {
+            return Ok("base_link".into());
+        }
+        match tf.children(odom)[..] {
+            [only] => Ok(only.to_string()),
+            _ => Err(self.no_tf_odometry(tf, odom, "base_link")),
+        }
+    }
+
+    /// The base's pose in the odometry frame over time, from tf.
+    fn tf_samples(&self, tf: &TfTree, odom: &str, base: &str) -> Result<Samples> {
+        let track = tf
+            .track(odom, base)
+            .ok_or_else(|| self.no_tf_odometry(tf, odom, base))?;
+        Ok((track.into_iter())
+            .map(|(t, pose)| {
+                let sample = Sample {
+                    pose: pose.pose2(),
+                    v: 0.0,
+                    omega: 0.0,
+                };
+                (t, sample)
+            })
+            .collect())
+    }
+
+    /// The error for odometry missing from tf, listing what tf holds.
+    fn no_tf_odometry(&self, tf: &TfTree, odom: &str, base: &str) -> DataError {
+        let seen = if tf.is_empty() {
+            "the bag has no tf".to_string()
+        } else {
+            format!("tf holds {}", tf.listing())
+        };
+        DataError::Unusable(format!(
+            "{}: no odometry: no {ODOMETRY} topic, and no moving transform {odom}→{base} on \
+             {TF_TOPIC} ({seen}); name the frames with --odom-frame and --base-frame, or a \
+             topic with --odom-topic",
+            self.path.display()
+        ))
+    }
+
+    /// The planar mounting and whether scans are mirrored (laser upside down), with
+    /// warnings for what is missing or odd.
+    fn mount(&mut self, mount: Option<Transform>, base: &str, laser: &str) -> (Pose2, bool) {
+        let Some(mount) = mount else {
+            if laser.is_empty() {
+                self.warnings.push(
+                    "the scans name no frame: the laser is taken to sit at the base's origin"
+                        .into(),
+                );
+            } else if laser != base {
+                self.warnings.push(format!(
+                    "no transform {base}→{laser} on {TF_STATIC_TOPIC} or {TF_TOPIC}: the laser \
+                     is taken to sit at the base's origin (name the base frame with \
+                     --base-frame)"
+                ));
+            }
+            return (Pose2::default(), false);
+        };
+        let mirrored = mount.up() < 0.0;
+        let upright = if mirrored { mount.flipped() } else { mount };
+        if mirrored {
+            self.warnings.push(format!(
+                "the laser `{laser}` is mounted upside down: its scans are mirrored"
+            ));
+        }
+        if upright.up() < TILT_WARNING_RAD.cos() {
+            self.warnings.push(format!(
+                "the laser `{laser}` is tilted {:.1}° from level: its ranges are used as if level",
+                upright.up().clamp(-1.0, 1.0).acos().to_degrees()
+            ));
+        }
+        (upright.pose2(), mirrored)
+    }
+
+    /// The decoded scans as wire scans, stamped with their absolute stamps.
+    fn scans(
+        &mut self,
+        topic: usize,
+        scans: Vec<(u64, cdr::LaserScan)>,
+        mirrored: bool,
+    ) -> Result<Vec<(u64, RawScan)>> {
+        let raw: Vec<&RawMessage> = self.messages(topic).collect();
+        let (mut empty, mut reversed, mut timing) = (0, 0, 0);
+        let mut out = Vec::with_capacity(scans.len());
+        for ((t, msg), raw) in scans.into_iter().zip(raw) {
+            let scan = streams::scan(&msg, mirrored).map_err(|e| self.message_error(raw, e))?;
+            let Some((header, ranges, fixes)) = scan else {
+                empty += 1;
+                continue;
+            };
+            reversed += usize::from(fixes.reversed);
+            timing += usize::from(fixes.timing_zeroed);
+            out.push((t, RawScan { header, ranges }));
+        }
+        let name = &self.contents.topics[topic].name;
+        for (n, what) in [
+            (empty, "had no beams and were skipped"),
+            (
+                reversed,
+                "were reversed to sweep counter-clockwise (per-beam timing dropped)",
+            ),
+            (
+                timing,
+                "had a negative or non-finite time_increment or scan_time, set to 0",
+            ),
+        ] {
+            if n > 0 {
+                self.warnings.push(format!("{n} scans on {name} {what}"));
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Messages with a header stamp.
+trait Stamped {
+    /// The header stamp.
+    fn stamp(&self) -> cdr::Time;
+}
+
+impl Stamped for cdr::LaserScan {
+    fn stamp(&self) -> cdr::Time {
+        self.header.stamp
+    }
+}
+
+impl Stamped for cdr::Odometry {
+    fn stamp(&self) -> cdr::Time {
+        self.header.stamp
+    }
+}
+
+/// A wire header.
+fn header(stamp_ns: u64, seq: usize) -> Header {
+    Header {
+        stamp_ns,
+        seq: seq as u64,
+    }
+}
+
+/// Whether two scans are the same (ranges compared bit for bit, so NaN equals NaN).
+fn same_scan(a: &RawScan, b: &RawScan) -> bool {
+    a.header == b.header
+        && a.ranges.len() == b.ranges.len()
+        && a.ranges
+            .iter()
+            .zip(&b.ranges)
+            .all(|(x, y)| x.to_bits() == y.to_bits())
+}
+
+/// Topics as `name (type, N messages)`, joined.
+fn listing<'a>(topics: impl Iterator<Item = &'a Topic>) -> String {
+    let items: Vec<String> = topics
+        .map(|t| {
+            let encoding = if t.encoding == "cdr" {
+                String::new()
+            } else {
+                format!(", {} encoding", t.encoding)
+            };
+            let type_name = if t.type_name.is_empty() {
+                "no type"
+            } else {
+                &t.type_name
+            };
+            format!("{} ({type_name}{encoding}, {} messages)", t.name, t.count)
+        })
+        .collect();
+    if items.is_empty() {
+        "none".into()
+    } else {
+        items.join(", ")
+    }
+}

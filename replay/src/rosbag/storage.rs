@@ -1,0 +1,459 @@
+//! A bag's storage files and their raw messages: topic, type, receive time and bytes.
+//!
+//! A rosbag2 bag is a folder with `metadata.yaml` and one or more storage files; the
+//! storage files name their topics and types themselves (MCAP channels and schemas, the
+//! SQLite `topics` table), so `metadata.yaml` only says which files make the bag and in
+//! which order (`relative_file_paths`). A folder without it is read file by file in
+//! name order (numbers compared as numbers: `bag_2` before `bag_10`).
+//!
+//! Each file's format comes from its first bytes, not its name: MCAP, SQLite, or either
+//! compressed whole with zstd (rosbag2's `file` compression mode). A message whose bytes
+//! are a zstd frame (the `message` compression mode) is decompressed on the way in.
+
+use super::{mcap_storage, sqlite_storage};
+use crate::text::{DataError, Result};
+use ruzstd::decoding::errors::{FrameDecoderError, ReadFrameHeaderError};
+use ruzstd::decoding::{BlockDecodingStrategy, FrameDecoder};
+use serde::Deserialize;
+use std::collections::HashMap;
+use std::fs::File;
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+
+/// The first bytes of an MCAP file.
+const MCAP_MAGIC: &[u8] = b"\x89MCAP0\r\n";
+/// The first bytes of an SQLite database.
+const SQLITE_MAGIC: &[u8] = b"SQLite format 3\0";
+/// The first bytes of a zstd frame.
+const ZSTD_MAGIC: &[u8] = &[0x28, 0xb5, 0x2f, 0xfd];
+/// The most bytes one decompressed message may take.
+const MAX_MESSAGE_BYTES: u64 = 1 << 30;
+
+/// One topic of the bag (a name with one type).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Topic {
+    /// The topic name (`/scan`).
+    pub name: String,
+    /// The message type (`sensor_msgs/msg/LaserScan`); empty when the file does not say.
+    pub type_name: String,
+    /// The serialisation (`cdr` for ROS 2).
+    pub encoding: String,
+    /// How many messages the bag holds on it.
+    pub count: usize,
+}
+
+/// One message kept for decoding.
+#[derive(Debug, Clone)]
+pub struct RawMessage {
+    /// Index into [`Contents::topics`].
+    pub topic: usize,
+    /// Index into [`Contents::files`].
+    pub file: usize,
+    /// Position on its topic, from 0, in storage order.
+    pub index: usize,
+    /// When the recorder received it (ns, the bag's clock).
+    pub receive_ns: u64,
+    /// The serialised message.
+    pub data: Vec<u8>,
+}
+
+/// What a bag holds: its files, every topic with its count, and the messages of the
+/// topics that were asked for.
+#[derive(Debug, Clone, Default)]
+pub struct Contents {
+    /// The storage files read, in order.
+    pub files: Vec<PathBuf>,
+    /// Every topic seen.
+    pub topics: Vec<Topic>,
+    /// The kept topics' messages, in storage order.
+    pub messages: Vec<RawMessage>,
+    /// Things worth telling (a file without summary).
+    pub warnings: Vec<String>,
+}
+
+/// Collects topics and messages as the storage readers find them.
+pub struct Collector<'k> {
+    keep: &'k dyn Fn(&str, &str) -> bool,
+    contents: Contents,
+    by_key: HashMap<(String, String), usize>,
+    kept: Vec<bool>,
+}
+
+impl Collector<'_> {
+    /// The index of topic `name` of type `type_name`, registered on first sight.
+    pub fn topic(&mut self, name: &str, type_name: &str, encoding: &str) -> usize {
+        let key = (name.to_string(), type_name.to_string());
+        if let Some(&k) = self.by_key.get(&key) {
+            return k;
+        }
+        let k = self.contents.topics.len();
+        self.contents.topics.push(Topic {
+            name: name.into(),
+            type_name: type_name.into(),
+            encoding: encoding.into(),
+            count: 0,
+        });
+        self.kept.push((self.keep)(name, type_name));
+        self.by_key.insert(key, k);
+        k
+    }
+
+    /// Counts a message of `topic` received at `receive_ns`, and keeps its bytes if the
+    /// topic is wanted.
+    ///
+    /// # Errors
+    /// When the message is a zstd frame that does not decompress.
+    pub fn message(&mut self, topic: usize, receive_ns: u64, data: &[u8]) -> Result<()> {
+        let t = &mut self.contents.topics[topic];
+        let index = t.count;
+        t.count += 1;
+        if !self.kept[topic] {
+            return Ok(());
+        }
+        let file = self.contents.files.len() - 1;
+        let data = if data.starts_with(ZSTD_MAGIC) {
+            let mut out = Vec::new();
+            let read = ZstdFrames::new(data)
+                .take(MAX_MESSAGE_BYTES)
+                .read_to_end(&mut out);
+            read.map_err(|e| DataError::Message {
+                path: self.contents.files[file].clone(),
+                topic: t.name.clone(),
+                index,
+                reason: format!("zstd-compressed message does not decompress: {e}"),
+            })?;
+            out
+        } else {
+            data.to_vec()
+        };
+        self.contents.messages.push(RawMessage {
+            topic,
+            file,
+            index,
+            receive_ns,
+            data,
+        });
+        Ok(())
+    }
+
+    /// Adds a warning about the file being read.
+    pub fn warn(&mut self, text: String) {
+        self.contents.warnings.push(text);
+    }
+}
+
+/// Reads the bag at `path` (a rosbag2 folder, or one `.mcap` / `.db3` file), keeping the
+/// messages of the topics for which `keep(name, type)` holds.
+///
+/// # Errors
+/// [`DataError`] naming the file: a missing or unknown storage file, a bad
+/// `metadata.yaml`, a truncated or corrupt file.
+pub fn read(path: &Path, keep: &dyn Fn(&str, &str) -> bool) -> Result<Contents> {
+    let files = storage_files(path)?;
+    let mut sink = Collector {
+        keep,
+        contents: Contents::default(),
+        by_key: HashMap::new(),
+        kept: Vec::new(),
+    };
+    for file in files {
+        sink.contents.files.push(file.clone());
+        read_file(&file, &mut sink)?;
+    }
+    Ok(sink.contents)
+}
+
+/// The storage files of the bag at `path`, in order.
+fn storage_files(path: &Path) -> Result<Vec<PathBuf>> {
+    if path.is_file() {
+        return Ok(vec![path.to_path_buf()]);
+    }
+    if !path.is_dir() {
+        return Err(DataError::Missing {
+            path: path.to_path_buf(),
+        });
+    }
+    let metadata = path.join("metadata.yaml");
+    if metadata.is_file() {
+        let files = relative_file_paths(&metadata)?;
+        for file in &files {
+            if !file.is_file() {
+                return Err(DataError::Unusable(format!(
+                    "{}: lists {}, which does not exist",
+                    metadata.display(),
+                    file.display()
+                )));
+            }
+        }
+        return Ok(files);
+    }
+    let io = |e: std::io::Error| DataError::Io {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    };
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(path).map_err(io)? {
+        let file = entry.map_err(io)?.path();
+        let name = file.file_name().unwrap_or_default().to_string_lossy();
+        let storage = [".mcap", ".db3", ".mcap.zstd", ".db3.zstd"];
+        if file.is_file() && storage.iter().any(|s| name.ends_with(s)) {
+            files.push(file);
+        }
+    }
+    if files.is_empty() {
+        return Err(DataError::Unusable(format!(
+            "{}: not a rosbag2 bag: no metadata.yaml and no .mcap or .db3 file",
+            path.display()
+        )));
+    }
+    files.sort_by_cached_key(|f| natural_key(&f.file_name().unwrap_or_default().to_string_lossy()));
+    Ok(files)
+}
+
+/// A sort key comparing runs of digits as numbers.
+fn natural_key(name: &str) -> Vec<(String, u128)> {
+    let mut key = Vec::new();
+    let mut rest = name;
+    while !rest.is_empty() {
+        let text_len = rest
+            .find(|c: char| c.is_ascii_digit())
+            .unwrap_or(rest.len());
+        let (text, tail) = rest.split_at(text_len);
+        let digits_len = tail
+            .find(|c: char| !c.is_ascii_digit())
+            .unwrap_or(tail.len());
+        let (digits, tail) = tail.split_at(digits_len);
+        key.push((text.to_string(), digits.parse().unwrap_or(u128::MAX)));
+        rest = tail;
+    }
+    key
+}
+
+/// The part of `metadata.yaml` the reader uses.
+#[derive(Debug, Deserialize)]
+struct Metadata {
+    rosbag2_bagfile_information: BagInfo,
+}
+
+/// `rosbag2_bagfile_information`: the storage files, relative to the folder.
+#[derive(Debug, Deserialize)]
+struct BagInfo {
+    #[serde(default)]
+    relative_file_paths: Vec<String>,
+}
+
+/// The storage files `metadata.yaml` lists, as paths.
+fn relative_file_paths(metadata: &Path) -> Result<Vec<PathBuf>> {
+    let bad = |reason: String| DataError::Io {
+        path: metadata.to_path_buf(),
+        reason,
+    };
+    let text = std::fs::read_to_string(metadata).map_err(|e| bad(e.to_string()))?;
+    let parsed: Metadata = serde_yaml_ng::from_str(&text)
+        .map_err(|e| bad(format!("not a rosbag2 metadata file: {e}")))?;
+    let names = parsed.rosbag2_bagfile_information.relative_file_paths;
+    if names.is_empty() {
+        return Err(bad("lists no storage file (relative_file_paths)".into()));
+    }
+    let dir = metadata.parent().unwrap_or(Path::new("."));
+    Ok(names.iter().map(|n| dir.join(n)).collect())
+}
+
+/// Reads one storage file into `sink`, by its format.
+fn read_file(path: &Path, sink: &mut Collector) -> Result<()> {
+    let io = |e: std::io::Error| DataError::Io {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    };
+    let mut reader = BufReader::new(File::open(path).map_err(io)?);
+    let head = reader.fill_buf().map_err(io)?.to_vec();
+    if head.starts_with(MCAP_MAGIC) {
+        mcap_storage::read(reader, path, sink)
+    } else if head.starts_with(SQLITE_MAGIC) {
+        sqlite_storage::read(path, path, sink)
+    } else if head.starts_with(ZSTD_MAGIC) {
+        let mut inner = BufReader::new(ZstdFrames::new(reader));
+        let head = inner.fill_buf().map_err(io)?.to_vec();
+        if head.starts_with(MCAP_MAGIC) {
+            mcap_storage::read(inner, path, sink)
+        } else if head.starts_with(SQLITE_MAGIC) {
+            let copy = TempFile::copy_of(&mut inner, path)?;
+            sqlite_storage::read(&copy.0, path, sink)
+        } else {
+            Err(unknown_storage(path, &head))
+        }
+    } else {
+        Err(unknown_storage(path, &head))
+    }
+}
+
+/// The error for a file that is neither MCAP nor SQLite, showing its first bytes.
+fn unknown_storage(path: &Path, head: &[u8]) -> DataError {
+    let shown: Vec<String> = head.iter().take(8).map(|b| format!("{b:02x}")).collect();
+    DataError::Unusable(format!(
+        "{}: unknown storage: neither MCAP nor SQLite (nor either compressed with zstd); \
+         it starts with {}",
+        path.display(),
+        if shown.is_empty() {
+            "nothing (empty file)".to_string()
+        } else {
+            shown.join(" ")
+        }
+    ))
+}
+
+/// A decompressed copy of a database, removed when dropped (SQLite reads files only).
+struct TempFile(PathBuf);
+
+impl TempFile {
+    /// A temporary file holding all of `source`; errors name `shown`.
+    fn copy_of(source: &mut impl Read, shown: &Path) -> Result<Self> {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        static NEXT: AtomicUsize = AtomicUsize::new(0);
+        let name = format!(
+            "fastslam-rosbag-{}-{}.db3",
+            std::process::id(),
+            NEXT.fetch_add(1, Ordering::Relaxed)
+        );
+        let copy = Self(std::env::temp_dir().join(name));
+        let written = File::create(&copy.0).and_then(|mut f| std::io::copy(source, &mut f));
+        written.map_err(|e| DataError::Io {
+            path: shown.to_path_buf(),
+            reason: format!("decompressing into {}: {e}", copy.0.display()),
+        })?;
+        Ok(copy)
+    }
+}
+
+impl Drop for TempFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
+/// zstd-compressed bytes as a reader of the decompressed bytes: any number of frames one
+/// after another (skippable frames skipped), each frame's checksum checked.
+pub struct ZstdFrames<R: Read> {
+    source: BufReader<R>,
+    decoder: FrameDecoder,
+    in_frame: bool,
+}
+
+impl<R: Read> ZstdFrames<R> {
+    /// A reader decompressing `source`.
+    pub fn new(source: R) -> Self {
+        Self {
+            source: BufReader::new(source),
+            decoder: FrameDecoder::new(),
+            in_frame: false,
+        }
+    }
+}
+
+impl<R: Read> Read for ZstdFrames<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let bad = |e: FrameDecoderError| std::io::Error::new(std::io::ErrorKind::InvalidData, e);
+        loop {
+            if !self.in_frame {
+                if self.source.fill_buf()?.is_empty() {
+                    return Ok(0);
+                }
+                match self.decoder.reset(&mut self.source) {
+                    Ok(()) => self.in_frame = true,
+                    Err(FrameDecoderError::ReadFrameHeaderError(
+                        ReadFrameHeaderError::SkipFrame { length, .. },
+                    )) => {
+                        let skipped = std::io::copy(
+                            &mut (&mut self.source).take(length.into()),
+                            &mut std::io::sink(),
+                        )?;
+                        if skipped < length.into() {
+                            return Err(std::io::ErrorKind::UnexpectedEof.into());
+                        }
+                    }
+                    Err(e) => return Err(bad(e)),
+                }
+                continue;
+            }
+            while self.decoder.can_collect() == 0 && !self.decoder.is_finished() {
+                self.decoder
+                    .decode_blocks(&mut self.source, BlockDecodingStrategy::UptoBlocks(1))
+                    .map_err(bad)?;
+            }
+            let n = self.decoder.read(buf)?;
+            if n > 0 || buf.is_empty() {
+                return Ok(n);
+            }
+            if let (Some(saved), Some(computed)) = (
+                self.decoder.get_checksum_from_data(),
+                self.decoder.get_calculated_checksum(),
+            ) && saved != computed
+            {
+                return Err(std::io::Error::new(
+                    std::io::ErrorKind::InvalidData,
+                    "zstd frame checksum mismatch",
+                ));
+            }
+            self.in_frame = false;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn split_files_sort_by_their_numbers() {
+        let mut names = ["bag_10.mcap", "bag_2.mcap", "bag_0.mcap", "bag_1.mcap"];
+        names.sort_by_key(|n| natural_key(n));
+        assert_eq!(
+            names,
+            ["bag_0.mcap", "bag_1.mcap", "bag_2.mcap", "bag_10.mcap"]
+        );
+    }
+
+    #[test]
+    fn zstd_frames_decompress_one_after_another() {
+        // Two frames of raw (uncompressed) blocks, a skippable frame between them.
+        let frame = |text: &[u8]| {
+            let mut f = vec![0x28, 0xb5, 0x2f, 0xfd, 0x20, text.len() as u8];
+            let block_header = ((text.len() as u32) << 3) | 1; // last block, raw
+            f.extend_from_slice(&block_header.to_le_bytes()[..3]);
+            f.extend_from_slice(text);
+            f
+        };
+        let mut bytes = frame(b"hello ");
+        bytes.extend_from_slice(&[0x50, 0x2a, 0x4d, 0x18, 2, 0, 0, 0, 9, 9]);
+        bytes.extend(frame(b"world"));
+        let mut out = String::new();
+        ZstdFrames::new(&bytes[..])
+            .read_to_string(&mut out)
+            .unwrap();
+        assert_eq!(out, "hello world");
+        let mut cut = Vec::new();
+        assert!(
+            ZstdFrames::new(&bytes[..bytes.len() - 2])
+                .read_to_end(&mut cut)
+                .is_err()
+        );
+    }
+
+    #[test]
+    fn a_path_that_is_no_bag_is_an_error_naming_it() {
+        let dir = std::env::temp_dir().join(format!("rosbag-none-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let err = read(&dir, &|_, _| true).unwrap_err().to_string();
+        assert!(err.contains("not a rosbag2 bag"), "{err}");
+        let file = dir.join("notes.mcap");
+        std::fs::write(&file, b"hello").unwrap();
+        let err = read(&file, &|_, _| true).unwrap_err().to_string();
+        assert!(err.contains("notes.mcap: unknown storage"), "{err}");
+        assert!(err.contains("68 65 6c 6c 6f"), "{err}");
+        std::fs::remove_dir_all(dir).unwrap();
+        assert!(matches!(
+            read(Path::new("/no/such/bag"), &|_, _| true),
+            Err(DataError::Missing { .. })
+        ));
+    }
+}

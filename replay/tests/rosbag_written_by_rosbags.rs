@@ -1,0 +1,301 @@
+//! The bag reader on bags written by an independent implementation: the pure-Python
+//! `rosbags` library (`tests/python/write_bag.py`), in MCAP and SQLite storage, with
+//! zstd chunk, file and message compression, tf-only odometry through an intermediate
+//! frame, an off-centre laser, two scan topics and an undecodable message.
+//!
+//! Python comes from a virtual environment under the cargo target directory, built on
+//! first use (`python3 -m venv`, `pip install rosbags`); without Python, venv or PyPI the
+//! test fails saying which step failed.
+
+use fastslam_replay::rosbag::{self, OdometrySource, TopicChoice};
+use fastslam_replay::text::DataError;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+/// The rosbags release the bags are written with.
+const ROSBAGS: &str = "rosbags==0.11.9";
+
+/// A Python virtual environment with `requirement`, under `<target>/python/venv-<name>`:
+/// created on first use and reused, tests serialising on a lock file, marked done only
+/// once complete.
+///
+/// # Panics
+/// Saying which step failed when Python, venv or pip fail.
+fn python_venv(name: &str, requirement: &str) -> PathBuf {
+    let target = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .parent()
+        .expect("the target tmp dir lies in the target dir");
+    let home = target.join("python");
+    std::fs::create_dir_all(&home).expect("creating the Python folder in the target dir");
+    let venv = home.join(format!("venv-{name}"));
+    let done = venv.join(".installed");
+    let lock = std::fs::File::create(home.join(format!("venv-{name}.lock")))
+        .expect("creating the venv lock file");
+    lock.lock().expect("locking the venv");
+    if done.is_file() {
+        return venv;
+    }
+    let _ = std::fs::remove_dir_all(&venv);
+    run(
+        "python3 -m venv",
+        Command::new("python3").args(["-m", "venv"]).arg(&venv),
+    );
+    run(
+        &format!("pip install {requirement}"),
+        Command::new(venv.join("bin").join("python3"))
+            .args([
+                "-m",
+                "pip",
+                "install",
+                "--quiet",
+                "--disable-pip-version-check",
+            ])
+            .arg(requirement),
+    );
+    std::fs::write(&done, requirement).expect("marking the venv done");
+    venv
+}
+
+/// Runs `cmd`, failing the test with its output when it fails.
+fn run(what: &str, cmd: &mut Command) {
+    let out = cmd
+        .output()
+        .unwrap_or_else(|e| panic!("{what} could not start (is python3 installed?): {e}"));
+    assert!(
+        out.status.success(),
+        "{what} failed ({}):\n{}{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// The bags `write_bag.py` wrote (once per test run) and what they hold.
+fn bags() -> &'static (PathBuf, Value) {
+    static BAGS: OnceLock<(PathBuf, Value)> = OnceLock::new();
+    BAGS.get_or_init(|| {
+        let python = python_venv("rosbags-0.11.9", ROSBAGS)
+            .join("bin")
+            .join("python3");
+        let out =
+            Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("rosbags-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&out);
+        std::fs::create_dir_all(&out).unwrap();
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/write_bag.py");
+        run("write_bag.py", Command::new(python).arg(script).arg(&out));
+        let expected = std::fs::read_to_string(out.join("expected.json")).unwrap();
+        (out.clone(), serde_json::from_str(&expected).unwrap())
+    })
+}
+
+/// Whether two data sets are the same, NaN ranges included (`Debug` prints every value
+/// exactly).
+fn same(a: &fastslam_replay::dataset::DataSet, b: &fastslam_replay::dataset::DataSet) -> bool {
+    format!("{a:?}") == format!("{b:?}")
+}
+
+fn load(name: &str, choice: &TopicChoice) -> Result<rosbag::Bag, DataError> {
+    rosbag::load(&bags().0.join(name), choice)
+}
+
+/// Checks a tf-only bag against what the script wrote.
+fn check_tf_only_bag(name: &str) -> rosbag::Bag {
+    let bag = load(name, &TopicChoice::default()).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let expected = &bags().1[name];
+    assert_eq!(bag.scan_topic, "/base_scan");
+    assert_eq!(
+        bag.odometry,
+        OdometrySource::Tf {
+            odom_frame: "odom".into(),
+            base_frame: "base_link".into()
+        }
+    );
+    let epoch_ns = expected["epoch_ns"].as_u64().unwrap();
+    assert_eq!(bag.data.epoch_s, epoch_ns as f64 * 1e-9);
+    let odometry = expected["odometry"].as_array().unwrap();
+    assert_eq!(bag.data.odometry.len(), odometry.len(), "{name}");
+    for (got, want) in bag.data.odometry.iter().zip(odometry) {
+        assert_eq!(got.header.stamp_ns, want["stamp_ns"].as_u64().unwrap());
+        for (value, key) in [(got.x, "x"), (got.y, "y"), (got.theta, "theta")] {
+            let want = want[key].as_f64().unwrap();
+            assert!(
+                (value - want).abs() < 1e-12,
+                "{name} {key}: {value} vs {want}"
+            );
+        }
+        assert_eq!((got.v, got.omega, got.steering), (0.0, 0.0, 0.0));
+    }
+    let m = bag.data.laser_mount;
+    let mount: Vec<f64> = (expected["mount"].as_array().unwrap().iter())
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert!((m.x - mount[0]).abs() < 1e-12, "{m:?}");
+    assert!((m.y - mount[1]).abs() < 1e-12, "{m:?}");
+    assert!((m.theta - mount[2]).abs() < 1e-12, "{m:?}");
+    assert!(bag.mount_from_tf);
+    assert_eq!(bag.laser_frame, "laser");
+    let scans = expected["scans"].as_array().unwrap();
+    assert_eq!(bag.data.raw_scans.len(), scans.len(), "{name}");
+    for (k, (got, want)) in bag.data.raw_scans.iter().zip(scans).enumerate() {
+        assert_eq!(
+            got.header.header.stamp_ns,
+            want["stamp_ns"].as_u64().unwrap(),
+            "{name} scan {k}"
+        );
+        assert_eq!(got.header.header.seq, k as u64);
+        let ranges: Vec<f32> = (want["ranges"].as_array().unwrap().iter())
+            .map(|r| r.as_str().unwrap().parse().unwrap())
+            .collect();
+        assert_eq!(got.ranges.len(), ranges.len());
+        for (g, w) in got.ranges.iter().zip(&ranges) {
+            assert!(
+                g.to_bits() == w.to_bits() || (g.is_nan() && w.is_nan()),
+                "{name} scan {k}: {g} vs {w}"
+            );
+        }
+        assert!(got.header.angle_increment > 0.0);
+    }
+    // A no-return stays a no-return, and the NaN stays invalid.
+    assert_eq!(bag.data.raw_scans[0].ranges[1], f32::INFINITY);
+    assert!(bag.data.raw_scans[0].ranges[3].is_nan());
+    assert_eq!(bag.skipped.len(), 1, "{:?}", bag.skipped);
+    assert_eq!(
+        (bag.skipped[0].name.as_str(), bag.skipped[0].count),
+        ("/chatter", 1)
+    );
+    bag
+}
+
+/// The tests (their names hold `rosbag`, so `cargo test rosbag` runs them).
+mod written_by_rosbags {
+    use super::*;
+
+    #[test]
+    fn an_mcap_bag_with_zstd_chunks_and_tf_odometry_reads_exactly() {
+        let bag = check_tf_only_bag("mcap");
+        assert!(bag.scan_stamps.is_clean() && bag.odometry_stamps.is_clean());
+        assert!(bag.warnings.is_empty(), "{:?}", bag.warnings);
+        // The storage file alone reads the same.
+        let file = bags().0.join("mcap/mcap.mcap");
+        let alone = rosbag::load(&file, &TopicChoice::default()).unwrap();
+        assert!(
+            same(&alone.data, &bag.data),
+            "the file alone reads otherwise"
+        );
+        println!("{}", bag.summary());
+    }
+
+    #[test]
+    fn a_sqlite_bag_reads_exactly_with_a_duplicate_dropped_and_a_stamp_nudged() {
+        let bag = check_tf_only_bag("sqlite");
+        assert_eq!((bag.scan_stamps.duplicates, bag.scan_stamps.nudged), (1, 1));
+        assert!(bag.odometry_stamps.is_clean());
+        assert!(
+            bag.summary()
+                .contains("scan stamps: 0 reordered, 1 duplicates dropped, 1 nudged")
+        );
+    }
+
+    #[test]
+    fn compressed_bags_read_like_plain_ones() {
+        let plain = check_tf_only_bag("mcap");
+        for name in ["sqlite_file_zstd", "mcap_message_zstd"] {
+            assert!(
+                same(&check_tf_only_bag(name).data, &plain.data),
+                "{name} differs"
+            );
+        }
+    }
+
+    #[test]
+    fn two_scan_topics_need_a_choice() {
+        let err = load("two_scans", &TopicChoice::default())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("2 sensor_msgs/msg/LaserScan topics"), "{err}");
+        assert!(
+            err.contains("/front/scan (sensor_msgs/msg/LaserScan, 4 messages)"),
+            "{err}"
+        );
+        assert!(
+            err.contains("/rear/scan (sensor_msgs/msg/LaserScan, 4 messages)"),
+            "{err}"
+        );
+        assert!(err.contains("--scan-topic"), "{err}");
+        let choice = TopicChoice {
+            scan_topic: Some("/rear/scan".into()),
+            ..TopicChoice::default()
+        };
+        let bag = load("two_scans", &choice).unwrap();
+        assert_eq!(bag.odometry, OdometrySource::Topic("/odom".into()));
+        assert_eq!(
+            (bag.laser_frame.as_str(), bag.base_frame.as_str()),
+            ("rear_laser", "base_link")
+        );
+        let m = bag.data.laser_mount;
+        assert!((m.x + 0.3).abs() < 1e-12 && m.y.abs() < 1e-12, "{m:?}");
+        assert!(
+            (m.theta.abs() - std::f64::consts::PI).abs() < 1e-12,
+            "{m:?}"
+        );
+        let expected = bags().1["two_scans"]["odometry"].as_array().unwrap();
+        assert_eq!(bag.data.odometry.len(), expected.len());
+        for (got, want) in bag.data.odometry.iter().zip(expected) {
+            assert_eq!(got.header.stamp_ns, want["stamp_ns"].as_u64().unwrap());
+            for (value, key) in [
+                (got.x, "x"),
+                (got.theta, "theta"),
+                (got.v, "v"),
+                (got.omega, "omega"),
+            ] {
+                assert!((value - want[key].as_f64().unwrap()).abs() < 1e-12, "{key}");
+            }
+        }
+        assert_eq!(bag.skipped.len(), 1);
+        assert_eq!(bag.skipped[0].name, "/front/scan");
+    }
+
+    #[test]
+    fn an_undecodable_message_is_an_error_naming_topic_and_index() {
+        let err = load("bad_message", &TopicChoice::default()).unwrap_err();
+        match &err {
+            DataError::Message {
+                path, topic, index, ..
+            } => {
+                assert!(path.ends_with("bad_message/bad_message.mcap"), "{err}");
+                assert_eq!((topic.as_str(), *index), ("/scan", 2));
+            }
+            other => panic!("expected a message error, got {other}"),
+        }
+        assert!(err.to_string().contains("/scan message 2: "), "{err}");
+    }
+
+    #[test]
+    fn a_truncated_mcap_file_is_an_error_not_a_panic() {
+        let source = bags().0.join("mcap/mcap.mcap");
+        let bytes = std::fs::read(&source).unwrap();
+        let dir = bags().0.join("cut");
+        std::fs::create_dir_all(&dir).unwrap();
+        let cut = dir.join("cut.mcap");
+        std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+        let err = rosbag::load(&cut, &TopicChoice::default())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("cut.mcap: MCAP file cut short"), "{err}");
+        // Anywhere it is cut: an error, or (cut exactly between records) the whole part read
+        // with a warning.
+        for k in 0..64 {
+            let end = bytes.len() * k / 64;
+            std::fs::write(&cut, &bytes[..end]).unwrap();
+            match rosbag::load(&cut, &TopicChoice::default()) {
+                Err(e) => assert!(e.to_string().contains("cut.mcap"), "cut at {end}: {e}"),
+                Ok(bag) => assert!(
+                    !bag.warnings.is_empty(),
+                    "cut at {end} read without warning"
+                ),
+            }
+        }
+    }
+}

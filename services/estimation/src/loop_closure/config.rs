@@ -1,0 +1,201 @@
+//! Settings of the loop-closing back-end (`[loop_closure]` of the service), with their
+//! units and the reasons for their defaults (docs/ALGORITHMS.md §9.1).
+
+use crate::Result;
+use crate::check::{in_range, positive, require};
+use serde::{Deserialize, Serialize};
+
+/// Settings of [`super::PoseGraphMapper`]; defaults suit an indoor planar laser.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LoopClosureConfig {
+    /// Side of a submap cell (m). Default 0.05: the range noise of an indoor lidar (1–3 cm)
+    /// is below it, and a ±3 m window is 121 cells wide.
+    pub resolution: f64,
+    /// Keyframes a submap takes before it is finished and can be matched against (count,
+    /// ≥ 1). Default 30: about 15 m of travel at 0.5 m keyframes, enough for a submap to
+    /// see a room or a corridor's stretch whole, short enough that the front end's drift
+    /// inside it stays below a cell or two.
+    pub keyframes_per_submap: usize,
+    /// Beams are cut at this length when inserted into a submap, and scan points farther
+    /// from the base are not matched (m). Default 20: it bounds a submap's extent, hence
+    /// its memory, and far returns are the least precise in heading.
+    pub max_range: f64,
+    /// Log-odds added to a submap cell where a beam ended (dimensionless, > 0). Default 0.4
+    /// (p 0.6).
+    pub l_occupied: f64,
+    /// Log-odds added to a submap cell a beam crossed (dimensionless, < 0). Default −0.1
+    /// (p 0.475): four misses undo one hit, so a thin wall grazed by later beams survives.
+    pub l_free: f64,
+    /// A submap cell's log-odds stay within `±l_clamp` (dimensionless, > 0). Default 2.2
+    /// (p within [0.1, 0.9]).
+    pub l_clamp: f64,
+    /// Match every `search_every`-th keyframe against the finished submaps (count, ≥ 1).
+    /// Default 1.
+    pub search_every: usize,
+    /// Finished submaps whose origin lies within this distance of the keyframe (graph
+    /// estimates) are searched (m). Default 15: a submap reaches about its range limit
+    /// around the path it was built along.
+    pub max_search_distance: f64,
+    /// The linear search window's half width is `3σ` of the accumulated uncertainty, but at
+    /// least this (m). Default 0.3.
+    pub min_linear_window: f64,
+    /// … and at most this (m). Default 3.0.
+    pub max_linear_window: f64,
+    /// The angular window's half width is `3σ`, but at least this (rad). Default 0.0524
+    /// (3°).
+    pub min_angular_window: f64,
+    /// … and at most this (rad). Default 0.349 (20°).
+    pub max_angular_window: f64,
+    /// Levels of the max-pooled grids for branch and bound (count, 1..=12): the coarsest
+    /// pools `2^(depth−1)` cells a side. Default 7 (64 cells, 3.2 m at 5 cm).
+    pub depth: usize,
+    /// A match is accepted when its score, the mean probability of the submap cells under
+    /// the scan's points, is at least this (in [0, 1]). Default 0.6; see
+    /// docs/ALGORITHMS.md §9.1 for the scores true and false matches reach.
+    pub min_score: f64,
+    /// Fewest scan points a keyframe needs to be matched (count). Default 20.
+    pub min_points: usize,
+    /// Standard deviation added in quadrature to the front end's between-keyframe
+    /// covariance, position (m). Default 0.02.
+    pub between_floor_xy: f64,
+    /// … heading (rad). Default 0.0087 (0.5°).
+    pub between_floor_theta: f64,
+    /// A loop closure's position standard deviation in cells at score 1; it grows as
+    /// `1/score` (cells). Default 1.
+    pub loop_sigma_cells: f64,
+    /// Scale `c` of the Cauchy weight `1 / (1 + χ²/c²)` of a loop closure between solves
+    /// (χ² of its nominal information; dimensionless). Default 3.
+    pub loop_kernel_scale: f64,
+    /// A loop closure whose χ² exceeds this after the reweighting is left out of the
+    /// solution (dimensionless). Default 16.27, χ²₃ at 99.9 %.
+    pub loop_chi2_gate: f64,
+    /// Most reweighting rounds per solve (count, ≥ 1). Default 8.
+    pub robust_rounds: usize,
+    /// Most Levenberg–Marquardt iterations per round (count, ≥ 1). Default 50.
+    pub max_iterations: usize,
+    /// A solve is due after this many keyframes without one, new closure or not (count,
+    /// ≥ 1). Default 50.
+    pub solve_every: usize,
+}
+
+impl Default for LoopClosureConfig {
+    fn default() -> Self {
+        Self {
+            resolution: 0.05,
+            keyframes_per_submap: 30,
+            max_range: 20.0,
+            l_occupied: 0.4,
+            l_free: -0.1,
+            l_clamp: 2.2,
+            search_every: 1,
+            max_search_distance: 15.0,
+            min_linear_window: 0.3,
+            max_linear_window: 3.0,
+            min_angular_window: 3f64.to_radians(),
+            max_angular_window: 20f64.to_radians(),
+            depth: 7,
+            min_score: 0.6,
+            min_points: 20,
+            between_floor_xy: 0.02,
+            between_floor_theta: 0.5f64.to_radians(),
+            loop_sigma_cells: 1.0,
+            loop_kernel_scale: 3.0,
+            loop_chi2_gate: 16.27,
+            robust_rounds: 8,
+            max_iterations: 50,
+            solve_every: 50,
+        }
+    }
+}
+
+/// Largest [`LoopClosureConfig::depth`] accepted.
+pub const MAX_DEPTH: usize = 12;
+
+impl LoopClosureConfig {
+    /// Checks every value.
+    ///
+    /// # Errors
+    /// [`crate::Error::InvalidParameter`] naming the first bad value.
+    pub fn validate(&self) -> Result<()> {
+        positive("loop_closure.resolution", self.resolution)?;
+        at_least_one(
+            "loop_closure.keyframes_per_submap",
+            self.keyframes_per_submap,
+        )?;
+        positive("loop_closure.max_range", self.max_range)?;
+        positive("loop_closure.l_occupied", self.l_occupied)?;
+        require(
+            self.l_free < 0.0 && self.l_free.is_finite(),
+            "loop_closure.l_free",
+            || format!("must be finite and < 0, got {}", self.l_free),
+        )?;
+        positive("loop_closure.l_clamp", self.l_clamp)?;
+        at_least_one("loop_closure.search_every", self.search_every)?;
+        positive("loop_closure.max_search_distance", self.max_search_distance)?;
+        positive("loop_closure.min_linear_window", self.min_linear_window)?;
+        positive("loop_closure.max_linear_window", self.max_linear_window)?;
+        require(
+            self.min_linear_window <= self.max_linear_window,
+            "loop_closure.min_linear_window",
+            || "must not exceed max_linear_window".into(),
+        )?;
+        positive("loop_closure.min_angular_window", self.min_angular_window)?;
+        in_range(
+            "loop_closure.max_angular_window",
+            self.max_angular_window,
+            self.min_angular_window,
+            std::f64::consts::PI,
+        )?;
+        require(
+            (1..=MAX_DEPTH).contains(&self.depth),
+            "loop_closure.depth",
+            || format!("must lie in 1..={MAX_DEPTH}, got {}", self.depth),
+        )?;
+        in_range("loop_closure.min_score", self.min_score, 0.0, 1.0)?;
+        positive("loop_closure.between_floor_xy", self.between_floor_xy)?;
+        positive("loop_closure.between_floor_theta", self.between_floor_theta)?;
+        positive("loop_closure.loop_sigma_cells", self.loop_sigma_cells)?;
+        positive("loop_closure.loop_kernel_scale", self.loop_kernel_scale)?;
+        positive("loop_closure.loop_chi2_gate", self.loop_chi2_gate)?;
+        at_least_one("loop_closure.robust_rounds", self.robust_rounds)?;
+        at_least_one("loop_closure.max_iterations", self.max_iterations)?;
+        at_least_one("loop_closure.solve_every", self.solve_every)
+    }
+}
+
+/// Checks that a count is at least one.
+fn at_least_one(name: &'static str, value: usize) -> Result<()> {
+    require(value >= 1, name, || "must be >= 1".into())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Error;
+
+    #[test]
+    fn defaults_are_valid_and_bad_values_are_named() {
+        LoopClosureConfig::default().validate().unwrap();
+        let bad = LoopClosureConfig {
+            min_linear_window: 4.0,
+            ..LoopClosureConfig::default()
+        };
+        let err = bad.validate().unwrap_err();
+        assert!(matches!(
+            err,
+            Error::InvalidParameter {
+                name: "loop_closure.min_linear_window",
+                ..
+            }
+        ));
+        let bad = LoopClosureConfig {
+            depth: 0,
+            ..LoopClosureConfig::default()
+        };
+        assert!(bad.validate().is_err());
+        let parsed: LoopClosureConfig = toml::from_str("min_score = 0.7").unwrap();
+        assert_eq!(parsed.min_score, 0.7);
+        assert!(toml::from_str::<LoopClosureConfig>("min_scor = 0.7").is_err());
+    }
+}

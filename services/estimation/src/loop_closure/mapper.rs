@@ -1,0 +1,426 @@
+//! The back-end itself: keyframes in, a pose graph with loop closures, the optimised
+//! poses and the map → front-end correction out.
+
+use super::config::LoopClosureConfig;
+use super::robust::{self, LoopEdge};
+use super::submap::Submap;
+use crate::graph::{Between, Graph, PoseResidual, Prior};
+use crate::grid::KeptBeam;
+use crate::pose::Pose2;
+use crate::{Error, Result};
+use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+
+/// Information of the prior that fixes the first keyframe where the front end put it.
+const ANCHOR_INFORMATION: f64 = 1e8;
+
+/// One keyframe as the front end hands it over.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Keyframe {
+    /// Time of the scan (ns); not decreasing from keyframe to keyframe.
+    pub stamp_ns: u64,
+    /// The front end's estimate of the base pose at the scan, in the front end's map
+    /// frame (m, m, rad).
+    pub pose: Pose2,
+    /// The front end's covariance of the motion since the previous keyframe, on the map
+    /// frame's axes (m², m·rad, rad²); ignored for the first keyframe. Grid FastSLAM's
+    /// estimate covariance at a keyframe is of this kind: the particles' spread given
+    /// their own maps, which does not grow along the trajectory.
+    pub covariance: Matrix3<f64>,
+    /// The scan's end points for matching, base frame (m): returns only, sensor mount
+    /// applied.
+    pub points: Vec<[f64; 2]>,
+    /// The scan's beams for the grids (sensor frame), as [`crate::grid::GridConfig::kept_beams`]
+    /// gives them.
+    pub beams: Vec<KeptBeam>,
+    /// The sensor's pose in the base frame (m, m, rad).
+    pub sensor: Pose2,
+}
+
+/// A loop closure: keyframe `keyframe` was found at `pose` in submap `submap`'s frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopClosure {
+    /// The matched keyframe's index.
+    pub keyframe: usize,
+    /// The submap's index.
+    pub submap: usize,
+    /// The keyframe's base pose in the submap's frame (m, m, rad).
+    pub pose: Pose2,
+    /// The match's score (mean probability under the points, in (0, 1]).
+    pub score: f64,
+    /// Root-mean-square distance of the matched points from the base (m): how far a
+    /// heading error moves them.
+    pub lever: f64,
+}
+
+/// What adding a keyframe did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KeyframeReport {
+    /// The keyframe's index (its pose's index in the graph).
+    pub index: usize,
+    /// Finished submaps it was matched against.
+    pub searched: usize,
+    /// The matches that reached `min_score`, now loop-closure constraints.
+    pub closures: Vec<LoopClosure>,
+    /// A solve is due ([`PoseGraphMapper::solve_due`]).
+    pub solve_due: bool,
+    /// Wall time of the matching (s).
+    pub match_seconds: f64,
+}
+
+/// What a solve did, with its result.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Solution {
+    /// Every keyframe's optimised pose, in keyframe order (map frame).
+    pub poses: Vec<Pose2>,
+    /// The newest keyframe's optimised pose composed with the inverse of the front end's
+    /// pose of it: the map → front-end-map correction ([`PoseGraphMapper::correction`]).
+    pub correction: Pose2,
+    /// Loop closures in the graph.
+    pub closures: usize,
+    /// Of which the solution uses (the others failed the χ² gate).
+    pub accepted: usize,
+    /// Reweighting rounds run.
+    pub rounds: usize,
+    /// Levenberg–Marquardt iterations over every round.
+    pub iterations: usize,
+    /// Wall time (s).
+    pub seconds: f64,
+}
+
+/// A keyframe as kept: what the graph, the submaps and the rendering need of it.
+#[derive(Debug, Clone)]
+pub(crate) struct Kept {
+    pub(crate) stamp_ns: u64,
+    pub(crate) front_end: Pose2,
+    pub(crate) sensor: Pose2,
+    pub(crate) beams: Vec<KeptBeam>,
+}
+
+/// The loop-closing pose-graph back-end for grid SLAM; see the module documentation.
+#[derive(Debug, Clone)]
+pub struct PoseGraphMapper {
+    pub(crate) config: LoopClosureConfig,
+    pub(crate) graph: Graph,
+    pub(crate) keyframes: Vec<Kept>,
+    /// Per keyframe, summed from the first: the consecutive constraints' largest position
+    /// variance (m²), heading variance (rad²) and travelled distance (m).
+    pub(crate) accumulated: Vec<[f64; 3]>,
+    pub(crate) submaps: Vec<Submap>,
+    pub(crate) loops: Vec<LoopEdge>,
+    correction: Pose2,
+    since_solve: usize,
+    pending: usize,
+}
+
+impl PoseGraphMapper {
+    /// An empty back-end.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] for a bad `config`.
+    pub fn new(config: LoopClosureConfig) -> Result<Self> {
+        config.validate()?;
+        Ok(Self {
+            config,
+            graph: Graph::default(),
+            keyframes: Vec::new(),
+            accumulated: Vec::new(),
+            submaps: Vec::new(),
+            loops: Vec::new(),
+            correction: Pose2::default(),
+            since_solve: 0,
+            pending: 0,
+        })
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &LoopClosureConfig {
+        &self.config
+    }
+
+    /// Adds a keyframe: a pose in the graph tied to the previous one by the front end's
+    /// relative motion, its scan inserted into the active submap, and (every
+    /// `search_every`-th keyframe) its scan matched against the finished submaps nearby,
+    /// each accepted match becoming a loop-closure constraint. Does not solve.
+    ///
+    /// The consecutive constraint is `prev⁻¹ ∘ pose` of the front end's poses with
+    /// covariance `Rᵀ Σ R + diag(f_xy², f_xy², f_θ²)`: the front end's covariance turned
+    /// onto the previous keyframe's axes plus the floor (`between_floor_xy`,
+    /// `between_floor_theta`), so it is never singular nor tighter than the floor.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] for a non-finite pose, covariance, point, beam or sensor
+    /// pose, or a stamp before the previous keyframe's; nothing is added then.
+    ///
+    /// # Performance
+    /// One insertion (`O(beams · range / resolution)`), a branch-and-bound match per
+    /// finished submap within `max_search_distance` (a few ms each, in parallel), and
+    /// `O(cells · depth)` when the keyframe finishes its submap.
+    pub fn add_keyframe(&mut self, keyframe: Keyframe) -> Result<KeyframeReport> {
+        self.check(&keyframe)?;
+        let index = self.keyframes.len();
+        match self.keyframes.last() {
+            None => {
+                self.graph.add_pose(keyframe.pose);
+                self.graph.priors.push(Prior {
+                    pose: 0,
+                    mean: keyframe.pose,
+                    information: Matrix3::identity() * ANCHOR_INFORMATION,
+                });
+                self.accumulated.push([0.0; 3]);
+            }
+            Some(previous) => {
+                let delta = previous.front_end.inverse().compose(&keyframe.pose);
+                let covariance = self.floored(&keyframe.covariance, previous.front_end.theta);
+                let information = covariance.cholesky().map(|c| c.inverse()).ok_or_else(|| {
+                    Error::InvalidInput {
+                        what: "keyframe covariance",
+                        reason: format!("not positive semidefinite: {:?}", keyframe.covariance),
+                    }
+                })?;
+                let start = self.graph.poses[index - 1].compose(&delta);
+                self.graph.add_pose(start);
+                self.graph.betweens.push(Between {
+                    from: index - 1,
+                    to: index,
+                    delta,
+                    information,
+                    residual: PoseResidual::Componentwise,
+                });
+                let xy = SymmetricEigen::new(covariance.fixed_view::<2, 2>(0, 0).into_owned());
+                let before = self.accumulated[index - 1];
+                self.accumulated.push([
+                    before[0] + xy.eigenvalues.max(),
+                    before[1] + covariance[(2, 2)],
+                    before[2] + delta.x.hypot(delta.y),
+                ]);
+            }
+        }
+        self.keyframes.push(Kept {
+            stamp_ns: keyframe.stamp_ns,
+            front_end: keyframe.pose,
+            sensor: keyframe.sensor,
+            beams: keyframe.beams,
+        });
+        if self.submaps.last().is_none_or(|s| s.grid().is_some()) {
+            self.submaps.push(Submap::new(index));
+        }
+        let active = self.submaps.last_mut().expect("just ensured");
+        let local = self.keyframes[active.anchor()]
+            .front_end
+            .inverse()
+            .compose(&keyframe.pose);
+        let kept = &self.keyframes[index];
+        active.insert(&local, &kept.sensor, &kept.beams, &self.config);
+        let started = std::time::Instant::now();
+        let (searched, closures) = if index.is_multiple_of(self.config.search_every) {
+            self.search(index, &keyframe.points)
+        } else {
+            (0, Vec::new())
+        };
+        let match_seconds = started.elapsed().as_secs_f64();
+        for closure in &closures {
+            self.add_loop_closure(*closure)?;
+        }
+        let active = self.submaps.last_mut().expect("just ensured");
+        if active.keyframes() >= self.config.keyframes_per_submap {
+            active.finish(self.config.depth, self.config.resolution);
+        }
+        self.since_solve += 1;
+        Ok(KeyframeReport {
+            index,
+            searched,
+            closures,
+            solve_due: self.solve_due(),
+            match_seconds,
+        })
+    }
+
+    /// Rejects a keyframe with a non-finite value or a stamp out of order.
+    fn check(&self, keyframe: &Keyframe) -> Result<()> {
+        let finite = keyframe.pose.is_finite()
+            && keyframe.sensor.is_finite()
+            && keyframe.covariance.iter().all(|v| v.is_finite())
+            && keyframe.points.iter().flatten().all(|v| v.is_finite())
+            && (keyframe.beams.iter()).all(|b| b.angle.is_finite() && b.length.is_finite());
+        let ordered = self
+            .keyframes
+            .last()
+            .is_none_or(|k| k.stamp_ns <= keyframe.stamp_ns);
+        if finite && ordered {
+            Ok(())
+        } else {
+            Err(Error::InvalidInput {
+                what: "keyframe",
+                reason: format!(
+                    "stamp {} after {:?}, pose {:?}, sensor {:?}: a value not finite or a stamp out of order",
+                    keyframe.stamp_ns,
+                    self.keyframes.last().map(|k| k.stamp_ns),
+                    keyframe.pose,
+                    keyframe.sensor
+                ),
+            })
+        }
+    }
+
+    /// The consecutive constraint's covariance: `covariance` (map axes) turned onto the
+    /// axes of a keyframe heading `theta`, made symmetric, plus the floor.
+    fn floored(&self, covariance: &Matrix3<f64>, theta: f64) -> Matrix3<f64> {
+        let (s, c) = theta.sin_cos();
+        // Map axes → the previous keyframe's axes.
+        let r = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0);
+        let turned = r * covariance * r.transpose();
+        let symmetric = 0.5 * (turned + turned.transpose());
+        let (fxy, ft) = (
+            self.config.between_floor_xy,
+            self.config.between_floor_theta,
+        );
+        symmetric + Matrix3::from_diagonal(&Vector3::new(fxy * fxy, fxy * fxy, ft * ft))
+    }
+
+    /// Adds a loop-closure constraint from submap `closure.submap`'s first keyframe to
+    /// keyframe `closure.keyframe`, measuring `closure.pose`, with the fixed information
+    /// `diag(1/σ², 1/σ², 1/σ_θ²)`: `σ = loop_sigma_cells · resolution / score`,
+    /// `σ_θ = σ / max(lever, 1 m)`. The matcher adds its own; this is for others (a
+    /// place recogniser, a test).
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] for an unknown keyframe or submap, a keyframe that is the
+    /// submap's own first one, a non-finite pose, a score outside (0, 1] or a lever that
+    /// is not finite and positive.
+    pub fn add_loop_closure(&mut self, closure: LoopClosure) -> Result<()> {
+        let anchor = self.submaps.get(closure.submap).map(Submap::anchor);
+        let valid = anchor.is_some_and(|a| a != closure.keyframe)
+            && closure.keyframe < self.keyframes.len()
+            && closure.pose.is_finite()
+            && closure.score > 0.0
+            && closure.score <= 1.0
+            && closure.lever.is_finite()
+            && closure.lever > 0.0;
+        let Some(anchor) = anchor.filter(|_| valid) else {
+            return Err(Error::InvalidInput {
+                what: "loop closure",
+                reason: format!(
+                    "{closure:?} with {} keyframes and {} submaps",
+                    self.keyframes.len(),
+                    self.submaps.len()
+                ),
+            });
+        };
+        let sigma = self.config.loop_sigma_cells * self.config.resolution / closure.score;
+        let sigma_theta = sigma / closure.lever.max(1.0);
+        let information = Matrix3::from_diagonal(&Vector3::new(
+            1.0 / (sigma * sigma),
+            1.0 / (sigma * sigma),
+            1.0 / (sigma_theta * sigma_theta),
+        ));
+        self.loops.push(LoopEdge {
+            closure,
+            weight: 1.0,
+            chi2: 0.0,
+            between: self.graph.betweens.len(),
+            information,
+        });
+        self.graph.betweens.push(Between {
+            from: anchor,
+            to: closure.keyframe,
+            delta: closure.pose,
+            information,
+            residual: PoseResidual::Componentwise,
+        });
+        self.pending += 1;
+        Ok(())
+    }
+
+    /// True when a loop closure came since the last solve, or `solve_every` keyframes did.
+    pub fn solve_due(&self) -> bool {
+        self.pending > 0 || self.since_solve >= self.config.solve_every
+    }
+
+    /// Optimises every keyframe pose: Levenberg–Marquardt on the graph with the loop
+    /// closures reweighted between rounds (Cauchy on their χ²) and, once the weights
+    /// settle, the closures whose χ² exceeds `loop_chi2_gate` left out of a last solve.
+    /// Starts from the current estimates; updates the correction.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] before the first keyframe, or when the solver fails.
+    ///
+    /// # Performance
+    /// Up to `robust_rounds + 1` sparse solves of the whole graph, warm started.
+    pub fn solve(&mut self) -> Result<Solution> {
+        let started = std::time::Instant::now();
+        let Some(newest) = self.keyframes.last() else {
+            return Err(Error::InvalidInput {
+                what: "loop closure graph",
+                reason: "no keyframe yet".into(),
+            });
+        };
+        let newest = newest.front_end;
+        let report = robust::solve(&mut self.graph, &mut self.loops, &self.config)?;
+        let last = *self.graph.poses.last().expect("one per keyframe");
+        self.correction = last.compose(&newest.inverse());
+        self.since_solve = 0;
+        self.pending = 0;
+        Ok(Solution {
+            poses: self.graph.poses.clone(),
+            correction: self.correction,
+            closures: self.loops.len(),
+            accepted: report.accepted,
+            rounds: report.rounds,
+            iterations: report.iterations,
+            seconds: started.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// The map → front-end-map correction of the last solve (the identity before one):
+    /// the real-time pose in the map frame is `correction ∘ front-end pose`.
+    pub fn correction(&self) -> Pose2 {
+        self.correction
+    }
+
+    /// `correction ∘ front_end`: a front-end pose in the back-end's map frame.
+    pub fn corrected(&self, front_end: &Pose2) -> Pose2 {
+        self.correction.compose(front_end)
+    }
+
+    /// Every keyframe's current pose estimate (map frame): the last solution, and the
+    /// keyframes added since placed by their consecutive constraints.
+    pub fn poses(&self) -> &[Pose2] {
+        &self.graph.poses
+    }
+
+    /// Every keyframe's stamp (ns), in keyframe order.
+    pub fn stamps(&self) -> Vec<u64> {
+        self.keyframes.iter().map(|k| k.stamp_ns).collect()
+    }
+
+    /// Keyframes added.
+    pub fn keyframes(&self) -> usize {
+        self.keyframes.len()
+    }
+
+    /// The submaps, the active one last.
+    pub fn submaps(&self) -> &[Submap] {
+        &self.submaps
+    }
+
+    /// The loop closures with their state after the last solve.
+    pub fn loop_edges(&self) -> &[LoopEdge] {
+        &self.loops
+    }
+
+    /// The pose graph (keyframe poses, priors, consecutive and loop constraints with the
+    /// loop constraints' current weights).
+    pub fn graph(&self) -> &Graph {
+        &self.graph
+    }
+
+    /// Bytes the submaps' grids and the kept beams take.
+    pub fn bytes(&self) -> usize {
+        let beams: usize = self
+            .keyframes
+            .iter()
+            .map(|k| k.beams.len() * std::mem::size_of::<KeptBeam>())
+            .sum();
+        self.submaps.iter().map(Submap::bytes).sum::<usize>() + beams
+    }
+}

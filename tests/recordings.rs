@@ -1,0 +1,162 @@
+//! A user's own recordings through the real processes: `fastslam-stack replay rosbag`
+//! and `replay carmen` read a bag or a log without ground truth, play it through the
+//! service and the client, and score the trajectories on the Freiburg benchmark's
+//! relations. Bad files end in one line and a non-zero exit.
+
+mod common;
+
+use common::*;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn data(relative: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("data")
+        .join(relative)
+}
+
+/// Runs `fastslam-stack replay <args>` under `prefix` into `out`.
+fn replay(prefix: &str, out: &Path, args: &[&str]) -> Output {
+    Command::new(LAUNCHER)
+        .arg("replay")
+        .args(args)
+        .args(["--prefix", prefix, "--timeout-s", "600", "--out"])
+        .arg(out)
+        .output()
+        .expect("starting the launcher")
+}
+
+/// Replays `args` (a recording, flags), expects success without truth and returns the
+/// metrics.
+fn replay_recording(name: &str, args: &[&str]) -> (PathBuf, serde_json::Value, String) {
+    let prefix = prefix(name);
+    let dir = folder(&prefix);
+    let out = dir.join("run");
+    let result = replay(&prefix, &out, args);
+    assert_success(&result);
+    let stdout = String::from_utf8_lossy(&result.stdout).into_owned();
+    assert!(stdout.contains("no ground truth"), "{stdout}");
+    assert_no_leftovers(&prefix);
+    for file in [
+        "estimate.tum",
+        "map.pgm",
+        "map.yaml",
+        "run.mcap",
+        "metrics.json",
+    ] {
+        assert!(
+            out.join(file).is_file(),
+            "{file} missing in {}",
+            out.display()
+        );
+    }
+    let m = metrics(&out);
+    assert_eq!(m["complete"], true, "{m}");
+    assert_eq!(m["ground_truth"], false, "{m}");
+    assert!(
+        m["estimate"].get("ate_rmse_m").is_none(),
+        "no truth, no ATE: {m}"
+    );
+    (out, m, stdout)
+}
+
+/// The raw odometry of MIT CSAIL scored on its relations: the benchmark's published
+/// figure, 1.681 ± 5.294 m, to within 1 %.
+fn assert_mit_dead_reckoning(m: &serde_json::Value) {
+    let mean = num(m, "/dead_reckoning/relations/trans_mean_m");
+    assert!((mean - 1.681).abs() < 0.01 * 1.681, "{mean}");
+    assert!(num(m, "/dead_reckoning/relations/count") > 1000.0, "{m}");
+    assert!(
+        num(m, "/estimate/relations/trans_mean_m").is_finite(),
+        "{m}"
+    );
+}
+
+#[test]
+fn a_carmen_log_replays_without_truth_and_is_scored_on_its_relations() {
+    let log = data("freiburg/mit-csail/mit-csail.clf.gz");
+    let relations = data("freiburg/mit-csail/mit-csail.relations");
+    let (_, m, stdout) = replay_recording(
+        "carmen",
+        &[
+            "carmen",
+            log.to_str().unwrap(),
+            "--relations",
+            relations.to_str().unwrap(),
+            "--particles",
+            "5",
+        ],
+    );
+    assert_mit_dead_reckoning(&m);
+    assert!(stdout.contains("relations"), "{stdout}");
+}
+
+#[test]
+fn a_ros2_bag_replays_with_default_flags_and_its_mount_from_tf_static() {
+    let bag = data("ros2/mit-csail");
+    let relations = data("freiburg/mit-csail/mit-csail.relations");
+    let (out, m, _) = replay_recording(
+        "rosbag",
+        &[
+            "rosbag",
+            bag.to_str().unwrap(),
+            "--relations",
+            relations.to_str().unwrap(),
+            "--particles",
+            "5",
+        ],
+    );
+    assert_mit_dead_reckoning(&m);
+    let config = std::fs::read_to_string(out.join("service.toml")).unwrap();
+    assert!(config.contains("mount"), "{config}");
+    assert!(config.contains("model = \"increment\""), "{config}");
+}
+
+/// A failed replay: non-zero exit, one `error:` line naming `what`, no panic.
+fn assert_refused(name: &str, args: &[&str], what: &str) {
+    let prefix = prefix(name);
+    let dir = folder(&prefix);
+    let result = replay(&prefix, &dir.join("run"), args);
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(!result.status.success(), "{stderr}");
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "{stderr}");
+    assert!(errors[0].contains(what), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_no_leftovers(&prefix);
+}
+
+#[test]
+fn broken_recordings_are_one_line_each() {
+    let dir = folder(&prefix("broken"));
+    std::fs::create_dir_all(&dir).unwrap();
+    // A log with a garbage line: named with its line number.
+    let garbage = dir.join("garbage.clf");
+    let mut f = std::fs::File::create(&garbage).unwrap();
+    let ranges = vec!["1.0"; 180].join(" ");
+    writeln!(f, "FLASER 180 {ranges} 0 0 0 0 0 0 1.0 host 1.0").unwrap();
+    writeln!(f, "FLASER 180 this is not a scan").unwrap();
+    drop(f);
+    assert_refused(
+        "garbage",
+        &["carmen", garbage.to_str().unwrap()],
+        "garbage.clf:2:",
+    );
+    // A gzipped log cut short.
+    let whole = std::fs::read(data("freiburg/mit-csail/mit-csail.clf.gz")).unwrap();
+    let cut = dir.join("cut.clf.gz");
+    std::fs::write(&cut, &whole[..whole.len() / 3]).unwrap();
+    assert_refused("cut", &["carmen", cut.to_str().unwrap()], "cut.clf.gz");
+    // A bag cut short.
+    let bag = std::fs::read(data("ros2/mit-csail/mit-csail_mcap.mcap")).unwrap();
+    let cut_bag = dir.join("cut.mcap");
+    std::fs::write(&cut_bag, &bag[..bag.len() / 2]).unwrap();
+    assert_refused("cutbag", &["rosbag", cut_bag.to_str().unwrap()], "cut.mcap");
+    // Relations need a recording's clock.
+    assert_refused(
+        "relnotrec",
+        &["mrclam", "--relations", garbage.to_str().unwrap()],
+        "--relations",
+    );
+}
