@@ -315,10 +315,13 @@ pub(crate) fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
         println!("{line}");
     }
     let h = &m.filter;
-    println!(
-        "  noise check    {:>8}     (innovations' NIS per degree of freedom; 1 when the noise model fits)",
-        short(h.nis_mean)
-    );
+    // Grid FastSLAM has no landmark innovations: no line rather than NaN.
+    if h.nis_mean.is_finite() {
+        println!(
+            "  noise check    {:>8}     (innovations' NIS per degree of freedom; 1 when the noise model fits)",
+            short(h.nis_mean)
+        );
+    }
     println!("  wall time      {:8.2} s", wall.as_secs_f64());
     // A window above the band now and then is chance; a tenth of the run is the model.
     if !h.nis_suspect.is_empty() && h.nis_high_fraction >= 0.1 {
