@@ -4,9 +4,12 @@
 //! frame, an off-centre laser, two scan topics and an undecodable message.
 //!
 //! Python comes from a virtual environment under the cargo target directory, built on
-//! first use (`python3 -m venv`, `pip install rosbags`); without Python, venv or PyPI the
-//! test fails saying which step failed.
+//! first use ([`common::python_venv`]); without Python, venv or PyPI the test fails
+//! saying which step failed.
 
+mod common;
+
+use common::python_venv;
 use fastslam_replay::rosbag::{self, OdometrySource, TopicChoice};
 use fastslam_replay::text::DataError;
 use serde_json::Value;
@@ -16,47 +19,6 @@ use std::sync::OnceLock;
 
 /// The rosbags release the bags are written with.
 const ROSBAGS: &str = "rosbags==0.11.9";
-
-/// A Python virtual environment with `requirement`, under `<target>/python/venv-<name>`:
-/// created on first use and reused, tests serialising on a lock file, marked done only
-/// once complete.
-///
-/// # Panics
-/// Saying which step failed when Python, venv or pip fail.
-fn python_venv(name: &str, requirement: &str) -> PathBuf {
-    let target = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .parent()
-        .expect("the target tmp dir lies in the target dir");
-    let home = target.join("python");
-    std::fs::create_dir_all(&home).expect("creating the Python folder in the target dir");
-    let venv = home.join(format!("venv-{name}"));
-    let done = venv.join(".installed");
-    let lock = std::fs::File::create(home.join(format!("venv-{name}.lock")))
-        .expect("creating the venv lock file");
-    lock.lock().expect("locking the venv");
-    if done.is_file() {
-        return venv;
-    }
-    let _ = std::fs::remove_dir_all(&venv);
-    run(
-        "python3 -m venv",
-        Command::new("python3").args(["-m", "venv"]).arg(&venv),
-    );
-    run(
-        &format!("pip install {requirement}"),
-        Command::new(venv.join("bin").join("python3"))
-            .args([
-                "-m",
-                "pip",
-                "install",
-                "--quiet",
-                "--disable-pip-version-check",
-            ])
-            .arg(requirement),
-    );
-    std::fs::write(&done, requirement).expect("marking the venv done");
-    venv
-}
 
 /// Runs `cmd`, failing the test with its output when it fails.
 fn run(what: &str, cmd: &mut Command) {
