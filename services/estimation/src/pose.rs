@@ -48,6 +48,12 @@ impl Pose2 {
         )
     }
 
+    /// Point `p`, given in this pose's frame, in the world.
+    pub fn transform_point(&self, p: [f64; 2]) -> [f64; 2] {
+        let (s, c) = self.theta.sin_cos();
+        [self.x + c * p[0] - s * p[1], self.y + s * p[0] + c * p[1]]
+    }
+
     /// `self⁻¹`: the world seen from this pose, so that `self⁻¹ ∘ self` is the identity.
     pub fn inverse(&self) -> Pose2 {
         let (s, c) = self.theta.sin_cos();

@@ -467,10 +467,9 @@ impl Slam {
             .iter()
             .map(|f| {
                 let (range, bearing) = mount.map_or((f.range, f.bearing), |m| {
-                    let (x, y) = (f.range * f.bearing.cos(), f.range * f.bearing.sin());
-                    let (s, c) = m.theta.sin_cos();
-                    let (bx, by) = (m.x + c * x - s * y, m.y + s * x + c * y);
-                    (bx.hypot(by), by.atan2(bx))
+                    let [x, y] =
+                        m.transform_point([f.range * f.bearing.cos(), f.range * f.bearing.sin()]);
+                    (x.hypot(y), y.atan2(x))
                 });
                 Observation {
                     range,

@@ -216,9 +216,8 @@ impl GridFastSlam {
         let beams = self.grid.kept_beams(scan);
         let mut points = self.matcher.end_points(scan);
         if let Some(m) = &self.mount {
-            let (s, c) = m.theta.sin_cos();
             for p in &mut points {
-                *p = [m.x + c * p[0] - s * p[1], m.y + s * p[0] + c * p[1]];
+                *p = m.transform_point(*p);
             }
         }
         let mount = self.mount;
