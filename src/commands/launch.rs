@@ -306,7 +306,7 @@ pub(crate) fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
         println!("  no ground truth (no ATE, landmark or NEES scores)");
         if let Some(s) = &m.smoothed {
             println!(
-                "  smoothed       {:8} poses (smoothing back-end, {} solves; χ²/dof {:.2})",
+                "  smoothed       {:8} poses (back-end, {} solves; χ²/dof {:.2})",
                 s.trajectory.poses, s.solves, s.chi2_per_dof
             );
         }

@@ -31,6 +31,10 @@
 //! loop_gap_s = 30.0
 //! reanchor = false
 //! fuse_duplicates = true   # under unknown association: fuse landmarks mapped twice
+//! [loop_closure]      # fastslam_estimation::loop_closure::LoopClosureConfig (grid maps)
+//! enabled = true
+//! delay_keyframes = 2
+//! min_score = 0.6
 //! ```
 //!
 //! IBA comes with its partial resampling (docs/ALGORITHMS.md §4.4): with `kind = "iba"`,
@@ -45,6 +49,7 @@ use fastslam_estimation::features::ExtractorConfig;
 use fastslam_estimation::graph::SmootherConfig;
 use fastslam_estimation::grid::GridConfig;
 use fastslam_estimation::gridslam::ScanMatchConfig;
+use fastslam_estimation::loop_closure::LoopClosureConfig;
 use fastslam_estimation::moves::{MoveConfig, MoveCorrection};
 use fastslam_estimation::optimise::{OptimiserConfig, OptimiserKind};
 use serde::{Deserialize, Serialize};
@@ -106,6 +111,8 @@ pub struct ServiceConfig {
     pub map: MapConfig,
     /// Where the laser sits on the robot.
     pub laser: LaserConfig,
+    /// The loop-closing back-end behind grid FastSLAM (docs/ALGORITHMS.md §9.1).
+    pub loop_closure: LoopClosureConfig,
 }
 
 /// Where the laser sits on the robot (`[laser]`): the estimate is the base frame's pose,
@@ -485,6 +492,7 @@ impl ServiceConfig {
         self.smoother.validate()?;
         self.map.matching.validate()?;
         self.laser.validate()?;
+        self.loop_closure.validate()?;
         Ok(())
     }
 

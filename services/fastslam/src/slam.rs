@@ -3,6 +3,7 @@
 //! occupancy grid. No IPC here, so it is testable on its own.
 
 use crate::config::{MapKind, ServiceConfig};
+use crate::grid_slam::GridSlam;
 use crate::sequencer::Input;
 use crate::smoothing::Backend;
 use fastslam_estimation::Pose2;
@@ -13,7 +14,6 @@ use fastslam_estimation::fastslam::{
 use fastslam_estimation::features::{ExtractorConfig, extract};
 use fastslam_estimation::graph::{Feed, NoiseModel, SmootherConfig, Solution};
 use fastslam_estimation::grid::{GridMapper, OccupancyGrid};
-use fastslam_estimation::gridslam::GridFastSlam;
 use fastslam_estimation::motion::Control;
 use fastslam_estimation::moves::MoveStats;
 use fastslam_estimation::observation::{Observation, Sensor};
@@ -32,7 +32,7 @@ pub struct Slam {
     filter: FastSlam,
     /// Grid FastSLAM, when `[map] kind = "grid"`: it then takes every input, and the
     /// landmark filter above stays empty.
-    grid_filter: Option<GridFastSlam>,
+    grid_filter: Option<GridSlam>,
     refiner: Option<OptimiserRefiner>,
     last_odometry_ns: Option<u64>,
     /// The last odometry's pose in the odometry frame: the increment model's start.
@@ -177,8 +177,9 @@ impl Slam {
         Ok(slam)
     }
 
-    /// Starts the smoothing back-end when the configuration asks for it, first fed with
-    /// `feed` (a resumed run's inputs so far, from its checkpoint).
+    /// Starts the back-end the configuration asks for: the smoothing back-end for
+    /// landmarks, first fed with `feed` (a resumed run's inputs so far, from its
+    /// checkpoint), or the loop-closing back-end for grid maps.
     ///
     /// # Errors
     /// When the back-end's configuration is invalid or its thread cannot start.
@@ -187,10 +188,14 @@ impl Slam {
         config: &ServiceConfig,
         feed: Vec<Feed>,
     ) -> anyhow::Result<()> {
-        if config.smoother.enabled && self.grid_filter.is_some() {
-            tracing::warn!(
-                "the smoothing back-end needs landmarks: it stays off with [map] kind = \"grid\""
-            );
+        if let Some(grid) = &mut self.grid_filter {
+            if config.smoother.enabled {
+                tracing::warn!(
+                    "the smoothing back-end needs landmarks: with [map] kind = \"grid\" \
+                     [loop_closure] is the back-end"
+                );
+            }
+            grid.start_back_end(config)?;
         } else if config.smoother.enabled {
             let filter = config.filter_config();
             let noise = NoiseModel::of(&filter);
@@ -218,13 +223,19 @@ impl Slam {
     /// The newest smoothed solution finished since the last call (`None` without a
     /// back-end or when none is new).
     pub fn smoothed(&mut self) -> Option<Solution> {
-        self.backend.as_mut().and_then(Backend::latest)
+        match &mut self.grid_filter {
+            Some(grid) => grid.smoothed(),
+            None => self.backend.as_mut().and_then(Backend::latest),
+        }
     }
 
     /// Ends the back-end's input and waits for its last solve: the newest solution not
     /// yet taken.
     pub fn finish_smoothing(&mut self) -> Option<Solution> {
-        self.backend.as_mut().and_then(Backend::finish)
+        match &mut self.grid_filter {
+            Some(grid) => grid.finish(),
+            None => self.backend.as_mut().and_then(Backend::finish),
+        }
     }
 
     /// What the back-end was fed so far, for a checkpoint (empty without one).
@@ -240,17 +251,7 @@ impl Slam {
         let mount = config.laser.mount();
         let grid_filter = match config.map.kind {
             MapKind::Landmarks => None,
-            MapKind::Grid => {
-                let mut grid = GridFastSlam::new(
-                    config.filter_config(),
-                    config.grid.clone(),
-                    config.map.matching.clone(),
-                    &config.optimizer,
-                    config.moves.clone(),
-                )?;
-                grid.set_laser_mount(mount);
-                Some(grid)
-            }
+            MapKind::Grid => Some(GridSlam::new(config)?),
         };
         let refiner = match grid_filter {
             Some(_) => None,
@@ -492,15 +493,15 @@ impl Slam {
     }
 
     /// Grid FastSLAM's step on a raw scan: matched and mapped when it is a keyframe; the
-    /// pose (the predicted cloud's mixture) published either way.
+    /// pose (the predicted cloud's mixture, in the map frame) published either way.
     fn grid_step(
-        grid_filter: &mut GridFastSlam,
+        grid_filter: &mut GridSlam,
         header: Header,
         scan: &RangeScan<'_>,
         publish: PoseSink<'_>,
     ) -> fastslam_estimation::Result<Step> {
-        let step = grid_filter.observe(scan)?;
-        let pose = message(header, &grid_filter.estimate());
+        let (estimate, step) = grid_filter.observe(header.stamp_ns, scan)?;
+        let pose = message(header, &estimate);
         publish(pose);
         let report = StepReport {
             neff: step.ess,
@@ -603,7 +604,7 @@ impl Slam {
     /// raw scans; `None` before the first raw scan. See `fastslam_estimation::grid` for
     /// the cost.
     pub fn grid(&mut self, header: Header) -> Option<(OccupancyGridHeader, Vec<i8>)> {
-        let grid: OccupancyGrid = match &self.grid_filter {
+        let grid: OccupancyGrid = match &mut self.grid_filter {
             Some(grid_filter) => grid_filter.occupancy()?,
             None => self.mapper.grid(self.filter.best().trail())?,
         };
@@ -630,7 +631,7 @@ impl Slam {
     /// Number of particles.
     pub fn particles(&self) -> usize {
         match &self.grid_filter {
-            Some(grid_filter) => grid_filter.particles().len(),
+            Some(grid_filter) => grid_filter.particles(),
             None => self.filter.particles().len(),
         }
     }
@@ -645,9 +646,7 @@ impl Slam {
             weight,
         };
         let particles: Vec<Particle> = match &self.grid_filter {
-            Some(g) => (g.particles().iter().zip(g.weights().as_slice()))
-                .map(|(p, w)| particle(&p.predicted, w))
-                .collect(),
+            Some(g) => g.cloud().map(|(p, w)| particle(&p, &w)).collect(),
             None => (self
                 .filter
                 .particles()
@@ -667,7 +666,7 @@ impl Slam {
     /// Grid FastSLAM's particle grids in memory (bytes; shared tiles once), `None` for the
     /// landmark filter.
     pub fn grid_bytes(&self) -> Option<usize> {
-        self.grid_filter.as_ref().map(GridFastSlam::grid_bytes)
+        self.grid_filter.as_ref().map(GridSlam::grid_bytes)
     }
 
     /// Landmarks in the published map (the best particle's, provisional ones left out).

@@ -9,6 +9,15 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LoopClosureConfig {
+    /// Whether the service runs the back-end behind grid FastSLAM (`[map] kind = "grid"`;
+    /// the landmark filter has the smoothing back-end instead). Default true.
+    pub enabled: bool,
+    /// The service applies the solve that followed keyframe `k` at keyframe
+    /// `k + delay_keyframes` (count): the back-end matches and solves on its own thread
+    /// meanwhile, and the filter waits for it only if it is later than that. The delay is
+    /// counted in keyframes, never in time, so that runs repeat bit for bit. Default 2
+    /// (about 1 m of travel at 0.5 m keyframes); 0 applies each solve at once.
+    pub delay_keyframes: usize,
     /// Side of a submap cell (m). Default 0.05: the range noise of an indoor lidar (1–3 cm)
     /// is below it, and a ±3 m window is 121 cells wide.
     pub resolution: f64,
@@ -82,6 +91,8 @@ pub struct LoopClosureConfig {
 impl Default for LoopClosureConfig {
     fn default() -> Self {
         Self {
+            enabled: true,
+            delay_keyframes: 2,
             resolution: 0.05,
             keyframes_per_submap: 30,
             max_range: 20.0,

@@ -79,6 +79,9 @@ pub struct Solution {
     pub closures: usize,
     /// Of which the solution uses (the others failed the χ² gate).
     pub accepted: usize,
+    /// χ² of every constraint at the solution (loop closures with their final weights)
+    /// per degree of freedom: about 1 when the front end's covariances are right.
+    pub chi2_per_dof: f64,
     /// Reweighting rounds run.
     pub rounds: usize,
     /// Levenberg–Marquardt iterations over every round.
@@ -365,6 +368,8 @@ impl PoseGraphMapper {
             correction: self.correction,
             closures: self.loops.len(),
             accepted: report.accepted,
+            chi2_per_dof: self.graph.chi2()
+                / (self.graph.residuals().saturating_sub(self.graph.unknowns())).max(1) as f64,
             rounds: report.rounds,
             iterations: report.iterations,
             seconds: started.elapsed().as_secs_f64(),

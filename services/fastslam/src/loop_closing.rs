@@ -1,0 +1,353 @@
+//! Grid FastSLAM's loop-closing back-end on a thread of its own (docs/ALGORITHMS.md
+//! §9.1). The filter's thread hands over each keyframe (its estimate, the covariance of
+//! the motion since the previous keyframe, the scan's points and beams); the worker adds
+//! it to a [`PoseGraphMapper`] — matching it against the finished submaps — solves when
+//! one is due, and reports after every keyframe.
+//!
+//! The filter's estimate stays in its own frame (the front end's map); what the service
+//! publishes is `correction ∘ estimate`, where the correction (map → front-end map, as
+//! ROS's map → odom) comes from the solve that followed keyframe `k − delay` and is
+//! applied at keyframe `k` ([`LoopClosureConfig::delay_keyframes`]). The filter waits for
+//! that report only when the worker is later than the delay, so the published poses
+//! depend on the data only.
+//!
+//! The smoothed trajectory has a pose for every scan: the scan's keyframe's optimised
+//! pose moved by the front end's motion since that keyframe.
+
+use fastslam_estimation::Pose2;
+use fastslam_estimation::graph::{Solution, SolveReport};
+use fastslam_estimation::grid::{GridConfig, OccupancyGrid};
+use fastslam_estimation::loop_closure::{self, Keyframe, LoopClosureConfig, PoseGraphMapper};
+use std::collections::VecDeque;
+use std::sync::mpsc::{Receiver, Sender, channel};
+use std::thread::JoinHandle;
+
+/// What the filter's thread asks of the worker.
+#[derive(Debug)]
+enum Request {
+    /// Add this keyframe (and solve when due).
+    Keyframe(Box<Keyframe>),
+    /// Render the map from every keyframe at its current pose.
+    Render(GridConfig),
+}
+
+/// What the worker sends back.
+#[derive(Debug)]
+enum Reply {
+    /// Keyframe `index` was added; `solved` when a solve followed it.
+    Added {
+        index: usize,
+        solved: Option<Solved>,
+    },
+    /// The map asked for.
+    Rendered(Option<OccupancyGrid>),
+    /// The input ended: the last solve, when keyframes came after the previous one.
+    Final(Option<Solved>),
+}
+
+/// A solve's result as the service needs it.
+#[derive(Debug, Clone)]
+struct Solved {
+    /// Every keyframe's optimised pose so far.
+    poses: Vec<Pose2>,
+    /// Map → front-end map after the solve.
+    correction: Pose2,
+    chi2_per_dof: f64,
+    iterations: usize,
+    seconds: f64,
+}
+
+impl From<loop_closure::Solution> for Solved {
+    fn from(s: loop_closure::Solution) -> Self {
+        Self {
+            poses: s.poses,
+            correction: s.correction,
+            chi2_per_dof: s.chi2_per_dof,
+            iterations: s.iterations,
+            seconds: s.seconds,
+        }
+    }
+}
+
+/// The worker thread, its channels, and the front end's record of every scan.
+#[derive(Debug)]
+pub struct LoopClosing {
+    to_worker: Option<Sender<Request>>,
+    from_worker: Receiver<Reply>,
+    worker: Option<JoinHandle<()>>,
+    delay: usize,
+    /// Keyframe reports received and not yet due, in keyframe order.
+    waiting: VecDeque<(usize, Option<Solved>)>,
+    /// Keyframe reports received.
+    reported: usize,
+    /// The front end's pose at each keyframe.
+    keyframe_poses: Vec<Pose2>,
+    /// Every scan since the first keyframe: stamp, the front end's pose, its keyframe.
+    scans: Vec<(u64, Pose2, usize)>,
+    /// The correction in force: map → front-end map.
+    correction: Pose2,
+    /// The newest applied solve not yet published.
+    unpublished: Option<Solved>,
+    solves: u32,
+}
+
+impl LoopClosing {
+    /// Starts the worker with `config`.
+    ///
+    /// # Errors
+    /// When the configuration is invalid or the thread cannot be started.
+    pub fn start(config: LoopClosureConfig) -> anyhow::Result<Self> {
+        let delay = config.delay_keyframes;
+        let mut mapper = PoseGraphMapper::new(config)?;
+        let (to_worker, inbox) = channel::<Request>();
+        let (outbox, from_worker) = channel::<Reply>();
+        let worker = std::thread::Builder::new()
+            .name("loop-closing".into())
+            .spawn(move || {
+                let (mut index, mut since_solve, mut refused) = (0, 0, false);
+                for request in inbox {
+                    let reply = match request {
+                        Request::Keyframe(keyframe) => {
+                            let solved = if refused {
+                                None
+                            } else {
+                                let added = add(&mut mapper, *keyframe);
+                                refused = added.is_err();
+                                added.ok().flatten()
+                            };
+                            since_solve = if solved.is_some() { 0 } else { since_solve + 1 };
+                            index += 1;
+                            Reply::Added {
+                                index: index - 1,
+                                solved,
+                            }
+                        }
+                        Request::Render(grid) => Reply::Rendered(mapper.render(&grid)),
+                    };
+                    if outbox.send(reply).is_err() {
+                        return;
+                    }
+                }
+                // The filter's side hung up: the last solve over what came since.
+                let solved = (since_solve > 0 && !refused)
+                    .then(|| solve(&mut mapper))
+                    .flatten();
+                let _ = outbox.send(Reply::Final(solved));
+            })?;
+        Ok(Self {
+            to_worker: Some(to_worker),
+            from_worker,
+            worker: Some(worker),
+            delay,
+            waiting: VecDeque::new(),
+            reported: 0,
+            keyframe_poses: Vec::new(),
+            scans: Vec::new(),
+            correction: Pose2::default(),
+            unpublished: None,
+            solves: 0,
+        })
+    }
+
+    /// Takes a scan's front-end pose `estimate` and, when the scan was a keyframe, the
+    /// keyframe; returns the pose in the map frame (`correction ∘ estimate`) with the
+    /// correction of keyframe `k − delay` applied at keyframe `k`.
+    pub fn scan(&mut self, stamp_ns: u64, estimate: Pose2, keyframe: Option<Keyframe>) -> Pose2 {
+        if let Some(keyframe) = keyframe {
+            let index = self.keyframe_poses.len();
+            self.keyframe_poses.push(keyframe.pose);
+            self.send(Request::Keyframe(Box::new(keyframe)));
+            if let Some(due) = index.checked_sub(self.delay) {
+                self.apply_until(due);
+            }
+        }
+        if let Some(k) = self.keyframe_poses.len().checked_sub(1) {
+            self.scans.push((stamp_ns, estimate, k));
+        }
+        self.correction.compose(&estimate)
+    }
+
+    /// The correction in force (map → front-end map); the identity before the first solve.
+    pub fn correction(&self) -> Pose2 {
+        self.correction
+    }
+
+    /// The map rendered from every keyframe at its current pose; waits for the worker to
+    /// get through what it was given (`None` before the first keyframe or when the worker
+    /// is gone).
+    pub fn render(&mut self, grid: &GridConfig) -> Option<OccupancyGrid> {
+        self.send(Request::Render(grid.clone()));
+        loop {
+            match self.receive()? {
+                Reply::Rendered(grid) => return grid,
+                Reply::Added { index, solved } => self.waiting.push_back((index, solved)),
+                Reply::Final(_) => return None,
+            }
+        }
+    }
+
+    /// The newest applied solve not published yet, as a smoothed trajectory (every scan
+    /// so far).
+    pub fn latest(&mut self) -> Option<Solution> {
+        let solved = self.unpublished.take()?;
+        Some(self.trajectory(&solved))
+    }
+
+    /// Ends the worker's input and waits for its last solve; every report not applied
+    /// yet is applied. The final trajectory (every scan), or `None` without a solve.
+    pub fn finish(&mut self) -> Option<Solution> {
+        self.to_worker = None;
+        let mut last = None;
+        while let Some(reply) = self.receive() {
+            match reply {
+                Reply::Added { index, solved } => self.waiting.push_back((index, solved)),
+                Reply::Rendered(_) => {}
+                Reply::Final(solved) => {
+                    last = solved;
+                    break;
+                }
+            }
+        }
+        if let Some(worker) = self.worker.take()
+            && worker.join().is_err()
+        {
+            tracing::error!("the loop-closing back-end panicked");
+        }
+        self.apply_until(usize::MAX);
+        if let Some(solved) = last {
+            self.adopt(solved);
+        }
+        let solved = self.unpublished.take()?;
+        Some(self.trajectory(&solved))
+    }
+
+    /// Hands `request` to the worker; a worker that is gone is reported once.
+    fn send(&mut self, request: Request) {
+        if let Some(to) = &self.to_worker
+            && to.send(request).is_err()
+        {
+            tracing::error!("the loop-closing back-end is gone: loop closure stops");
+            self.to_worker = None;
+        }
+    }
+
+    /// The next reply, waiting for it; `None` when the worker is gone.
+    fn receive(&mut self) -> Option<Reply> {
+        let reply = self.from_worker.recv().ok();
+        if let Some(Reply::Added { .. }) = reply {
+            self.reported += 1;
+        }
+        reply
+    }
+
+    /// Applies, in order, every keyframe report up to keyframe `due`, waiting for the
+    /// worker until it has reported `due` (or all it was given, at the end).
+    fn apply_until(&mut self, due: usize) {
+        let wanted = due.saturating_add(1).min(self.keyframe_poses.len());
+        while self.reported < wanted {
+            match self.receive() {
+                Some(Reply::Added { index, solved }) => self.waiting.push_back((index, solved)),
+                Some(_) => {}
+                None => break,
+            }
+        }
+        while self.waiting.front().is_some_and(|(index, _)| *index <= due) {
+            if let Some((_, Some(solved))) = self.waiting.pop_front() {
+                self.adopt(solved);
+            }
+        }
+    }
+
+    /// Makes `solved` the solution in force.
+    fn adopt(&mut self, solved: Solved) {
+        self.solves += 1;
+        self.correction = solved.correction;
+        tracing::debug!(
+            solve = self.solves,
+            keyframes = solved.poses.len(),
+            chi2_per_dof = solved.chi2_per_dof,
+            iterations = solved.iterations,
+            seconds = solved.seconds,
+            "loop-closure solution applied"
+        );
+        self.unpublished = Some(solved);
+    }
+
+    /// Every scan's pose under `solved`: its keyframe's optimised pose moved by the front
+    /// end since that keyframe (the correction for keyframes the solve has not seen).
+    fn trajectory(&self, solved: &Solved) -> Solution {
+        let poses = (self.scans.iter())
+            .map(|&(stamp, estimate, k)| {
+                let pose = match solved.poses.get(k) {
+                    Some(optimised) => {
+                        let since = self.keyframe_poses[k].inverse().compose(&estimate);
+                        optimised.compose(&since)
+                    }
+                    None => solved.correction.compose(&estimate),
+                };
+                (stamp, pose)
+            })
+            .collect();
+        Solution {
+            poses,
+            landmarks: Vec::new(),
+            chi2_per_dof: solved.chi2_per_dof,
+            report: SolveReport {
+                iterations: solved.iterations,
+                initial_cost: f64::NAN,
+                final_cost: f64::NAN,
+                converged: true,
+                seconds: solved.seconds,
+            },
+            solves: self.solves,
+            fused: 0,
+        }
+    }
+}
+
+impl Drop for LoopClosing {
+    fn drop(&mut self) {
+        self.to_worker = None;
+        if let Some(worker) = self.worker.take() {
+            let _ = worker.join();
+        }
+    }
+}
+
+/// Adds `keyframe` and solves when one is due. A keyframe the back-end refuses (a value
+/// not finite, a stamp out of order) ends loop closure for the run: the keyframes after
+/// it would no longer line up with the front end's.
+fn add(mapper: &mut PoseGraphMapper, keyframe: Keyframe) -> Result<Option<Solved>, ()> {
+    let index = mapper.keyframes();
+    match mapper.add_keyframe(keyframe) {
+        Ok(report) => {
+            for c in &report.closures {
+                tracing::debug!(
+                    keyframe = c.keyframe,
+                    submap = c.submap,
+                    score = c.score,
+                    "loop closure found"
+                );
+            }
+            Ok(report.solve_due.then(|| solve(mapper)).flatten())
+        }
+        Err(e) => {
+            tracing::error!(
+                "keyframe {index} refused by the loop-closure back-end, loop closure stops \
+                 (the last solution stays in force): {e}"
+            );
+            Err(())
+        }
+    }
+}
+
+/// One solve of the mapper's graph; a failure is logged.
+fn solve(mapper: &mut PoseGraphMapper) -> Option<Solved> {
+    match mapper.solve() {
+        Ok(solution) => Some(solution.into()),
+        Err(e) => {
+            tracing::warn!("loop-closure solve failed, the previous solution stands: {e}");
+            None
+        }
+    }
+}
