@@ -4,16 +4,18 @@
 //! into the map frame, and whose keyframes make the published grid.
 
 use crate::config::ServiceConfig;
+use crate::estimator::{Estimator, PoseSink, Step, message, particle};
 use crate::loop_closing::LoopClosing;
-use fastslam_estimation::Pose2;
-use fastslam_estimation::fastslam::PoseEstimate;
-use fastslam_estimation::graph::Solution;
+use fastslam_estimation::fastslam::{FilterState, PoseEstimate, StepReport};
+use fastslam_estimation::graph::{Feed, Solution};
 use fastslam_estimation::grid::{GridConfig, OccupancyGrid};
 use fastslam_estimation::gridslam::{GridFastSlam, GridStep};
 use fastslam_estimation::loop_closure::Keyframe;
 use fastslam_estimation::motion::Control;
 use fastslam_estimation::moves::MoveStats;
 use fastslam_estimation::scan::{Beam, RangeScan};
+use fastslam_estimation::{Error, Pose2};
+use fastslam_protocol::{LaserScanHeader, MapLandmark, ObservationsHeader, Particle};
 use nalgebra::Matrix3;
 
 /// The grid filter, and its loop-closing back-end when one runs.
@@ -33,7 +35,7 @@ pub struct GridSlam {
 
 impl GridSlam {
     /// The filter as `config` sets it up; the back-end starts with
-    /// [`start_back_end`](Self::start_back_end).
+    /// [`Estimator::start_back_end`].
     ///
     /// # Errors
     /// When a filter, grid, matcher or optimiser setting is invalid.
@@ -59,32 +61,13 @@ impl GridSlam {
         })
     }
 
-    /// Starts the loop-closing back-end when `[loop_closure] enabled`.
-    ///
-    /// # Errors
-    /// When its configuration is invalid or its thread cannot start.
-    pub fn start_back_end(&mut self, config: &ServiceConfig) -> anyhow::Result<()> {
-        if config.loop_closure.enabled {
-            self.back_end = Some(LoopClosing::start(config.loop_closure.clone())?);
-        }
-        Ok(())
-    }
-
-    /// Moves the particles by `control` over `dt` (s).
-    ///
-    /// # Errors
-    /// As [`GridFastSlam::predict`].
-    pub fn predict(&mut self, control: &Control, dt: f64) -> fastslam_estimation::Result<()> {
-        self.filter.predict(control, dt)
-    }
-
     /// One scan stamped `stamp_ns` through the filter (matched and mapped when it is a
     /// keyframe) and, for a keyframe, to the back-end; the estimate in the map frame and
     /// what the filter did.
     ///
     /// # Errors
     /// As [`GridFastSlam::observe`]; nothing reaches the back-end then.
-    pub fn observe(
+    fn step(
         &mut self,
         stamp_ns: u64,
         scan: &RangeScan<'_>,
@@ -122,52 +105,137 @@ impl GridSlam {
             })
             .collect()
     }
+}
+
+impl Estimator for GridSlam {
+    fn predict(
+        &mut self,
+        control: &Control,
+        from_ns: u64,
+        to_ns: u64,
+    ) -> fastslam_estimation::Result<()> {
+        let dt = to_ns.saturating_sub(from_ns) as f64 * 1e-9;
+        self.filter.predict(control, dt)
+    }
+
+    /// Refused: a grid is mapped from raw scans.
+    fn observe(
+        &mut self,
+        _header: &ObservationsHeader,
+        _observations: &[fastslam_protocol::Observation],
+        _publish: PoseSink<'_>,
+    ) -> fastslam_estimation::Result<Step> {
+        Err(Error::InvalidInput {
+            what: "observations",
+            reason: "[map] kind = \"grid\" maps raw scans (topic `scan`), not landmark \
+                     observations"
+                .into(),
+        })
+    }
+
+    /// Matched and mapped when it is a keyframe; the pose (the predicted cloud's
+    /// mixture, in the map frame) published either way.
+    fn observe_raw(
+        &mut self,
+        h: &LaserScanHeader,
+        scan: &RangeScan<'_>,
+        publish: PoseSink<'_>,
+    ) -> fastslam_estimation::Result<Step> {
+        let (estimate, step) = self.step(h.header.stamp_ns, scan)?;
+        let pose = message(h.header, &estimate);
+        publish(pose);
+        let report = StepReport {
+            neff: step.ess,
+            resampled: step.resampled,
+            distinct: step.distinct,
+            matched: 0,
+            new_landmarks: 0,
+            ignored: 0,
+            removed: 0,
+            rejected: 0,
+            innovations: Default::default(),
+        };
+        Ok(Step {
+            pose,
+            report,
+            observations: 0,
+        })
+    }
+
+    /// The loop-closing back-end, when `[loop_closure] enabled`; the smoothing back-end
+    /// needs landmarks and stays off.
+    fn start_back_end(&mut self, config: &ServiceConfig, _feed: Vec<Feed>) -> anyhow::Result<()> {
+        if config.smoother.enabled {
+            tracing::warn!(
+                "the smoothing back-end needs landmarks: with [map] kind = \"grid\" \
+                 [loop_closure] is the back-end"
+            );
+        }
+        if config.loop_closure.enabled {
+            self.back_end = Some(LoopClosing::start(config.loop_closure.clone())?);
+        }
+        Ok(())
+    }
 
     /// The newest loop-closure solution not yet published, as a smoothed trajectory with
-    /// a pose for every scan (`None` without a back-end or when none is new).
-    pub fn smoothed(&mut self) -> Option<Solution> {
+    /// a pose for every scan.
+    fn smoothed(&mut self) -> Option<Solution> {
         self.back_end.as_mut().and_then(LoopClosing::latest)
     }
 
-    /// Ends the back-end's input and waits for its last solve: the final trajectory.
-    pub fn finish(&mut self) -> Option<Solution> {
+    fn finish_back_end(&mut self) -> Option<Solution> {
         self.back_end.as_mut().and_then(LoopClosing::finish)
     }
 
-    /// The map: rendered from the keyframes at their optimised poses with a back-end,
-    /// else the best particle's grid; `None` before the first scan.
-    pub fn occupancy(&mut self) -> Option<OccupancyGrid> {
+    /// `None`: the particles' grids are not saved.
+    fn state(&self) -> Option<FilterState> {
+        None
+    }
+
+    fn fix_map(&mut self) -> anyhow::Result<()> {
+        anyhow::bail!("[map] kind = \"grid\" cannot hold its map fixed")
+    }
+
+    /// Rendered from the keyframes at their optimised poses with a back-end, else the
+    /// best particle's grid.
+    fn occupancy(&mut self) -> Option<OccupancyGrid> {
         match &mut self.back_end {
             Some(back_end) => back_end.render(&self.grid),
             None => self.filter.occupancy(),
         }
     }
 
-    /// Each particle's pose (its prediction `x̂`, in the map frame) and normalised weight.
-    pub fn cloud(&self) -> impl Iterator<Item = (Pose2, f64)> + '_ {
+    /// Empty: the map is the grid.
+    fn map(&self) -> Vec<MapLandmark> {
+        Vec::new()
+    }
+
+    fn landmarks(&self) -> usize {
+        0
+    }
+
+    /// Each particle's prediction `x̂`, moved into the map frame.
+    fn cloud(&self) -> Vec<Particle> {
         let correction = self.back_end.as_ref().map(LoopClosing::correction);
-        let particles = self.filter.particles().iter();
-        particles
-            .zip(self.filter.weights().as_slice())
-            .map(move |(p, &w)| {
+        let weights = self.filter.weights().as_slice();
+        (self.filter.particles().iter().zip(weights))
+            .map(|(p, &w)| {
                 let pose = correction.map_or(p.predicted, |c| c.compose(&p.predicted));
-                (pose, w)
+                particle(&pose, w)
             })
+            .collect()
     }
 
-    /// Number of particles.
-    pub fn particles(&self) -> usize {
-        self.filter.particles().len()
-    }
-
-    /// What the scan matcher did so far (`None` without an optimiser).
-    pub fn move_stats(&self) -> Option<MoveStats> {
+    fn move_stats(&self) -> Option<MoveStats> {
         self.filter.move_stats()
     }
 
-    /// The particles' grids in memory (bytes; shared tiles once).
-    pub fn grid_bytes(&self) -> usize {
-        self.filter.grid_bytes()
+    fn particles(&self) -> usize {
+        self.filter.particles().len()
+    }
+
+    fn grid_bytes(&self) -> Option<usize> {
+        Some(self.filter.grid_bytes())
     }
 }
 

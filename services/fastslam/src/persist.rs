@@ -81,7 +81,7 @@ impl PersistArgs {
             (Slam::new(config).context("building the filter")?, None)
         };
         if self.localise_only {
-            slam.fix_map();
+            slam.fix_map()?;
         }
         let feed = checkpoint.as_ref().map(|c| c.smoother_feed.clone());
         slam.start_smoother(config, feed.unwrap_or_default())?;
@@ -93,13 +93,20 @@ impl PersistArgs {
         self.checkpoint.is_some() && steps.is_multiple_of(self.checkpoint_every)
     }
 
-    /// Writes the checkpoint `make` builds, if checkpoints are configured.
+    /// Writes the checkpoint `make` builds, if checkpoints are configured (and the
+    /// estimator can make one: [`start`](Self::start) refuses checkpoints for one that
+    /// cannot).
     ///
     /// # Errors
     /// When the file cannot be written (the previous checkpoint is then intact).
-    pub fn write_checkpoint(&self, make: impl FnOnce() -> Checkpoint) -> anyhow::Result<()> {
-        if let Some(path) = &self.checkpoint {
-            make().write(path)?;
+    pub fn write_checkpoint(
+        &self,
+        make: impl FnOnce() -> Option<Checkpoint>,
+    ) -> anyhow::Result<()> {
+        if let Some(path) = &self.checkpoint
+            && let Some(checkpoint) = make()
+        {
+            checkpoint.write(path)?;
             tracing::debug!(path = %path.display(), "checkpoint written");
         }
         Ok(())

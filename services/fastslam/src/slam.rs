@@ -1,39 +1,34 @@
-//! Turns stamp-ordered inputs into filter calls, and the filter's results into messages.
-//! Raw scans go through pole extraction first and are kept (at keyframes) for the
-//! occupancy grid. No IPC here, so it is testable on its own.
+//! Turns stamp-ordered inputs into estimator calls, and the estimator's results into
+//! messages: odometry becomes controls (velocities, or pose increments under the
+//! increment motion model, with coasting through odometry gaps), and every control and
+//! scan goes to the [`Estimator`] the configuration names — landmark FastSLAM
+//! ([`LandmarkSlam`]) or grid FastSLAM ([`GridSlam`]). No IPC here, so it is testable on
+//! its own.
 
 use crate::config::{MapKind, ServiceConfig};
+use crate::estimator::Estimator;
+pub use crate::estimator::{PoseSink, Step};
 use crate::grid_slam::GridSlam;
+use crate::landmark_slam::LandmarkSlam;
 use crate::sequencer::Input;
-use crate::smoothing::Backend;
 use fastslam_estimation::Pose2;
-use fastslam_estimation::fastslam::association::AssociationMode;
-use fastslam_estimation::fastslam::{
-    self, FastSlam, FilterState, OptimiserRefiner, PoseRefiner, Proposal, StepReport,
-};
-use fastslam_estimation::features::{ExtractorConfig, extract};
-use fastslam_estimation::graph::{Feed, NoiseModel, SmootherConfig, Solution};
-use fastslam_estimation::grid::{GridMapper, OccupancyGrid};
+use fastslam_estimation::fastslam::{self, FastSlam, FilterState};
+use fastslam_estimation::graph::{Feed, Solution};
 use fastslam_estimation::motion::Control;
 use fastslam_estimation::moves::MoveStats;
-use fastslam_estimation::observation::{Observation, Sensor};
 use fastslam_estimation::scan::RangeScan;
 use fastslam_protocol::{
     Header, LandmarkMapHeader, LaserScanHeader, MapLandmark, ObservationsHeader,
-    OccupancyGridHeader, Particle, ParticlesHeader, PoseEstimate, TrajectoryHeader, TrajectoryPose,
+    OccupancyGridHeader, Particle, ParticlesHeader, TrajectoryHeader, TrajectoryPose,
 };
 use nalgebra::{Matrix2, Vector2};
-use std::collections::VecDeque;
-use std::f64::consts::TAU;
 
-/// The filter, its optimiser, and the service's bookkeeping around them.
+/// The estimator and the service's odometry bookkeeping around it.
 #[derive(Debug)]
 pub struct Slam {
-    filter: FastSlam,
-    /// Grid FastSLAM, when `[map] kind = "grid"`: it then takes every input, and the
-    /// landmark filter above stays empty.
-    grid_filter: Option<GridSlam>,
-    refiner: Option<OptimiserRefiner>,
+    estimator: Box<dyn Estimator>,
+    /// The motion model is driven by the odometry's pose increments.
+    increments: bool,
     last_odometry_ns: Option<u64>,
     /// The last odometry's pose in the odometry frame: the increment model's start.
     last_odometry_pose: Option<Pose2>,
@@ -42,33 +37,6 @@ pub struct Slam {
     /// Odometry is quiet: scans first predict with the last control (see
     /// [`Slam::set_coasting`]).
     coasting: bool,
-    extractor: ExtractorConfig,
-    mapper: GridMapper,
-    /// The current scan's observations in the filter's type, reused from scan to scan so
-    /// a step allocates no buffer of its own.
-    observations: Vec<Observation>,
-    /// The smoothing back-end, when `[smoother] enabled`.
-    backend: Option<Backend>,
-    /// With re-anchoring: the delay (scans) and the estimates of the last scans (stamp,
-    /// mean), to compare a solution's last pose with what the filter said then.
-    reanchor: Option<(u64, VecDeque<(u64, Pose2)>)>,
-    /// The laser's pose in the base frame (`[laser] mount`); `None` at the origin.
-    mount: Option<Pose2>,
-}
-
-/// Where an observation step sends its pose the moment the filter has it, before the
-/// maps are updated (see [`FastSlam::update_publishing`]); the service publishes it.
-pub type PoseSink<'a> = &'a mut dyn FnMut(PoseEstimate);
-
-/// What an observation step produced.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Step {
-    /// The pose estimate, stamped with the scan's stamp (`seq` left to the publisher).
-    pub pose: PoseEstimate,
-    /// The filter's account of the step.
-    pub report: StepReport,
-    /// Observations the step used (extracted poles for a raw scan).
-    pub observations: usize,
 }
 
 /// A smoothing back-end's solution as messages: the trajectory and the map.
@@ -125,8 +93,8 @@ impl Smoothed {
 }
 
 impl Slam {
-    /// A filter with `config` ([`ServiceConfig::filter_config`]) and its optimiser,
-    /// starting at the map origin (the map frame is the start pose).
+    /// The estimator `config` names ([`ServiceConfig::filter_config`]), starting at the
+    /// map origin (the map frame is the start pose).
     ///
     /// # Errors
     /// When the filter, optimiser or move configuration is invalid.
@@ -177,9 +145,25 @@ impl Slam {
         Ok(slam)
     }
 
-    /// Starts the back-end the configuration asks for: the smoothing back-end for
-    /// landmarks, first fed with `feed` (a resumed run's inputs so far, from its
-    /// checkpoint), or the loop-closing back-end for grid maps.
+    /// The landmark estimator around `filter`, or grid FastSLAM for a grid map.
+    fn around(config: &ServiceConfig, filter: FastSlam) -> fastslam_estimation::Result<Self> {
+        let estimator: Box<dyn Estimator> = match config.map.kind {
+            MapKind::Landmarks => Box::new(LandmarkSlam::new(config, filter)?),
+            MapKind::Grid => Box::new(GridSlam::new(config)?),
+        };
+        Ok(Self {
+            estimator,
+            increments: config.filter.motion.uses_increments(),
+            last_odometry_ns: None,
+            last_odometry_pose: None,
+            last_control: None,
+            coasting: false,
+        })
+    }
+
+    /// Starts the estimator's back-end the configuration asks for — the smoothing
+    /// back-end for landmarks, first fed with `feed` (a resumed run's inputs so far, from
+    /// its checkpoint), or the loop-closing back-end for grid maps.
     ///
     /// # Errors
     /// When the back-end's configuration is invalid or its thread cannot start.
@@ -188,111 +172,43 @@ impl Slam {
         config: &ServiceConfig,
         feed: Vec<Feed>,
     ) -> anyhow::Result<()> {
-        if let Some(grid) = &mut self.grid_filter {
-            if config.smoother.enabled {
-                tracing::warn!(
-                    "the smoothing back-end needs landmarks: with [map] kind = \"grid\" \
-                     [loop_closure] is the back-end"
-                );
-            }
-            grid.start_back_end(config)?;
-        } else if config.smoother.enabled {
-            let filter = config.filter_config();
-            let noise = NoiseModel::of(&filter);
-            // With known association the keys are the data's ids: nothing to fuse.
-            let smoother = SmootherConfig {
-                fuse_duplicates: config.smoother.fuse_duplicates
-                    && filter.association.mode == AssociationMode::Unknown,
-                ..config.smoother.clone()
-            };
-            self.backend = Some(Backend::start(smoother, noise, feed)?);
-            let delay = config.smoother.reanchor_delay_scans;
-            self.reanchor = config.smoother.reanchor.then(|| (delay, VecDeque::new()));
-        }
-        Ok(())
+        self.estimator.start_back_end(config, feed)
     }
 
     /// Hands the back-end what the filter applied since the last call (one message; the
     /// service calls it once per wake-up, after the pose went out).
     pub fn flush_smoother(&mut self) {
-        if let Some(backend) = &mut self.backend {
-            backend.flush();
-        }
+        self.estimator.flush_back_end();
     }
 
     /// The newest smoothed solution finished since the last call (`None` without a
     /// back-end or when none is new).
     pub fn smoothed(&mut self) -> Option<Solution> {
-        match &mut self.grid_filter {
-            Some(grid) => grid.smoothed(),
-            None => self.backend.as_mut().and_then(Backend::latest),
-        }
+        self.estimator.smoothed()
     }
 
     /// Ends the back-end's input and waits for its last solve: the newest solution not
     /// yet taken.
     pub fn finish_smoothing(&mut self) -> Option<Solution> {
-        match &mut self.grid_filter {
-            Some(grid) => grid.finish(),
-            None => self.backend.as_mut().and_then(Backend::finish),
-        }
+        self.estimator.finish_back_end()
     }
 
     /// What the back-end was fed so far, for a checkpoint (empty without one).
     pub fn smoother_feed(&self) -> Vec<Feed> {
-        self.backend
-            .as_ref()
-            .map(|b| b.feed().to_vec())
-            .unwrap_or_default()
-    }
-
-    fn around(config: &ServiceConfig, filter: FastSlam) -> fastslam_estimation::Result<Self> {
-        config.features.validate()?;
-        let mount = config.laser.mount();
-        let grid_filter = match config.map.kind {
-            MapKind::Landmarks => None,
-            MapKind::Grid => Some(GridSlam::new(config)?),
-        };
-        let refiner = match grid_filter {
-            Some(_) => None,
-            None => {
-                OptimiserRefiner::new(&config.optimizer, config.moves.clone(), config.filter.seed)?
-            }
-        };
-        // Plain FastSLAM 1.0 never reads the motion prior: skip propagating it. An
-        // optimiser in a corrected mode targets the Gaussian prior: sampling is deferred.
-        let filter = if refiner.is_none() && filter.config().proposal == Proposal::Motion {
-            filter.without_motion_prior()?
-        } else if refiner.as_ref().is_some_and(|r| r.needs_gaussian_prior()) {
-            filter.defer_sampling()?
-        } else {
-            filter
-        };
-        Ok(Self {
-            filter,
-            grid_filter,
-            refiner,
-            last_odometry_ns: None,
-            last_odometry_pose: None,
-            last_control: None,
-            coasting: false,
-            extractor: config.features.clone(),
-            mapper: GridMapper::new(config.grid.clone())?,
-            observations: Vec::new(),
-            backend: None,
-            reanchor: None,
-            mount: (mount != Pose2::default()).then_some(mount),
-        })
+        self.estimator.back_end_feed()
     }
 
     /// Localisation only from now on: the map stays as it is, only the pose is estimated.
-    pub fn fix_map(&mut self) {
-        self.filter.fix_map();
+    ///
+    /// # Errors
+    /// When the estimator cannot hold its map fixed (a grid map).
+    pub fn fix_map(&mut self) -> anyhow::Result<()> {
+        self.estimator.fix_map()
     }
 
-    /// The filter's state, for a checkpoint.
-    pub fn state(&self) -> FilterState {
-        self.filter.state()
+    /// The filter's state, for a checkpoint; `None` for an estimator that cannot resume.
+    pub fn state(&self) -> Option<FilterState> {
+        self.estimator.state()
     }
 
     /// Stamp of the odometry the filter last predicted to (ns), for a checkpoint.
@@ -326,7 +242,7 @@ impl Slam {
                 let previous_pose = self.last_odometry_pose.replace(pose);
                 if let Some(previous) = self.last_odometry_ns.replace(now) {
                     let control = match previous_pose {
-                        Some(from) if self.uses_increments() => {
+                        Some(from) if self.increments => {
                             Control::between_poses(&from, &pose, m.v, m.omega)
                         }
                         _ => Control {
@@ -351,8 +267,7 @@ impl Slam {
     }
 
     /// One observation step on a scan's observations, read straight from the message (a
-    /// slice of shared memory, or a sequenced copy): converted into the reused buffer,
-    /// then one filter step.
+    /// slice of shared memory, or a sequenced copy).
     ///
     /// # Errors
     /// As [`Slam::apply`].
@@ -362,86 +277,12 @@ impl Slam {
         observations: &[fastslam_protocol::Observation],
         publish: PoseSink<'_>,
     ) -> fastslam_estimation::Result<Step> {
-        if self.grid_filter.is_some() {
-            return Err(fastslam_estimation::Error::InvalidInput {
-                what: "observations",
-                reason: "[map] kind = \"grid\" maps raw scans (topic `scan`), not landmark \
-                         observations"
-                    .into(),
-            });
-        }
         self.coast_to(header.header.stamp_ns)?;
-        let mut buffer = std::mem::take(&mut self.observations);
-        buffer.clear();
-        buffer.extend(observations.iter().map(|o| Observation {
-            range: o.range,
-            bearing: o.bearing,
-            id: o.known_id(),
-        }));
-        let sensor = self.sensor(header.max_range, header.min_bearing, header.max_bearing);
-        let step = self.update(header.header, &buffer, &sensor, publish);
-        self.observations = buffer;
-        step
-    }
-
-    /// Odometry went quiet (`true`) or is back: while quiet, every scan first predicts
-    /// from the last odometry (or coasted) stamp to its own with the last control, so the
-    /// estimate keeps moving as the vehicle did (constant velocity); the odometry that
-    /// returns then predicts only from there.
-    pub fn set_coasting(&mut self, on: bool) {
-        self.coasting = on;
-    }
-
-    /// While coasting, predicts up to `stamp_ns` with the last control (a velocity model
-    /// only: odometry that reports poses carries the whole motion of a gap in the
-    /// increment of the message that ends it, so nothing is guessed).
-    fn coast_to(&mut self, stamp_ns: u64) -> fastslam_estimation::Result<()> {
-        if !self.coasting || self.uses_increments() {
-            return Ok(());
-        }
-        if let (Some(previous), Some(control)) = (self.last_odometry_ns, self.last_control)
-            && self.predict(&control, previous, stamp_ns)?
-        {
-            self.last_odometry_ns = Some(stamp_ns);
-        }
-        Ok(())
-    }
-
-    /// True when the motion model is driven by the odometry's pose increments.
-    fn uses_increments(&self) -> bool {
-        self.filter.config().motion.uses_increments()
-    }
-
-    /// Predicts with `control` from stamp `from` to `to` (ns); false when `to` is not
-    /// later (nothing to predict).
-    fn predict(
-        &mut self,
-        control: &Control,
-        from: u64,
-        to: u64,
-    ) -> fastslam_estimation::Result<bool> {
-        let dt = to.saturating_sub(from) as f64 * 1e-9;
-        if let Some(grid_filter) = &mut self.grid_filter {
-            if dt > 0.0 {
-                grid_filter.predict(control, dt)?;
-            }
-        } else if dt > 0.0 {
-            self.filter.predict(control, dt)?;
-            if let Some(backend) = &mut self.backend {
-                backend.send(Feed::Control {
-                    from_ns: from,
-                    to_ns: to,
-                    control: *control,
-                });
-            }
-        }
-        Ok(dt > 0.0)
+        self.estimator.observe(header, observations, publish)
     }
 
     /// One observation step on a raw scan, its ranges read straight from the message (a
-    /// slice of shared memory, or a sequenced copy): poles extracted and used as
-    /// observations with unknown association, then the scan offered to the grid mapper as
-    /// a keyframe.
+    /// slice of shared memory, or a sequenced copy).
     ///
     /// # Errors
     /// As [`Slam::apply`].
@@ -459,155 +300,53 @@ impl Slam {
             range_max: h.range_max.into(),
             ranges,
         };
-        if let Some(grid_filter) = &mut self.grid_filter {
-            return Self::grid_step(grid_filter, h.header, &scan, publish);
-        }
-        // 1. Poles in the scan, seen from the base.
-        let mount = self.mount;
-        let observations: Vec<Observation> = extract(&scan, &self.extractor)
-            .iter()
-            .map(|f| {
-                let (range, bearing) = mount.map_or((f.range, f.bearing), |m| {
-                    let [x, y] =
-                        m.transform_point([f.range * f.bearing.cos(), f.range * f.bearing.sin()]);
-                    (x.hypot(y), y.atan2(x))
-                });
-                Observation {
-                    range,
-                    bearing,
-                    id: None,
-                }
-            })
-            .collect();
-        // 2. The filter step; poles are found up to the extractor's range.
-        let max_range = self.extractor.max_range.min(scan.range_max);
-        let sensor = self.sensor(max_range, scan.angle_min, h.angle_max());
-        let step = self.update(h.header, &observations, &sensor, publish)?;
-        // 3. A keyframe for the grid: every particle records its pose.
-        let base = Pose2::new(step.pose.x, step.pose.y, step.pose.theta);
-        let estimate = mount.map_or(base, |m| base.compose(&m));
-        if let Some(keyframe) = self.mapper.offer(&scan, estimate) {
-            self.filter.record_poses(keyframe);
-        }
-        Ok(step)
+        self.estimator.observe_raw(h, &scan, publish)
     }
 
-    /// Grid FastSLAM's step on a raw scan: matched and mapped when it is a keyframe; the
-    /// pose (the predicted cloud's mixture, in the map frame) published either way.
-    fn grid_step(
-        grid_filter: &mut GridSlam,
-        header: Header,
-        scan: &RangeScan<'_>,
-        publish: PoseSink<'_>,
-    ) -> fastslam_estimation::Result<Step> {
-        let (estimate, step) = grid_filter.observe(header.stamp_ns, scan)?;
-        let pose = message(header, &estimate);
-        publish(pose);
-        let report = StepReport {
-            neff: step.ess,
-            resampled: step.resampled,
-            distinct: step.distinct,
-            matched: 0,
-            new_landmarks: 0,
-            ignored: 0,
-            removed: 0,
-            rejected: 0,
-            innovations: Default::default(),
-        };
-        Ok(Step {
-            pose,
-            report,
-            observations: 0,
-        })
+    /// Odometry went quiet (`true`) or is back: while quiet, every scan first predicts
+    /// from the last odometry (or coasted) stamp to its own with the last control, so the
+    /// estimate keeps moving as the vehicle did (constant velocity); the odometry that
+    /// returns then predicts only from there.
+    pub fn set_coasting(&mut self, on: bool) {
+        self.coasting = on;
     }
 
-    fn update(
+    /// While coasting, predicts up to `stamp_ns` with the last control (a velocity model
+    /// only: odometry that reports poses carries the whole motion of a gap in the
+    /// increment of the message that ends it, so nothing is guessed).
+    fn coast_to(&mut self, stamp_ns: u64) -> fastslam_estimation::Result<()> {
+        if !self.coasting || self.increments {
+            return Ok(());
+        }
+        if let (Some(previous), Some(control)) = (self.last_odometry_ns, self.last_control)
+            && self.predict(&control, previous, stamp_ns)?
+        {
+            self.last_odometry_ns = Some(stamp_ns);
+        }
+        Ok(())
+    }
+
+    /// Predicts with `control` from stamp `from` to `to` (ns); false when `to` is not
+    /// later (nothing to predict).
+    fn predict(
         &mut self,
-        header: Header,
-        observations: &[Observation],
-        sensor: &Sensor,
-        publish: PoseSink<'_>,
-    ) -> fastslam_estimation::Result<Step> {
-        let refiner = self.refiner.as_mut().map(|r| r as &mut dyn PoseRefiner);
-        let mut pose = PoseEstimate::default();
-        let report = self
-            .filter
-            .update_publishing(observations, sensor, refiner, |estimate| {
-                pose = message(header, estimate);
-                publish(pose);
-            })?;
-        if let Some(backend) = &mut self.backend {
-            backend.send(Feed::Scan {
-                stamp_ns: header.stamp_ns,
-                sightings: self.filter.best_sightings(sensor),
-            });
-            let mean = Pose2::new(pose.x, pose.y, pose.theta);
-            self.reanchor_if_due(header.stamp_ns, mean);
+        control: &Control,
+        from: u64,
+        to: u64,
+    ) -> fastslam_estimation::Result<bool> {
+        let later = to > from;
+        if later {
+            self.estimator.predict(control, from, to)?;
         }
-        Ok(Step {
-            pose,
-            report,
-            observations: observations.len(),
-        })
+        Ok(later)
     }
 
-    /// With re-anchoring, after the scan stamped `stamp_ns` whose estimate was `mean`:
-    /// moves the particles onto the solution triggered `delay` scans ago, if that scan
-    /// closed a loop. The correction is the rigid motion taking the filter's estimate at
-    /// the solution's last pose onto that pose.
-    fn reanchor_if_due(&mut self, stamp_ns: u64, mean: Pose2) {
-        let (Some(backend), Some((delay, recent))) = (&mut self.backend, &mut self.reanchor) else {
-            return;
-        };
-        recent.push_back((stamp_ns, mean));
-        while recent.len() as u64 > *delay + 1 {
-            recent.pop_front();
-        }
-        let Some(solution) = backend.due(*delay) else {
-            return;
-        };
-        let Some(&(last_ns, smoothed)) = solution.poses.last() else {
-            return;
-        };
-        let Some(&(_, then)) = recent.iter().find(|(t, _)| *t == last_ns) else {
-            tracing::warn!(
-                last_ns,
-                "re-anchoring skipped: no estimate at the solution's last pose"
-            );
-            return;
-        };
-        let correction = smoothed.compose(&then.inverse());
-        tracing::info!(
-            dx_m = correction.x,
-            dy_m = correction.y,
-            dtheta_rad = correction.theta,
-            solve = solution.solves,
-            "particles re-anchored on the smoothed solution"
-        );
-        self.filter.reanchor(&correction, &solution.landmarks);
-    }
-
-    /// A scan's sensor: noise from the configuration, range and field of view from the
-    /// message. The filter's field of view is centred on the heading, so an asymmetric
-    /// one is widened to the larger side (negative evidence then errs on the side of
-    /// keeping landmarks).
-    fn sensor(&self, max_range: f64, min_bearing: f64, max_bearing: f64) -> Sensor {
-        let configured = &self.filter.config().sensor;
-        Sensor {
-            max_range,
-            field_of_view: (2.0 * min_bearing.abs().max(max_bearing.abs())).min(TAU),
-            ..configured.clone()
-        }
-    }
-
-    /// The best particle's occupancy grid, built from its own trajectory and the kept
-    /// raw scans; `None` before the first raw scan. See `fastslam_estimation::grid` for
-    /// the cost.
+    /// The occupancy grid to publish — grid FastSLAM's (the loop-closing back-end's
+    /// rendered map, or the best particle's grid), or the landmark filter's best
+    /// particle's, rebuilt from its trajectory and the kept raw scans; `None` before the
+    /// first raw scan.
     pub fn grid(&mut self, header: Header) -> Option<(OccupancyGridHeader, Vec<i8>)> {
-        let grid: OccupancyGrid = match &mut self.grid_filter {
-            Some(grid_filter) => grid_filter.occupancy()?,
-            None => self.mapper.grid(self.filter.best().trail())?,
-        };
+        let grid = self.estimator.occupancy()?;
         let h = OccupancyGridHeader {
             header,
             resolution: grid.resolution,
@@ -622,39 +361,18 @@ impl Slam {
 
     /// What the optimiser's moves did so far (`None` without an optimiser).
     pub fn move_stats(&self) -> Option<MoveStats> {
-        match &self.grid_filter {
-            Some(grid_filter) => grid_filter.move_stats(),
-            None => self.refiner.as_ref().map(OptimiserRefiner::stats),
-        }
+        self.estimator.move_stats()
     }
 
     /// Number of particles.
     pub fn particles(&self) -> usize {
-        match &self.grid_filter {
-            Some(grid_filter) => grid_filter.particles(),
-            None => self.filter.particles().len(),
-        }
+        self.estimator.particles()
     }
 
     /// The particle cloud as it stands after the last step, as a message: each particle's
     /// pose (grid FastSLAM's: its prediction `x̂`) and normalised weight.
     pub fn cloud(&self, header: Header) -> (ParticlesHeader, Vec<Particle>) {
-        let particle = |p: &Pose2, &weight: &f64| Particle {
-            x: p.x,
-            y: p.y,
-            theta: p.theta,
-            weight,
-        };
-        let particles: Vec<Particle> = match &self.grid_filter {
-            Some(g) => g.cloud().map(|(p, w)| particle(&p, &w)).collect(),
-            None => (self
-                .filter
-                .particles()
-                .iter()
-                .zip(self.filter.weights().as_slice()))
-            .map(|(p, w)| particle(p.pose(), w))
-            .collect(),
-        };
+        let particles = self.estimator.cloud();
         let h = ParticlesHeader {
             header,
             count: particles.len() as u32,
@@ -666,30 +384,17 @@ impl Slam {
     /// Grid FastSLAM's particle grids in memory (bytes; shared tiles once), `None` for the
     /// landmark filter.
     pub fn grid_bytes(&self) -> Option<usize> {
-        self.grid_filter.as_ref().map(GridSlam::grid_bytes)
+        self.estimator.grid_bytes()
     }
 
     /// Landmarks in the published map (the best particle's, provisional ones left out).
     pub fn landmarks(&self) -> usize {
-        self.filter.confirmed_landmarks()
+        self.estimator.landmarks()
     }
 
     /// The best particle's map as a message.
     pub fn map(&self, header: Header) -> (LandmarkMapHeader, Vec<MapLandmark>) {
-        let map: Vec<MapLandmark> = self
-            .filter
-            .best_map()
-            .iter()
-            .map(|l| MapLandmark {
-                id: l.id,
-                x: l.mean.x,
-                y: l.mean.y,
-                cov_xx: l.covariance[(0, 0)],
-                cov_xy: l.covariance[(0, 1)],
-                cov_yy: l.covariance[(1, 1)],
-                observations: l.hits.into(),
-            })
-            .collect();
+        let map = self.estimator.map();
         (
             LandmarkMapHeader {
                 header,
@@ -701,25 +406,12 @@ impl Slam {
     }
 }
 
-/// The filter's estimate as the `pose` message, stamped with `header` (`seq` left to
-/// the publisher).
-fn message(header: Header, estimate: &fastslam::PoseEstimate) -> PoseEstimate {
-    let c = estimate.covariance;
-    PoseEstimate {
-        header,
-        x: estimate.mean.x,
-        y: estimate.mean.y,
-        theta: estimate.mean.theta,
-        covariance: std::array::from_fn(|k| c[(k / 3, k % 3)]),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::sequencer::{RawScan, Scan};
     use fastslam_protocol::Odometry;
-    use std::f64::consts::PI;
+    use std::f64::consts::{PI, TAU};
 
     fn odometry(t_ns: u64, v: f64) -> Input {
         Input::Odometry(Odometry {
@@ -901,7 +593,7 @@ mod tests {
         let mut first = Slam::new(&config).unwrap();
         first.start_smoother(&config, Vec::new()).unwrap();
         drive(&mut first, 0..400);
-        let (state, feed) = (first.state(), first.smoother_feed());
+        let (state, feed) = (first.state().unwrap(), first.smoother_feed());
         assert!(!feed.is_empty());
         let mut resumed = Slam::resume(
             &config,
@@ -922,6 +614,30 @@ mod tests {
             .map(|(t, p)| (p.x - 2.0 * *t as f64 * 1e-9).hypot(p.y))
             .fold(0.0, f64::max);
         assert!(worst < 0.5, "smoothed drive off by {worst} m");
+    }
+
+    #[test]
+    fn a_grid_map_refuses_landmarks_a_fixed_map_and_a_checkpoint() {
+        let mut config = ServiceConfig::default();
+        config.filter.particles = 5;
+        config.map.kind = MapKind::Grid;
+        let mut slam = Slam::new(&config).unwrap();
+        let header = ObservationsHeader::default();
+        let refused = slam.observe(&header, &[], &mut |_| panic!("nothing published"));
+        assert!(
+            matches!(
+                refused,
+                Err(fastslam_estimation::Error::InvalidInput {
+                    what: "observations",
+                    ..
+                })
+            ),
+            "{refused:?}"
+        );
+        assert!(slam.state().is_none());
+        assert!(slam.fix_map().is_err());
+        assert_eq!(slam.map(Header::default()).1, []);
+        assert_eq!(slam.cloud(Header::default()).1.len(), 5);
     }
 
     #[test]
