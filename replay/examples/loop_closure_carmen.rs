@@ -3,8 +3,10 @@
 //! 0.5 m or 15°), or grid FastSLAM driven by the odometry increments (`gridslam[:N]`, N
 //! particles, its own keyframes and estimate covariance) — and the back-end matches,
 //! closes loops and solves as the service would drive it. Prints the loop closures found
-//! and accepted, the time per keyframe and per solve, and, when `<name>.relations` sits
-//! next to the log, the Freiburg relation errors of the front end and of the back-end's
+//! and accepted, the time per keyframe and per solve, how much each solve changed the
+//! correction, and, when `<name>.relations` sits next to the log, the Freiburg relation
+//! errors of the front end, of the real-time pose the service would publish (the front
+//! end's moved by the correction `delay_keyframes` keyframes old) and of the back-end's
 //! trajectory. Writes the back-end's map as a PGM image.
 //!
 //! ```text
@@ -124,6 +126,11 @@ fn main() -> anyhow::Result<()> {
     // at each keyframe.
     let mut scans: Vec<(u64, Pose2, usize)> = Vec::new();
     let mut keyframe_poses: Vec<Pose2> = Vec::new();
+    // The correction in force after each keyframe, and every scan's real-time pose: the
+    // front end's moved by the correction of `delay_keyframes` keyframes before.
+    let mut corrections: Vec<Pose2> = Vec::new();
+    let mut real_time: Vec<(u64, Pose2)> = Vec::new();
+    let mut jumps: Vec<(f64, f64)> = Vec::new();
     let mut front_s = 0.0;
     let mut previous: Option<Pose2> = None;
     let started = Instant::now();
@@ -181,8 +188,15 @@ fn main() -> anyhow::Result<()> {
                 let solution = mapper.solve()?;
                 solves += 1;
                 solve_s += solution.seconds;
+                let before = corrections.last().copied().unwrap_or_default();
+                let d = before.inverse().compose(&solution.correction);
+                jumps.push((d.x.hypot(d.y), d.theta.abs().to_degrees()));
             }
+            corrections.push(mapper.correction());
         }
+        let in_force = (corrections.len().checked_sub(1 + config.delay_keyframes))
+            .map_or_else(Pose2::default, |k| corrections[k]);
+        real_time.push((stamp, in_force.compose(&estimate)));
         if let Some(k) = mapper.keyframes().checked_sub(1) {
             scans.push((stamp, estimate, k));
         }
@@ -214,9 +228,22 @@ fn main() -> anyhow::Result<()> {
         })
         .collect();
     let own: Vec<(u64, Pose2)> = scans.iter().map(|&(s, p, _)| (s, p)).collect();
+    jumps.sort_by(|a, b| a.1.total_cmp(&b.1));
+    if let Some(&(_, worst)) = jumps.last() {
+        let median = jumps[jumps.len() / 2].1;
+        let big = jumps.iter().filter(|j| j.1 > 0.5).count();
+        println!(
+            "correction changes at {} solves: heading median {median:.3}°, worst {worst:.2}°, {big} over 0.5°",
+            jumps.len()
+        );
+    }
     if let Some(relations) = relations_of(&path) {
         let relations = std::fs::read_to_string(&relations)?;
-        for (name, track) in [("front end", &own), ("back-end", &optimised)] {
+        for (name, track) in [
+            ("front end", &own),
+            ("real time", &real_time),
+            ("back-end", &optimised),
+        ] {
             if let Some((t, r, count)) = score(&relations, track, data.epoch_s) {
                 println!(
                     "{name}: relation errors over {count}: translation {:.3} ± {:.3} m, \

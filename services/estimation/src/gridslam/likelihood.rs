@@ -108,22 +108,24 @@ impl ScanMatchConfig {
         let w = self.window as i64;
         let r = grid.resolution();
         let inv = 0.5 / (self.sigma * self.sigma);
+        // A point with no occupied cell in its window: `ln(z_hit · e^(−∞) + z_rand)`.
+        let miss = z_rand.ln();
         points
             .iter()
             .map(|p| {
                 let (ex, ey) = (pose.x + c * p[0] - s * p[1], pose.y + s * p[0] + c * p[1]);
                 let (i, j) = grid.cell(ex, ey);
                 let mut best = f64::INFINITY;
-                for dj in -w..=w {
-                    for di in -w..=w {
-                        if grid.log_odds(i + di, j + dj) > 0.0 {
-                            let cx = ((i + di) as f64 + 0.5) * r - ex;
-                            let cy = ((j + dj) as f64 + 0.5) * r - ey;
-                            best = best.min(cx * cx + cy * cy);
-                        }
-                    }
+                grid.occupied_near(i, j, w, |ci, cj| {
+                    let cx = (ci as f64 + 0.5) * r - ex;
+                    let cy = (cj as f64 + 0.5) * r - ey;
+                    best = best.min(cx * cx + cy * cy);
+                });
+                if best.is_finite() {
+                    (self.z_hit * (-best * inv).exp() + z_rand).ln()
+                } else {
+                    miss
                 }
-                (self.z_hit * (-best * inv).exp() + z_rand).ln()
             })
             .sum()
     }

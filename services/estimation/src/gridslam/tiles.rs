@@ -91,6 +91,34 @@ impl TiledGrid {
         }
     }
 
+    /// Calls `visit(i', j')` for every occupied cell (log-odds > 0) with
+    /// `|i' − i| ≤ w` and `|j' − j| ≤ w`; one tile lookup when the block lies in one tile.
+    pub fn occupied_near(&self, i: i64, j: i64, w: i64, mut visit: impl FnMut(i64, i64)) {
+        let ((t0, local), (t1, _)) = (Self::split(i - w, j - w), Self::split(i + w, j + w));
+        if t0 != t1 {
+            for dj in -w..=w {
+                for di in -w..=w {
+                    if self.log_odds(i + di, j + dj) > 0.0 {
+                        visit(i + di, j + dj);
+                    }
+                }
+            }
+            return;
+        }
+        let Some(tile) = self.slot(t0.0, t0.1).and_then(|s| self.tiles[s].as_ref()) else {
+            return;
+        };
+        let side = 2 * w as usize + 1;
+        for dj in 0..side {
+            let row = &tile.log_odds[local + dj * TILE..][..side];
+            for (di, &value) in row.iter().enumerate() {
+                if value > 0.0 {
+                    visit(i - w + di as i64, j - w + dj as i64);
+                }
+            }
+        }
+    }
+
     /// Grows the index to hold cells `lo..=hi` (inclusive corners).
     fn cover(&mut self, lo: (i64, i64), hi: (i64, i64)) {
         let ((a0, b0), _) = Self::split(lo.0, lo.1);
@@ -212,6 +240,40 @@ mod tests {
                 hit: k % 5 != 0,
             })
             .collect()
+    }
+
+    #[test]
+    fn occupied_near_visits_what_a_cell_by_cell_search_finds() {
+        let config = GridConfig::default();
+        let mut grid = TiledGrid::new(config.resolution);
+        grid.integrate(&Pose2::new(1.0, -0.7, 0.3), &beams(), &config);
+        let (mut blocks, mut found) = (0, 0);
+        // Every window around cells of a stretch that crosses tile borders both ways.
+        for j in -140..140 {
+            for i in -140..140 {
+                for w in [1, 2] {
+                    let mut visited = Vec::new();
+                    grid.occupied_near(i, j, w, |a, b| visited.push((a, b)));
+                    visited.sort_unstable();
+                    let mut expected = Vec::new();
+                    for b in j - w..=j + w {
+                        for a in i - w..=i + w {
+                            if grid.log_odds(a, b) > 0.0 {
+                                expected.push((a, b));
+                            }
+                        }
+                    }
+                    expected.sort_unstable();
+                    assert_eq!(visited, expected, "window {w} around ({i}, {j})");
+                    blocks += 1;
+                    found += usize::from(!expected.is_empty());
+                }
+            }
+        }
+        assert!(
+            found > blocks / 100,
+            "{found} of {blocks} windows hold a wall"
+        );
     }
 
     #[test]
