@@ -38,11 +38,24 @@ impl JudgeArgs {
         !self.expect.is_empty() || self.junit.is_some()
     }
 
-    /// The expectations, checked.
+    /// The expectations, checked, and the JUnit report's folder checked to exist (so
+    /// that a run is not lost to a report it cannot write at the end).
     ///
     /// # Errors
-    /// One line naming every malformed expression and unknown path.
+    /// One line naming every malformed expression and unknown path, or the missing folder.
     pub fn expectations(&self) -> anyhow::Result<Expectations> {
+        if let Some(junit) = &self.junit {
+            let folder = junit
+                .parent()
+                .filter(|f| !f.as_os_str().is_empty())
+                .unwrap_or(std::path::Path::new("."));
+            anyhow::ensure!(
+                folder.is_dir(),
+                "--junit {}: folder {} does not exist",
+                junit.display(),
+                folder.display()
+            );
+        }
         Expectations::parse(&self.expect)
     }
 
@@ -442,6 +455,30 @@ mod tests {
         m.estimate.ate_rmse_m = 0.25;
         m.estimate.poses = 1200;
         m
+    }
+
+    #[test]
+    fn a_junit_report_in_a_missing_folder_is_refused_at_start() {
+        let missing = std::env::temp_dir().join("fastslam-no-such-folder-7d1f/report.xml");
+        let judge = JudgeArgs {
+            expect: Vec::new(),
+            junit: Some(missing),
+        };
+        let err = judge.expectations().unwrap_err().to_string();
+        assert!(
+            err.starts_with("--junit ") && err.contains("does not exist"),
+            "{err}"
+        );
+        let here = JudgeArgs {
+            expect: Vec::new(),
+            junit: Some(std::env::temp_dir().join("report.xml")),
+        };
+        here.expectations().unwrap();
+        let bare = JudgeArgs {
+            expect: Vec::new(),
+            junit: Some("report.xml".into()),
+        };
+        bare.expectations().unwrap();
     }
 
     #[test]
