@@ -32,7 +32,7 @@
 //! reanchor = false
 //! fuse_duplicates = true   # under unknown association: fuse landmarks mapped twice
 //! [loop_closure]      # fastslam_estimation::loop_closure::LoopClosureConfig (grid maps)
-//! enabled = true
+//! enabled = false   # on in the planar-laser replay profile
 //! delay_keyframes = 2
 //! min_score = 0.6
 //! ```

@@ -10,7 +10,8 @@ use serde::{Deserialize, Serialize};
 #[serde(default, deny_unknown_fields)]
 pub struct LoopClosureConfig {
     /// Whether the service runs the back-end behind grid FastSLAM (`[map] kind = "grid"`;
-    /// the landmark filter has the smoothing back-end instead). Default true.
+    /// the landmark filter has the smoothing back-end instead). Default false; the
+    /// `planar-laser` replay profile, where it was measured, turns it on.
     pub enabled: bool,
     /// The service applies the solve that followed keyframe `k` at keyframe
     /// `k + delay_keyframes` (count): the back-end matches and solves on its own thread
@@ -91,7 +92,7 @@ pub struct LoopClosureConfig {
 impl Default for LoopClosureConfig {
     fn default() -> Self {
         Self {
-            enabled: true,
+            enabled: false,
             delay_keyframes: 2,
             resolution: 0.05,
             keyframes_per_submap: 30,
