@@ -2,6 +2,9 @@
 //! estimate on the true path while biased odometry drifts, and the numbers do not depend
 //! on the number of threads.
 
+mod common;
+
+use common::cast;
 use fastslam_estimation::Pose2;
 use fastslam_estimation::fastslam::FastSlamConfig;
 use fastslam_estimation::grid::GridConfig;
@@ -31,25 +34,6 @@ const MAX_RANGE: f64 = 10.0;
 const DT: f64 = 0.1;
 /// Yaw-rate bias of the odometry (rad/s): dead reckoning turns away from the truth.
 const BIAS: f64 = 0.02;
-
-/// Range along the ray from `(x, y)` at angle `a` to the nearest wall (∞ if none).
-fn cast(x: f64, y: f64, a: f64) -> f64 {
-    let (dx, dy) = (a.cos(), a.sin());
-    WALLS
-        .iter()
-        .filter_map(|w| {
-            let (ex, ey) = (w[2] - w[0], w[3] - w[1]);
-            let den = dx * ey - dy * ex;
-            if den.abs() < 1e-12 {
-                return None;
-            }
-            let (qx, qy) = (w[0] - x, w[1] - y);
-            let t = (qx * ey - qy * ex) / den;
-            let u = (qx * dy - qy * dx) / den;
-            (t > 0.0 && (0.0..=1.0).contains(&u)).then_some(t)
-        })
-        .fold(f64::INFINITY, f64::min)
-}
 
 /// True controls of a loop around the partition: straight, turn left, … (v, ω) per step.
 fn route() -> Vec<(f64, f64)> {
@@ -120,7 +104,7 @@ fn drive(slam: &mut GridFastSlam) -> Vec<(Pose2, Pose2, Pose2)> {
         slam.predict(&measured, DT).unwrap();
         let increment = std::f64::consts::TAU / BEAMS as f64;
         for (k, r) in ranges.iter_mut().enumerate() {
-            let range = cast(truth.x, truth.y, truth.theta + k as f64 * increment);
+            let range = cast(&WALLS, truth.x, truth.y, truth.theta + k as f64 * increment);
             let noisy = range + 0.01 * rng.sample::<f64, _>(StandardNormal);
             *r = if range < MAX_RANGE {
                 noisy as f32

@@ -2,6 +2,9 @@
 //! exhaustive search, a square corridor loop driven with heading-biased odometry, a wrong
 //! loop closure, and bit-for-bit determinism across thread counts.
 
+mod common;
+
+use common::{Segment, cast};
 use fastslam_estimation::Pose2;
 use fastslam_estimation::grid::{GridConfig, KeptBeam, LogOddsGrid, OccupancyGrid};
 use fastslam_estimation::loop_closure::{
@@ -14,32 +17,10 @@ use rand::RngExt;
 use rand_distr::StandardNormal;
 use std::time::Instant;
 
-/// A wall segment `[x1, y1, x2, y2]` (m).
-type Segment = [f64; 4];
-
 /// Beams per scan, over a full turn.
 const BEAMS: usize = 360;
 /// The simulated laser's range (m).
 const MAX_RANGE: f64 = 12.0;
-
-/// Range along the ray from `(x, y)` at angle `a` to the nearest segment (∞ if none).
-fn cast(world: &[Segment], x: f64, y: f64, a: f64) -> f64 {
-    let (dx, dy) = (a.cos(), a.sin());
-    world
-        .iter()
-        .filter_map(|w| {
-            let (ex, ey) = (w[2] - w[0], w[3] - w[1]);
-            let den = dx * ey - dy * ex;
-            if den.abs() < 1e-12 {
-                return None;
-            }
-            let (qx, qy) = (w[0] - x, w[1] - y);
-            let t = (qx * ey - qy * ex) / den;
-            let u = (qx * dy - qy * dx) / den;
-            (t > 0.0 && (0.0..=1.0).contains(&u)).then_some(t)
-        })
-        .fold(f64::INFINITY, f64::min)
-}
 
 /// The four sides of an axis-aligned box `[x1, y1, x2, y2]`.
 fn rectangle(b: [f64; 4]) -> [Segment; 4] {
