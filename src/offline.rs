@@ -21,8 +21,8 @@ use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::moves::{MoveCorrection, MoveStats};
 use fastslam_estimation::optimise::OptimiserKind;
 use fastslam_estimation::stats::Summary;
-use fastslam_protocol::Header;
 use fastslam_protocol::validate::{self, StampOrder};
+use fastslam_protocol::{Header, StreamId};
 use fastslam_replay::dataset::{Association, DataSet};
 use fastslam_replay::player::{Next, schedule};
 use fastslam_replay::profile::Profile;
@@ -30,7 +30,7 @@ use fastslam_replay::{mrclam, victoria_park};
 use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::offline::{Message, OfflineRun};
 use fastslam_service::config::{MapKind, Overrides, ServiceConfig};
-use fastslam_service::sequencer::{RawScan, Scan, Sequencer};
+use fastslam_service::sequencer::{DEFAULT_MAX_QUEUE, Input, RawScan, Scan, Sequencer};
 use fastslam_service::slam::{Slam, Smoothed};
 use std::time::{Duration, Instant};
 
@@ -296,6 +296,19 @@ impl Scoring {
     }
 }
 
+/// The stream of `source`'s lidar messages for `seed` (its first lidar message's kind):
+/// the sequencer orders it against odometry, as the service orders the lidar topic it
+/// subscribed to.
+fn lidar_stream(source: &Source, seed: u64) -> StreamId {
+    (source.messages(seed))
+        .find_map(|m| match m {
+            Message::Observations(..) => Some(StreamId::Observations),
+            Message::RawScan(..) => Some(StreamId::Scan),
+            _ => None,
+        })
+        .unwrap_or(StreamId::Observations)
+}
+
 /// Runs `source` with simulation seed `seed` through the service configured by `config`
 /// and scores it as the client does.
 ///
@@ -313,7 +326,8 @@ pub fn run_in_process(
     let cpu_start = process_cpu();
     let mut slam = Slam::new(config)?;
     slam.start_smoother(config, Vec::new())?;
-    let mut sequencer = Sequencer::default();
+    let lidar = lidar_stream(source, seed);
+    let mut sequencer = Sequencer::new(&[StreamId::Odometry, lidar], DEFAULT_MAX_QUEUE);
     let mut recording = Recording {
         without_truth: !source.has_truth(),
         ..Recording::default()
@@ -345,7 +359,7 @@ pub fn run_in_process(
                 if validate::odometry(&m).is_ok() {
                     recording.add_odometry(&m);
                     if odometry_order.accept(m.header.stamp_ns).is_ok() {
-                        sequencer.push_odometry(m);
+                        sequencer.push(Input::Odometry(m));
                     }
                 }
             }
@@ -354,10 +368,10 @@ pub fn run_in_process(
                     .and_then(|()| scan_order.accept(header.header.stamp_ns));
                 if admitted.is_ok() {
                     recording.add_observations(&header, &observations);
-                    sequencer.push_scan(Scan {
+                    sequencer.push(Input::Scan(Scan {
                         header,
                         observations,
-                    });
+                    }));
                 }
             }
             Message::RawScan(header, mut data) => {
@@ -365,17 +379,17 @@ pub fn run_in_process(
                     .and_then(|()| scan_order.accept(header.header.stamp_ns));
                 if admitted.is_ok() {
                     data.truncate(header.ranges as usize);
-                    sequencer.push_raw_scan(RawScan {
+                    sequencer.push(Input::RawScan(RawScan {
                         header,
                         ranges: data,
-                    });
+                    }));
                 }
             }
         }
         apply(&mut sequencer, &mut recording);
     }
-    sequencer.end_odometry();
-    sequencer.end_scans();
+    sequencer.end(StreamId::Odometry);
+    sequencer.end(lidar);
     apply(&mut sequencer, &mut recording);
     let stamp_ns = last_pose.map_or(0, |h| h.stamp_ns);
     recording.map = slam.map(Header { stamp_ns, seq: 0 }).1;

@@ -351,30 +351,21 @@ impl Restart {
         }
         self.checked = true;
         let delivered = ask_delivered(session, keys)?;
-        let lidar = [StreamId::Observations, StreamId::Scan];
-        let newest = |ids: &[StreamId]| {
-            ids.iter()
-                .filter(|id| ours.contains(id))
-                .find_map(|&id| delivered.of(id))
-        };
-        let covered = [newest(&[StreamId::Odometry]), newest(&lidar)];
-        if covered.iter().all(Option::is_none) {
+        let inputs = [StreamId::Odometry, StreamId::Observations, StreamId::Scan];
+        let covered: Vec<(StreamId, u64)> = (inputs.iter())
+            .filter(|id| ours.contains(id))
+            .filter_map(|&id| delivered.of(id).map(|h| (id, h.stamp_ns)))
+            .collect();
+        if covered.is_empty() {
             return Ok(());
         }
-        let covered_ns = covered.map(|h| h.map_or(0, |h| h.stamp_ns));
         tracing::warn!(
-            odometry_ns = covered_ns[0],
-            lidar_ns = covered_ns[1],
+            ?covered,
             "the peer already published part of the sensor streams (this bridge restarted): \
              asking the sensors for everything after it"
         );
         let request = ipc.newest_only_publisher::<Checkpointed>(&topics::CHECKPOINT)?;
-        request.send(Checkpointed {
-            header: Header::default(),
-            covered_ns,
-            resume: 1,
-            reserved: 0,
-        })?;
+        request.send(Checkpointed::new(Header::default(), covered, true))?;
         self.request = Some(request);
         Ok(())
     }

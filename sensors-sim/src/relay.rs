@@ -198,7 +198,6 @@ impl SensorProcess {
             .ipc
             .optional_subscriber::<Checkpointed>(&topics::CHECKPOINT)?;
         output.wait_for_subscribers(&self.ipc, self.wait_subscribers)?;
-        let slot = usize::from(self.stream != StreamId::Odometry);
         let wanted = self.wait_subscribers.max(1);
         let bound = self.history_bytes;
         let outbox = Outbox::new(
@@ -206,7 +205,7 @@ impl SensorProcess {
             output,
             &checkpoints,
             &self.eos,
-            slot,
+            self.stream,
             wanted,
             bound,
         );
@@ -248,8 +247,8 @@ struct Outbox<'a, M: Message> {
     out: &'a Pub<M::Payload, M::UserHeader>,
     checkpoints: &'a Sub<Checkpointed, ()>,
     eos: &'a Pub<EndOfStream, ()>,
-    /// The stream's slot in [`Checkpointed::covered_ns`].
-    slot: usize,
+    /// The stream, as checkpoint notices list it ([`Checkpointed::covered_ns`]).
+    stream: StreamId,
     /// What was sent and no checkpoint covers yet, oldest first.
     kept: VecDeque<M>,
     /// Their bytes, and the most kept.
@@ -273,15 +272,15 @@ struct Outbox<'a, M: Message> {
 }
 
 impl<'a, M: Message> Outbox<'a, M> {
-    /// An empty history of `out`, whose stream has slot `slot` in the checkpoint
-    /// notices `checkpoints` and whose end goes out on `eos`; `wanted` subscribers were
+    /// An empty history of `out`, whose stream `stream` the checkpoint notices
+    /// `checkpoints` list and whose end goes out on `eos`; `wanted` subscribers were
     /// waited for; it keeps at most `bound` bytes.
     fn new(
         ipc: &'a Ipc,
         out: &'a Pub<M::Payload, M::UserHeader>,
         checkpoints: &'a Sub<Checkpointed, ()>,
         eos: &'a Pub<EndOfStream, ()>,
-        slot: usize,
+        stream: StreamId,
         wanted: usize,
         bound: usize,
     ) -> Self {
@@ -290,7 +289,7 @@ impl<'a, M: Message> Outbox<'a, M> {
             out,
             checkpoints,
             eos,
-            slot,
+            stream,
             kept: VecDeque::new(),
             bytes: 0,
             bound,
@@ -361,11 +360,13 @@ impl<'a, M: Message> Outbox<'a, M> {
     /// looks whether a subscriber died (then holds new messages back). Returns the
     /// subscribers seen at the last look.
     fn tend(&mut self) -> Result<Subscribers, IpcError> {
-        let slot = self.slot;
         let mut notices = Vec::new();
         self.checkpoints.drain(|c| notices.push(*c.payload()))?;
         for notice in notices {
-            self.forget(notice.covered_ns[slot]);
+            // A stream the service does not take is not covered: it keeps its bound.
+            if let Some(covered_ns) = notice.covered_ns(self.stream) {
+                self.forget(covered_ns);
+            }
             if notice.resume != 0 {
                 self.resend()?;
             }

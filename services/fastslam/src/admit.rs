@@ -2,25 +2,26 @@
 //! per-stream state they need (stamp order, sequence numbers, publisher restarts, the
 //! last odometry for the teleport check).
 
-use crate::per_input::{PerInput, Stream};
+use crate::per_stream::PerStream;
 use fastslam_protocol::validate::{self, Continuity, MotionLimits, Rejection, StreamCheck};
-use fastslam_protocol::{Header, Odometry};
+use fastslam_protocol::{Header, Odometry, StreamId};
 
-/// The state of both input streams' checks.
+/// The state of the input streams' checks.
 #[derive(Debug, Clone)]
 pub struct Admission {
     /// Each stream's header checks: stamp order, sequence numbers, publisher restarts.
-    order: PerInput<StreamCheck>,
+    order: PerStream<StreamCheck>,
     last_odometry: Option<Odometry>,
     limits: MotionLimits,
     max_jump_ns: u64,
 }
 
 impl Admission {
-    /// Checks allowing stamp steps up to `max_jump_ns` and odometry within `limits`.
-    pub fn new(max_jump_ns: u64, limits: MotionLimits) -> Self {
+    /// Checks of `streams` allowing stamp steps up to `max_jump_ns` and odometry within
+    /// `limits`.
+    pub fn new(streams: &[StreamId], max_jump_ns: u64, limits: MotionLimits) -> Self {
         Self {
-            order: PerInput::from_fn(|_| StreamCheck::new(max_jump_ns)),
+            order: PerStream::new(streams, |_| StreamCheck::new(max_jump_ns)),
             last_odometry: None,
             limits,
             max_jump_ns,
@@ -34,8 +35,8 @@ impl Admission {
     /// The first [`Rejection`]; the streams' state is then unchanged.
     pub fn odometry(&mut self, m: &Odometry) -> Result<(), Rejection> {
         validate::odometry(m)?;
-        self.first_near(Stream::Odometry, m.header)?;
-        let mut order = self.order.odometry.clone();
+        self.first_near(StreamId::Odometry, m.header)?;
+        let mut order = self.order[StreamId::Odometry].clone();
         let previous = match order.accept(m.header)? {
             Continuity::Continues => self.last_odometry.as_ref(),
             Continuity::Restarted => {
@@ -44,30 +45,39 @@ impl Admission {
             }
         };
         validate::odometry_motion(m, previous, &self.limits)?;
-        self.order.odometry = order;
+        self.order[StreamId::Odometry] = order;
         self.last_odometry = Some(*m);
         Ok(())
     }
 
-    /// Admits a lidar message whose content `check` gave, with header `h`.
+    /// Admits a message of `stream` (a sensor's, not odometry) whose content `check`
+    /// gave, with header `h`.
     ///
     /// # Errors
     /// `check`'s rejection, or the stream-order one.
-    pub fn lidar(&mut self, check: Result<(), Rejection>, h: Header) -> Result<(), Rejection> {
+    pub fn message(
+        &mut self,
+        stream: StreamId,
+        check: Result<(), Rejection>,
+        h: Header,
+    ) -> Result<(), Rejection> {
         check?;
-        self.first_near(Stream::Lidar, h)?;
-        if self.order.lidar.accept(h)? == Continuity::Restarted {
-            tracing::info!(seq = h.seq, "lidar publisher restarted");
+        self.first_near(stream, h)?;
+        if self.order[stream].accept(h)? == Continuity::Restarted {
+            tracing::info!(?stream, seq = h.seq, "publisher restarted");
         }
         Ok(())
     }
 
     /// A stream's first message has no history to be checked against: it may not lie
-    /// further than the stamp-jump limit ahead of the other stream's newest stamp.
-    fn first_near(&self, stream: Stream, h: Header) -> Result<(), Rejection> {
-        let (own, other) = (&self.order[stream], &self.order[stream.other()]);
+    /// further than the stamp-jump limit ahead of the other streams' newest stamp.
+    fn first_near(&self, stream: StreamId, h: Header) -> Result<(), Rejection> {
+        let others = (self.order.iter())
+            .filter(|(s, _)| *s != stream)
+            .filter_map(|(_, check)| check.last())
+            .max();
         let max_ns = self.max_jump_ns;
-        match (own.last(), other.last()) {
+        match (self.order[stream].last(), others) {
             (None, Some(previous_ns)) if h.stamp_ns.saturating_sub(previous_ns) > max_ns => {
                 Err(Rejection::StampJump {
                     stamp_ns: h.stamp_ns,
@@ -80,7 +90,7 @@ impl Admission {
     }
 
     /// `stream` went quiet: let its next message jump ahead.
-    pub fn resync(&mut self, stream: Stream) {
+    pub fn resync(&mut self, stream: StreamId) {
         self.order[stream].resync();
     }
 }
@@ -103,7 +113,8 @@ mod tests {
 
     #[test]
     fn a_restarted_odometry_publisher_may_restart_its_dead_reckoning() {
-        let mut a = Admission::new(10_000_000_000, MotionLimits::default());
+        let streams = [StreamId::Odometry, StreamId::Observations];
+        let mut a = Admission::new(&streams, 10_000_000_000, MotionLimits::default());
         assert_eq!(a.odometry(&odo(1.0, 0, 0.0)), Ok(()));
         assert_eq!(a.odometry(&odo(1.1, 1, 0.1)), Ok(()));
         assert!(matches!(
@@ -123,7 +134,10 @@ mod tests {
             seq: 0,
         };
         assert!(
-            matches!(a.lidar(Ok(()), far), Err(Rejection::StampJump { .. })),
+            matches!(
+                a.message(StreamId::Observations, Ok(()), far),
+                Err(Rejection::StampJump { .. })
+            ),
             "a first lidar stamp far ahead of the odometry"
         );
     }

@@ -15,13 +15,13 @@
 //! checkpoint intact. A file that is not a checkpoint, of another version, truncated or
 //! corrupt is refused with a [`CheckpointError`] that says which.
 
-use crate::per_input::{PerInput, Stream};
+use crate::per_stream::PerStream;
 use fastslam_estimation::Pose2;
 use fastslam_estimation::fastslam::FilterState;
 use fastslam_estimation::fastslam::NisWindow;
 use fastslam_estimation::graph::Feed;
-use fastslam_protocol::Header;
 use fastslam_protocol::status::REJECTION_KINDS;
+use fastslam_protocol::{Header, StreamId};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -29,7 +29,7 @@ use std::path::{Path, PathBuf};
 /// The first bytes of every checkpoint file.
 pub const MAGIC: [u8; 8] = *b"FSLMCKPT";
 /// The payload layout written by this build; bumped whenever [`Checkpoint`] changes.
-pub const FORMAT_VERSION: u32 = 8;
+pub const FORMAT_VERSION: u32 = 9;
 /// Bytes before the payload: magic, version, length, hash.
 const HEADER_LEN: usize = 28;
 
@@ -93,9 +93,9 @@ pub struct Checkpoint {
     pub last_odometry_ns: Option<u64>,
     /// Pose of that odometry in the odometry frame (the increment model's start).
     pub last_odometry_pose: Option<Pose2>,
-    /// Stamps of the last inputs processed per stream (ns). Older inputs after a resume
-    /// are skipped.
-    pub processed_ns: PerInput<u64>,
+    /// Stamp of the last input processed per stream (ns), as (wire stream id, stamp).
+    /// Older inputs after a resume are skipped.
+    pub processed_ns: Vec<(u32, u64)>,
     /// Observation steps taken.
     pub steps: u64,
     /// Resamplings done.
@@ -120,6 +120,20 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 }
 
 impl Checkpoint {
+    /// Stamp of the last input of `stream` processed (ns; 0 when the checkpoint has no
+    /// input of it).
+    pub fn processed(&self, stream: StreamId) -> u64 {
+        (self.processed_ns.iter())
+            .find(|(s, _)| *s == stream as u32)
+            .map_or(0, |&(_, t)| t)
+    }
+
+    /// The processed stamps of the streams this build knows, as a checkpoint notice
+    /// lists them.
+    pub fn covered(&self) -> impl Iterator<Item = (StreamId, u64)> + '_ {
+        (self.processed_ns.iter()).filter_map(|&(s, t)| StreamId::from_u32(s).map(|s| (s, t)))
+    }
+
     /// The file contents: header and payload.
     ///
     /// # Panics
@@ -271,33 +285,34 @@ pub enum Floor {
 /// sensor that had not noticed the crash may have sent newer inputs first: until a
 /// stream's resend begins (an input at or before the floor, or one numbered before the
 /// first seen), its inputs are skipped too; they come again in the resend.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct ResumeFloor {
-    floor: Option<PerInput<u64>>,
+    floor: Option<PerStream<u64>>,
     /// Per stream: the first sequence number seen while its resend had not begun.
-    awaiting: PerInput<Option<Option<u64>>>,
+    awaiting: PerStream<Option<Option<u64>>>,
     /// Per stream: the sequence number of the last input taken as covered since the last
     /// new one (the resend's mark), to count what is missing after it.
-    covered_seq: PerInput<Option<u64>>,
+    covered_seq: PerStream<Option<u64>>,
     skipped: u64,
 }
 
 impl ResumeFloor {
-    /// The floor of a run resumed from `checkpoint` (none for a fresh run).
-    pub fn of(checkpoint: Option<&Checkpoint>) -> Self {
+    /// The floor of a run over `streams` resumed from `checkpoint` (none for a fresh
+    /// run).
+    pub fn of(checkpoint: Option<&Checkpoint>, streams: &[StreamId]) -> Self {
         let resumed = checkpoint.is_some();
         Self {
-            floor: checkpoint.map(|c| c.processed_ns),
-            awaiting: PerInput::from_fn(|_| resumed.then_some(None)),
-            covered_seq: PerInput::default(),
+            floor: checkpoint.map(|c| PerStream::new(streams, |s| c.processed(s))),
+            awaiting: PerStream::new(streams, |_| resumed.then_some(None)),
+            covered_seq: PerStream::new(streams, |_| None),
             skipped: 0,
         }
     }
 
     /// Whether the input `h` on `stream` is new ([`Floor::New`]); counts it as skipped
     /// otherwise.
-    pub fn admits(&mut self, stream: Stream, h: Header) -> Floor {
-        let Some(floor) = self.floor else {
+    pub fn admits(&mut self, stream: StreamId, h: Header) -> Floor {
+        let Some(floor) = &self.floor else {
             return Floor::New { lost: 0 };
         };
         let floor = floor[stream];
@@ -322,8 +337,8 @@ impl ResumeFloor {
     }
 
     /// True when the checkpoint holds the input stamped `stamp_ns` on `stream`.
-    pub fn covers(&self, stream: Stream, stamp_ns: u64) -> bool {
-        self.floor.is_some_and(|f| stamp_ns <= f[stream])
+    pub fn covers(&self, stream: StreamId, stamp_ns: u64) -> bool {
+        self.floor.as_ref().is_some_and(|f| stamp_ns <= f[stream])
     }
 
     /// Inputs skipped so far.
@@ -355,10 +370,10 @@ mod tests {
             filter: slam.state(),
             last_odometry_ns: Some(900),
             last_odometry_pose: Some(Pose2::new(1.0, 2.0, 0.5)),
-            processed_ns: PerInput {
-                odometry: 900,
-                lidar: 1000,
-            },
+            processed_ns: vec![
+                (StreamId::Odometry as u32, 900),
+                (StreamId::Observations as u32, 1000),
+            ],
             steps: 1,
             resamplings: 0,
             last_seq: [Some(0), Some(0), None, Some(0), None, None],
@@ -435,31 +450,38 @@ mod tests {
     fn the_resume_floor_skips_and_counts_processed_inputs() {
         let h = |seq, stamp_ns| Header { stamp_ns, seq };
         let c = checkpoint();
-        let mut floor = ResumeFloor::of(Some(&c));
+        let streams = [StreamId::Odometry, StreamId::Observations];
+        let mut floor = ResumeFloor::of(Some(&c), &streams);
         let mut admits = |stream, seq, stamp| floor.admits(stream, h(seq, stamp));
         assert_eq!(
-            admits(Stream::Odometry, 12, 1200),
+            admits(StreamId::Odometry, 12, 1200),
             Floor::ComesAgain,
             "sent before the resend"
         );
         assert_eq!(
-            admits(Stream::Odometry, 9, 900),
+            admits(StreamId::Odometry, 9, 900),
             Floor::Covered,
             "the resend begins"
         );
-        assert_eq!(admits(Stream::Odometry, 10, 1000), Floor::New { lost: 0 });
-        assert_eq!(admits(Stream::Lidar, 5, 1000), Floor::Covered);
+        assert_eq!(admits(StreamId::Odometry, 10, 1000), Floor::New { lost: 0 });
+        assert_eq!(admits(StreamId::Observations, 5, 1000), Floor::Covered);
         assert_eq!(
-            admits(Stream::Lidar, 9, 1400),
+            admits(StreamId::Observations, 9, 1400),
             Floor::New { lost: 3 },
             "6, 7 and 8 are missing after the mark"
         );
-        assert_eq!(admits(Stream::Lidar, 11, 1600), Floor::New { lost: 0 });
-        assert_eq!(floor.skipped(), 3);
-        assert!(floor.covers(Stream::Lidar, 1000) && !floor.covers(Stream::Lidar, 1001));
-        let mut fresh = ResumeFloor::of(None);
         assert_eq!(
-            fresh.admits(Stream::Odometry, h(0, 0)),
+            admits(StreamId::Observations, 11, 1600),
+            Floor::New { lost: 0 }
+        );
+        assert_eq!(floor.skipped(), 3);
+        assert!(
+            floor.covers(StreamId::Observations, 1000)
+                && !floor.covers(StreamId::Observations, 1001)
+        );
+        let mut fresh = ResumeFloor::of(None, &streams);
+        assert_eq!(
+            fresh.admits(StreamId::Odometry, h(0, 0)),
             Floor::New { lost: 0 }
         );
         assert_eq!(fresh.skipped(), 0);

@@ -133,23 +133,19 @@ impl Health {
     /// The status now: the last step's figures with the current queues, watermarks,
     /// rejections and quiet streams (the sequencer's: it is what stops waiting for them).
     pub fn now(&self, seq: &Sequencer) -> ServiceStatus {
-        let quiet = seq.quiet();
-        let flag = |on: bool, flag: u32| if on { flag } else { 0 };
-        let quiet =
-            flag(quiet.odometry, flags::ODOMETRY_QUIET) | flag(quiet.lidar, flags::LIDAR_QUIET);
-        let degraded = if quiet != 0 {
-            flags::DEGRADED | quiet
+        let degraded = if seq.lanes().any(|lane| lane.quiet != 0) {
+            flags::DEGRADED
         } else {
             0
         };
-        ServiceStatus {
-            queued: seq.queued().into(),
-            last_input_ns: seq.watermarks().into(),
+        let mut status = ServiceStatus {
             flags: (self.last.flags & (flags::RESAMPLED | flags::NIS_HIGH | flags::NIS_POSE))
                 | degraded,
             rejections: self.log.counts(),
             ..self.last
-        }
+        };
+        status.set_streams(seq.lanes());
+        status
     }
 }
 

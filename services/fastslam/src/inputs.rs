@@ -1,10 +1,10 @@
 //! The service's inputs: the subscribers of odometry, of the lidar (landmark observations
-//! or raw scans) and of end-of-stream, and [`LidarMessage`], the one trait through which
-//! the wake loop takes a lidar message of either kind.
+//! or raw scans) and of end-of-stream, and [`LaneMessage`], the one trait through which
+//! the wake loop takes a sensor message of any kind: its stamp, its checks, how it
+//! reaches the filter and how it is queued.
 
 use crate::config::LidarInput;
-use crate::per_input::Stream;
-use crate::sequencer::{Pushed, RawScan, Scan, Sequencer};
+use crate::sequencer::{Input, Pushed, RawScan, Scan, Sequencer};
 use crate::slam::{PoseSink, Slam, Step};
 use fastslam_protocol::ipc::{HoldingSub, Ipc, Received, Sub, WakeSource};
 use fastslam_protocol::validate::{self, Rejection};
@@ -50,24 +50,29 @@ impl Inputs {
         ]
     }
 
+    /// The input streams, in the sequencer's order: odometry first (on equal stamps the
+    /// filter predicts before it updates), then the lidar.
+    pub(crate) fn streams(&self) -> [StreamId; 2] {
+        [StreamId::Odometry, self.lidar.stream()]
+    }
+
     /// True when samples of `stream` wait in its subscriber (or a scan is held).
     ///
     /// # Errors
     /// IPC errors.
-    pub(crate) fn pending(&self, stream: Stream) -> anyhow::Result<bool> {
-        Ok(match stream {
-            Stream::Odometry => self.odometry.pending()?,
-            Stream::Lidar => self.lidar.pending()?,
+    pub(crate) fn pending(&self, stream: StreamId) -> anyhow::Result<bool> {
+        Ok(if stream == StreamId::Odometry {
+            self.odometry.pending()?
+        } else if stream == self.lidar.stream() {
+            self.lidar.pending()?
+        } else {
+            false
         })
     }
 
-    /// The input that an end-of-stream of the wire's `stream` closes, if any.
-    pub(crate) fn closed_by(&self, stream: u32) -> Option<Stream> {
-        match StreamId::from_u32(stream) {
-            Some(StreamId::Odometry) => Some(Stream::Odometry),
-            Some(id) if id == self.lidar.stream() => Some(Stream::Lidar),
-            _ => None,
-        }
+    /// The input stream that an end-of-stream of the wire's `stream` closes, if any.
+    pub(crate) fn closed_by(&self, stream: u32) -> Option<StreamId> {
+        StreamId::from_u32(stream).filter(|id| self.streams().contains(id))
     }
 }
 
@@ -143,11 +148,15 @@ impl Lidar {
     }
 }
 
-/// A lidar message in shared memory, as the wake loop takes it: checked, then applied
-/// straight from shared memory or copied into the queue.
-pub(crate) trait LidarMessage {
+/// A sensor message in shared memory, as the wake loop takes it: checked, then applied
+/// straight from shared memory or copied into the queue. Adding an input stream is an
+/// implementation of this trait, an [`Input`] variant and an estimator method.
+pub(crate) trait LaneMessage {
     /// The stream's name in the logs.
     const WHAT: &'static str;
+
+    /// The stream it arrives on.
+    const STREAM: StreamId;
 
     /// Its stamp and sequence number.
     fn header(&self) -> Header;
@@ -169,8 +178,9 @@ pub(crate) trait LidarMessage {
     fn queue(&self, sequencer: &mut Sequencer) -> Pushed;
 }
 
-impl LidarMessage for Received<[Observation], ObservationsHeader> {
+impl LaneMessage for Received<[Observation], ObservationsHeader> {
     const WHAT: &'static str = "observations";
+    const STREAM: StreamId = StreamId::Observations;
 
     fn header(&self) -> Header {
         self.user_header().header
@@ -190,15 +200,16 @@ impl LidarMessage for Received<[Observation], ObservationsHeader> {
 
     fn queue(&self, sequencer: &mut Sequencer) -> Pushed {
         let observations = sequencer.copy_observations(self.payload());
-        sequencer.push_scan(Scan {
+        sequencer.push(Input::Scan(Scan {
             header: *self.user_header(),
             observations,
-        })
+        }))
     }
 }
 
-impl LidarMessage for Received<[f32], LaserScanHeader> {
+impl LaneMessage for Received<[f32], LaserScanHeader> {
     const WHAT: &'static str = "scan";
+    const STREAM: StreamId = StreamId::Scan;
 
     fn header(&self) -> Header {
         self.user_header().header
@@ -217,6 +228,6 @@ impl LidarMessage for Received<[f32], LaserScanHeader> {
     fn queue(&self, sequencer: &mut Sequencer) -> Pushed {
         let header = *self.user_header();
         let ranges = sequencer.copy_ranges(header.ranges_of(self.payload()));
-        sequencer.push_raw_scan(RawScan { header, ranges })
+        sequencer.push(Input::RawScan(RawScan { header, ranges }))
     }
 }

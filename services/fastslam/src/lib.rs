@@ -3,10 +3,10 @@
 //! estimate after every observation step and the best particle's landmark map.
 //!
 //! The pieces read top to bottom: [`config`] (what to run), [`sequencer`] (inputs of
-//! two streams in stamp order, deterministic whatever the scheduling), [`slam`] (inputs
+//! any number of streams in stamp order, deterministic whatever the scheduling), [`slam`] (inputs
 //! to filter calls, filter results to messages), [`process`] (flags and set-up) with
 //! `service` (the wake loop, stage by stage), `inputs` (the subscribers) and `outputs`
-//! (the publishers). Around them: [`per_input`] (a value per input stream), [`admit`]
+//! (the publishers). Around them: [`per_stream`] (a value per input stream), [`admit`]
 //! (input checks with their per-stream state), [`health`] (rejection counters, their
 //! rate-limited log, the status) and [`deadline`] (sensors that went quiet); [`persist`]
 //! with [`checkpoint`] and [`map_file`] keep the state across runs.
@@ -23,7 +23,7 @@ pub mod landmark_slam;
 pub mod loop_closing;
 pub mod map_file;
 mod outputs;
-pub mod per_input;
+pub mod per_stream;
 pub mod persist;
 pub mod process;
 pub mod sequencer;

@@ -191,21 +191,17 @@ impl Outputs {
     }
 
     /// Tells the sensors that a checkpoint was written after the step stamped `stamp_ns`,
-    /// holding the inputs up to `covered_ns` per stream; with `resume`, that this service
-    /// has resumed from it and needs everything after.
+    /// holding the inputs of each stream up to its stamp in `covered`; with `resume`,
+    /// that this service has resumed from it and needs everything after.
     pub(crate) fn checkpointed(
         &mut self,
         stamp_ns: u64,
-        covered_ns: [u64; 2],
+        covered: impl IntoIterator<Item = (StreamId, u64)>,
         resume: bool,
     ) -> anyhow::Result<()> {
         let header = next_header(self.last_checkpoint, stamp_ns);
-        self.checkpoint.send(Checkpointed {
-            header,
-            covered_ns,
-            resume: resume.into(),
-            reserved: 0,
-        })?;
+        self.checkpoint
+            .send(Checkpointed::new(header, covered, resume))?;
         self.last_checkpoint = Some(header);
         Ok(())
     }

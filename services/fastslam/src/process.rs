@@ -111,8 +111,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let inputs = Inputs::open(&ipc, config.input.lidar)?;
     if let Some(checkpoint) = &resumed {
         // Subscribed: the sensors may now send again what the checkpoint does not hold.
-        let stamp_ns = checkpoint.processed_ns.lidar;
-        out.checkpointed(stamp_ns, checkpoint.processed_ns.into(), true)?;
+        let stamp_ns = checkpoint.processed(inputs.lidar.stream());
+        out.checkpointed(stamp_ns, checkpoint.covered(), true)?;
     }
     out.wait_for_subscribers(&ipc, args.wait_subscribers)?;
     tracing::info!(
@@ -127,7 +127,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         Pace::RealTime
     };
-    let mut service = Service::new(pace, config, args.persist, slam, resumed.as_ref(), out);
+    let streams = inputs.streams();
+    let (persist, resumed) = (args.persist, resumed.as_ref());
+    let mut service = Service::new(pace, &streams, config, persist, slam, resumed, out);
     // The tick: a held scan's limit is checked in time even with no input waking the loop.
     let tick = Some(service.hold_limit());
     ipc.wake_loop::<anyhow::Error>(&inputs.wake_sources(), tick, || service.wake(&inputs))?;

@@ -15,18 +15,18 @@ use crate::checkpoint::{Checkpoint, Floor, ResumeFloor};
 use crate::config::ServiceConfig;
 use crate::deadline::{Change, Watchdog};
 use crate::health::Health;
-use crate::inputs::{Inputs, Lidar, LidarMessage};
+use crate::inputs::{Inputs, LaneMessage, Lidar};
 use crate::outputs::Outputs;
-use crate::per_input::{PerInput, Stream};
+use crate::per_stream::PerStream;
 use crate::persist::PersistArgs;
-use crate::sequencer::{Input, Pushed, ScanPlace, Sequencer};
+use crate::sequencer::{Input, Place, Pushed, Sequencer};
 use crate::slam::{PoseSink, Slam, Step};
 use fastslam_estimation::fastslam::AssociationMode;
 use fastslam_protocol::ipc::{Flow, Ipc, Sub, Taken};
 use fastslam_protocol::status::RejectionKind;
 use fastslam_protocol::stream::StreamEnd;
 use fastslam_protocol::validate::Rejection;
-use fastslam_protocol::{Header, Odometry};
+use fastslam_protocol::{Header, Odometry, StreamId};
 use std::time::{Duration, Instant};
 
 /// The longest a scan is held back in shared memory waiting for odometry, as a share of
@@ -55,13 +55,15 @@ pub(crate) struct Service {
     admission: Admission,
     /// Skips the inputs a resumed run's checkpoint already covers.
     floor: ResumeFloor,
+    /// The input streams, in the sequencer's order.
+    streams: Vec<StreamId>,
     /// Each stream's deadline.
-    watchdogs: PerInput<Watchdog>,
+    watchdogs: PerStream<Watchdog>,
     /// Each stream's end: announced, and its last message in.
-    ends: PerInput<StreamEnd>,
+    ends: PerStream<StreamEnd>,
     /// What hearing from each stream changed during this wake-up (a quiet stream is
     /// back); the deadline check reads and resets it.
-    heard: PerInput<Option<Change>>,
+    heard: PerStream<Option<Change>>,
     /// The first output error of a scan applied while the lidar was drained; returned
     /// once the drain is over.
     failed: Option<anyhow::Error>,
@@ -72,16 +74,18 @@ pub(crate) struct Service {
     /// How the sensors deliver.
     pace: Pace,
     /// The streams whose taking stopped at their full queue during this wake-up.
-    stopped: PerInput<bool>,
+    stopped: PerStream<bool>,
     /// Observations must carry landmark ids (known association).
     known_ids: bool,
 }
 
 impl Service {
-    /// The service about to take its first input from sensors delivering at `pace`:
-    /// `slam` and `out` continue `resumed`, if given.
+    /// The service about to take its first input of `streams` (in the sequencer's
+    /// order) from sensors delivering at `pace`: `slam` and `out` continue `resumed`, if
+    /// given.
     pub(crate) fn new(
         pace: Pace,
+        streams: &[StreamId],
         config: ServiceConfig,
         persist: PersistArgs,
         slam: Slam,
@@ -90,21 +94,22 @@ impl Service {
     ) -> Self {
         let input = &config.input;
         let max_jump_ns = (input.max_stamp_jump_s * 1e9) as u64;
-        let admission = Admission::new(max_jump_ns, input.motion_limits());
+        let admission = Admission::new(streams, max_jump_ns, input.motion_limits());
         let deadline = Duration::from_secs_f64(input.deadline_s);
         Self {
             admission,
-            floor: ResumeFloor::of(resumed),
-            watchdogs: PerInput::from_fn(|_| Watchdog::new(deadline)),
-            ends: PerInput::default(),
-            heard: PerInput::default(),
+            floor: ResumeFloor::of(resumed, streams),
+            streams: streams.to_vec(),
+            watchdogs: PerStream::new(streams, |_| Watchdog::new(deadline)),
+            ends: PerStream::new(streams, |_| StreamEnd::default()),
+            heard: PerStream::new(streams, |_| None),
             failed: None,
             deadline,
             hold_limit: deadline / HOLD_SHARE_OF_DEADLINE,
             pace,
-            stopped: PerInput::default(),
+            stopped: PerStream::new(streams, |_| false),
             known_ids: config.filter.association.mode == AssociationMode::Known,
-            core: Core::new(config, persist, slam, resumed, out),
+            core: Core::new(streams, config, persist, slam, resumed, out),
         }
     }
 
@@ -122,7 +127,7 @@ impl Service {
         let now = Instant::now();
         self.answer_map_requests()?;
         loop {
-            self.stopped = PerInput::default();
+            self.stopped.fill(false);
             self.drain_odometry(&inputs.odometry, now)?;
             // Before the lidar: a scan held for odometry goes once the odometry has ended.
             self.drain_end_of_stream(inputs)?;
@@ -133,7 +138,11 @@ impl Service {
             // A stream stopped at its full queue, which the release emptied, is taken
             // from again now: its publisher may be waiting, and send nothing to wake us.
             let seq = &self.core.sequencer;
-            if !Stream::ALL.iter().any(|&s| self.stopped[s] && !seq.full(s)) {
+            if !self
+                .streams
+                .iter()
+                .any(|&s| self.stopped[s] && !seq.full(s))
+            {
                 break;
             }
         }
@@ -158,10 +167,10 @@ impl Service {
     /// Takes the odometry messages received ([`Service::take_odometry`]); as fast as
     /// possible, only until the odometry queue is full.
     fn drain_odometry(&mut self, odometry: &Sub<Odometry, ()>, now: Instant) -> anyhow::Result<()> {
-        if !self.stops_at_full(Stream::Odometry) {
+        if !self.stops_at_full(StreamId::Odometry) {
             odometry.drain_while(|s| {
                 self.take_odometry(*s.payload(), now);
-                !self.stops_at_full(Stream::Odometry)
+                !self.stops_at_full(StreamId::Odometry)
             })?;
         }
         Ok(())
@@ -169,33 +178,44 @@ impl Service {
 
     /// True when the service takes nothing more of `stream` now, as fast as possible with
     /// its queue full; the stream is then marked stopped.
-    fn stops_at_full(&mut self, stream: Stream) -> bool {
+    fn stops_at_full(&mut self, stream: StreamId) -> bool {
         let stop = self.pace == Pace::AsFastAsPossible && self.core.sequencer.full(stream);
         self.stopped[stream] |= stop;
         stop
     }
 
-    /// As fast as possible: a stream stopped at its full queue while the other stream has
-    /// nothing waiting would wait for ever on a publisher that sends both streams in
+    /// As fast as possible: a stream stopped at its full queue while the other streams
+    /// have nothing waiting would wait for ever on a publisher that sends its streams in
     /// stamp order from one thread (it waits to send the stopped stream's next sample).
-    /// Such a publisher has sent the other stream up to the stopped one's newest stamp:
-    /// the sequencer takes it as passed ([`crate::sequencer::Sequencer::vouch`]).
+    /// Such a publisher has sent the other streams up to the stopped one's newest stamp:
+    /// the sequencer takes them as passed ([`crate::sequencer::Sequencer::vouch`]).
     fn vouch(&mut self, inputs: &Inputs) -> anyhow::Result<()> {
-        for stream in Stream::ALL {
-            if self.stopped[stream] && !inputs.pending(stream.other())? {
+        for k in 0..self.streams.len() {
+            let stream = self.streams[k];
+            if self.stopped[stream] && !self.others_pending(inputs, stream)? {
                 self.core.sequencer.vouch(stream);
             }
         }
         Ok(())
     }
 
+    /// True when samples of a stream other than `stream` wait in its subscriber.
+    fn others_pending(&self, inputs: &Inputs, stream: StreamId) -> anyhow::Result<bool> {
+        for &other in self.streams.iter().filter(|&&s| s != stream) {
+            if inputs.pending(other)? {
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    }
+
     /// One odometry message: admitted first, then queued.
     fn take_odometry(&mut self, m: Odometry, now: Instant) {
-        let admitted = self.admit(Stream::Odometry, m.header, "odometry", now, |a| {
+        let admitted = self.admit(StreamId::Odometry, m.header, "odometry", now, |a| {
             a.odometry(&m)
         });
         if admitted {
-            let pushed = self.core.sequencer.push_odometry(m);
+            let pushed = self.core.sequencer.push(Input::Odometry(m));
             self.core
                 .count_pushed(now, "odometry", m.header.seq, pushed);
         }
@@ -214,10 +234,17 @@ impl Service {
                 }
             }
         })?;
-        if self.ends.odometry.finished() {
-            self.core.sequencer.end_odometry();
-        }
+        // Before the lidar is taken: a scan held for odometry goes once odometry ended.
+        self.end_if_finished(StreamId::Odometry);
         Ok(())
+    }
+
+    /// Ends `stream` in the sequencer once its end was announced and its last message
+    /// is in.
+    fn end_if_finished(&mut self, stream: StreamId) {
+        if self.ends[stream].finished() {
+            self.core.sequencer.end(stream);
+        }
     }
 
     /// Takes the lidar messages received ([`Service::take_lidar`]) until one is held;
@@ -231,16 +258,14 @@ impl Service {
         if let Some(e) = self.failed.take() {
             return Err(e);
         }
-        if self.ends.lidar.finished() {
-            self.core.sequencer.end_scans();
-        }
+        self.end_if_finished(lidar.stream());
         Ok(())
     }
 
     /// One lidar message `m`: when new (`held_since` is `None`), admitted first. Then
-    /// applied straight from shared memory, held there while it waits for odometry (up
-    /// to the hold limit), or copied into the queue.
-    fn take_lidar<M: LidarMessage>(
+    /// applied straight from shared memory, held there while it waits for the other
+    /// streams (up to the hold limit), or copied into the queue.
+    fn take_lidar<M: LaneMessage>(
         &mut self,
         m: &M,
         held_since: Option<Instant>,
@@ -248,35 +273,40 @@ impl Service {
     ) -> Taken {
         let (h, known_ids) = (m.header(), self.known_ids);
         if held_since.is_none()
-            && !self.admit(Stream::Lidar, h, M::WHAT, now, |a| {
-                a.lidar(m.check(known_ids), h)
+            && !self.admit(M::STREAM, h, M::WHAT, now, |a| {
+                a.message(M::STREAM, m.check(known_ids), h)
             })
         {
             return Taken::Done;
         }
         let held_for = held_since.map_or(Duration::ZERO, |t| now.saturating_duration_since(t));
-        match self.core.sequencer.place_scan(h.stamp_ns) {
-            ScanPlace::Direct => {
-                let applied = self
-                    .core
-                    .direct(h.stamp_ns, |slam, publish| m.apply(slam, publish));
+        match self.core.sequencer.place(M::STREAM, h.stamp_ns) {
+            Place::Direct => {
+                let applied = (self.core).direct(M::STREAM, h.stamp_ns, |slam, publish| {
+                    m.apply(slam, publish)
+                });
                 self.failed = self.failed.take().or(applied.err());
             }
-            // A full odometry queue waits for this scan's stamp: queue it.
-            ScanPlace::AwaitOdometry
-                if held_for < self.hold_limit && !self.stopped[Stream::Odometry] =>
-            {
+            // A full queue of another stream waits for this message's stamp: queue it.
+            Place::AwaitOthers if held_for < self.hold_limit && !self.others_stopped(M::STREAM) => {
                 return Taken::Hold;
             }
-            ScanPlace::AwaitOdometry | ScanPlace::Queue if self.stops_at_full(Stream::Lidar) => {
+            Place::AwaitOthers | Place::Queue if self.stops_at_full(M::STREAM) => {
                 return Taken::Hold;
             }
-            ScanPlace::AwaitOdometry | ScanPlace::Queue => {
+            Place::AwaitOthers | Place::Queue => {
                 let pushed = m.queue(&mut self.core.sequencer);
                 self.core.count_pushed(now, M::WHAT, h.seq, pushed);
             }
         }
         Taken::Done
+    }
+
+    /// True when a stream other than `stream` stopped at its full queue in this wake-up.
+    fn others_stopped(&self, stream: StreamId) -> bool {
+        self.stopped
+            .iter()
+            .any(|(s, &stopped)| s != stream && stopped)
     }
 
     /// A new message of `stream` with header `h`, logged as `what` if rejected: skipped
@@ -285,7 +315,7 @@ impl Service {
     /// `check`. True when it passed; its stream has then been heard from.
     fn admit(
         &mut self,
-        stream: Stream,
+        stream: StreamId,
         h: Header,
         what: &str,
         now: Instant,
@@ -315,13 +345,16 @@ impl Service {
     /// Sensor deadlines, in real time only: a stream quiet beyond its deadline is not
     /// waited for; its return ends that.
     fn check_deadlines(&mut self, now: Instant) -> anyhow::Result<()> {
-        let heard = std::mem::take(&mut self.heard);
         let realtime = self.pace == Pace::RealTime;
-        let changes = PerInput::from_fn(|s| {
-            heard[s].or_else(|| realtime.then(|| self.watchdogs[s].check(now)).flatten())
-        });
-        for (stream, change) in changes.iter() {
-            if let Some(change) = *change {
+        for k in 0..self.streams.len() {
+            let stream = self.streams[k];
+            let heard = self.heard[stream].take();
+            let change = heard.or_else(|| {
+                realtime
+                    .then(|| self.watchdogs[stream].check(now))
+                    .flatten()
+            });
+            if let Some(change) = change {
                 self.changed(stream, change)?;
             }
         }
@@ -330,7 +363,7 @@ impl Service {
 
     /// `stream` went quiet or came back: logged, its checks resynchronised (when quiet),
     /// the sequencer's wait and the filter's coasting (odometry) set, and a status sent.
-    fn changed(&mut self, stream: Stream, change: Change) -> anyhow::Result<()> {
+    fn changed(&mut self, stream: StreamId, change: Change) -> anyhow::Result<()> {
         let quiet = change == Change::WentQuiet;
         if quiet {
             let deadline = self.deadline;
@@ -344,14 +377,14 @@ impl Service {
             tracing::info!(?stream, "input back: recovered");
         }
         self.core.sequencer.set_quiet(stream, quiet);
-        if stream == Stream::Odometry {
+        if stream == StreamId::Odometry {
             self.core.slam.set_coasting(quiet);
         }
         let status = self.core.health.now(&self.core.sequencer);
         self.core.out.status(status)
     }
 
-    /// True when both inputs have ended, everything was applied and no scan is held.
+    /// True when every input has ended, everything was applied and no scan is held.
     fn finished(&self, lidar: &Lidar) -> bool {
         self.core.sequencer.finished() && !lidar.holds()
     }
@@ -412,8 +445,9 @@ struct Core {
 }
 
 impl Core {
-    /// The filter side of a run; counters continue `resumed`, if given.
+    /// The filter side of a run over `streams`; counters continue `resumed`, if given.
     fn new(
+        streams: &[StreamId],
         config: ServiceConfig,
         persist: PersistArgs,
         slam: Slam,
@@ -427,7 +461,7 @@ impl Core {
         Self {
             slam,
             health,
-            sequencer: Sequencer::new(config.input.max_queue),
+            sequencer: Sequencer::new(streams, config.input.max_queue),
             out,
             config,
             persist,
@@ -443,7 +477,12 @@ impl Core {
             filter: self.slam.state()?,
             last_odometry_ns: self.slam.last_odometry_ns(),
             last_odometry_pose: self.slam.last_odometry_pose(),
-            processed_ns: self.sequencer.released(),
+            processed_ns: self
+                .sequencer
+                .released()
+                .iter()
+                .map(|(s, &t)| (s as u32, t))
+                .collect(),
             steps: self.health.steps(),
             resamplings: self.health.resamplings(),
             last_seq: self.out.last_seq(),
@@ -456,26 +495,33 @@ impl Core {
     /// Applies every input the sequencer can release now, in stamp order.
     fn release_queued(&mut self) -> anyhow::Result<()> {
         while let Some(input) = self.sequencer.release() {
-            self.scans += u64::from(!matches!(input, Input::Odometry(_)));
-            let stepped = self.step(|slam, publish| slam.apply(&input, publish));
-            self.sequencer.recycle(input);
-            stepped?;
+            self.apply_queued(input)?;
         }
         Ok(())
     }
 
-    /// Applies a scan stamped `stamp` that the sequencer would release next
-    /// ([`ScanPlace::Direct`]) straight from shared memory: first the odometry up
-    /// to its stamp, then `step` on the sample's own slice (no copy).
+    /// Applies an input the sequencer released, then takes its buffer back.
+    fn apply_queued(&mut self, input: Input) -> anyhow::Result<()> {
+        self.scans += u64::from(!matches!(input, Input::Odometry(_)));
+        let stepped = self.step(|slam, publish| slam.apply(&input, publish));
+        self.sequencer.recycle(input);
+        stepped
+    }
+
+    /// Applies a message of `stream` stamped `stamp` that the sequencer would release
+    /// next ([`Place::Direct`]) straight from shared memory: first the other streams'
+    /// queued inputs the order puts before it, then `step` on the sample's own slice (no
+    /// copy).
     fn direct(
         &mut self,
+        stream: StreamId,
         stamp: u64,
         step: impl FnOnce(&mut Slam, PoseSink<'_>) -> fastslam_estimation::Result<Step>,
     ) -> anyhow::Result<()> {
-        while let Some(odometry) = self.sequencer.odometry_through(stamp) {
-            self.step(|slam, publish| slam.apply(&odometry, publish))?;
+        while let Some(input) = self.sequencer.before(stream, stamp) {
+            self.apply_queued(input)?;
         }
-        self.sequencer.took_directly(stamp);
+        self.sequencer.took_directly(stream, stamp);
         self.direct_scans += 1;
         self.scans += 1;
         self.step(|slam, publish| step(slam, publish).map(Some))
@@ -524,7 +570,8 @@ impl Core {
                 if self.persist.checkpoint_due(self.health.steps()) {
                     match self.persist.write_checkpoint(|| self.checkpoint()) {
                         Ok(()) => {
-                            let covered = self.sequencer.released().into();
+                            let covered = self.sequencer.released();
+                            let covered = covered.iter().map(|(s, &t)| (s, t));
                             self.out.checkpointed(stamp_ns, covered, false)?;
                         }
                         Err(e) => tracing::warn!("{e:#}"),

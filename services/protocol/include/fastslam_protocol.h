@@ -241,6 +241,23 @@ _Static_assert(sizeof(fastslam_MapRequest) == 8, "fastslam_MapRequest must match
 _Static_assert(_Alignof(fastslam_MapRequest) == 8, "fastslam_MapRequest must match the Rust layout");
 _Static_assert(offsetof(fastslam_MapRequest, reserved) == 0, "fastslam_MapRequest must match the Rust layout");
 
+/* fastslam::StreamStatus: one input stream's state, an entry of the service's status */
+#define FASTSLAM_STREAM_STATUS_TYPE_NAME "fastslam::StreamStatus"
+typedef struct fastslam_StreamStatus {
+    uint32_t stream; /* —: the stream id (`EndOfStream.stream`'s values); 0 in an unused entry */
+    uint32_t queued; /* —: inputs of the stream waiting in the service's queue */
+    uint64_t last_input_ns; /* ns: newest accepted stamp of the stream (0 before the first) */
+    uint32_t quiet; /* —: 1: quiet beyond its deadline, not waited for (odometry: scans are processed without prediction; the lidar: odometry keeps predicting); 0: heard from in time */
+    uint32_t reserved; /* —: 0 */
+} fastslam_StreamStatus;
+_Static_assert(sizeof(fastslam_StreamStatus) == 24, "fastslam_StreamStatus must match the Rust layout");
+_Static_assert(_Alignof(fastslam_StreamStatus) == 8, "fastslam_StreamStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_StreamStatus, stream) == 0, "fastslam_StreamStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_StreamStatus, queued) == 4, "fastslam_StreamStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_StreamStatus, last_input_ns) == 8, "fastslam_StreamStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_StreamStatus, quiet) == 16, "fastslam_StreamStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_StreamStatus, reserved) == 20, "fastslam_StreamStatus must match the Rust layout");
+
 /* fastslam::ServiceStatus: the service's filter health and input bookkeeping */
 #define FASTSLAM_SERVICE_STATUS_TYPE_NAME "fastslam::ServiceStatus"
 typedef struct fastslam_ServiceStatus {
@@ -252,14 +269,15 @@ typedef struct fastslam_ServiceStatus {
     uint32_t distinct_particles; /* —: distinct particles after the last step */
     uint64_t landmarks; /* —: landmarks in the best particle's map */
     uint64_t step_time_ns; /* ns: wall-clock time of the last filter update, sending its pose included (the pose goes out before the maps are updated, so it is seen earlier than this) */
-    uint32_t queued[2]; /* —: inputs waiting: odometry, observations */
-    uint64_t last_input_ns[2]; /* ns: newest accepted stamp: odometry, observations */
-    uint32_t flags; /* —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline); bit 2: odometry quiet; bit 3: lidar quiet; bit 4: final status, sent at shutdown (not a step); bit 5: noise check failed (NIS above its χ² band for a whole window); bit 6: with bit 5, the pose term dominates (odometry noise suspected; else the sensor's) */
+    uint32_t flags; /* —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline: which one, `streams[k].quiet`); bit 4: final status, sent at shutdown (not a step); bit 5: noise check failed (NIS above its χ² band for a whole window); bit 6: with bit 5, the pose term dominates (odometry noise suspected; else the sensor's); bits 2 and 3 unused */
     uint32_t nis_dof; /* —: degrees of freedom in the noise check's window (2 per matched observation) */
     uint64_t rejections[16]; /* —: rejected inputs by reason: 0 non-finite, 1 out of range, 2 bad count, 3 stamp backwards, 4 refused by the filter, 5 duplicate seq, 6 stamp jump, 7 teleporting odometry, 8 queue overflow (oldest dropped), 9 late (after a quiet stream), 10 lost (sent while the service was down, no longer kept by its sensor for the resumed service) */
     double nis; /* —: noise check: NIS per degree of freedom over the last 50 scans, predicted from the motion prior (1 when the noise model fits; NaN before any match; docs/ALGORITHMS.md) */
+    uint32_t stream_count; /* —: entries of `streams` in use */
+    uint32_t reserved; /* —: 0 */
+    fastslam_StreamStatus streams[4]; /* —: the service's input streams (odometry first, then the lidar), the first `stream_count` entries */
 } fastslam_ServiceStatus;
-_Static_assert(sizeof(fastslam_ServiceStatus) == 232, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(sizeof(fastslam_ServiceStatus) == 312, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(_Alignof(fastslam_ServiceStatus) == 8, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, header.stamp_ns) == 0, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, header.seq) == 8, "fastslam_ServiceStatus must match the Rust layout");
@@ -270,28 +288,42 @@ _Static_assert(offsetof(fastslam_ServiceStatus, particles) == 40, "fastslam_Serv
 _Static_assert(offsetof(fastslam_ServiceStatus, distinct_particles) == 44, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, landmarks) == 48, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, step_time_ns) == 56, "fastslam_ServiceStatus must match the Rust layout");
-_Static_assert(offsetof(fastslam_ServiceStatus, queued) == 64, "fastslam_ServiceStatus must match the Rust layout");
-_Static_assert(offsetof(fastslam_ServiceStatus, last_input_ns) == 72, "fastslam_ServiceStatus must match the Rust layout");
-_Static_assert(offsetof(fastslam_ServiceStatus, flags) == 88, "fastslam_ServiceStatus must match the Rust layout");
-_Static_assert(offsetof(fastslam_ServiceStatus, nis_dof) == 92, "fastslam_ServiceStatus must match the Rust layout");
-_Static_assert(offsetof(fastslam_ServiceStatus, rejections) == 96, "fastslam_ServiceStatus must match the Rust layout");
-_Static_assert(offsetof(fastslam_ServiceStatus, nis) == 224, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, flags) == 64, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, nis_dof) == 68, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, rejections) == 72, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, nis) == 200, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, stream_count) == 208, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, reserved) == 212, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, streams) == 216, "fastslam_ServiceStatus must match the Rust layout");
+
+/* fastslam::StreamCovered: what a checkpoint holds of one input stream */
+#define FASTSLAM_STREAM_COVERED_TYPE_NAME "fastslam::StreamCovered"
+typedef struct fastslam_StreamCovered {
+    uint32_t stream; /* —: the stream id (`EndOfStream.stream`'s values); 0 in an unused entry */
+    uint32_t reserved; /* —: 0 */
+    uint64_t covered_ns; /* ns: stamp of the stream's last input the checkpoint holds */
+} fastslam_StreamCovered;
+_Static_assert(sizeof(fastslam_StreamCovered) == 16, "fastslam_StreamCovered must match the Rust layout");
+_Static_assert(_Alignof(fastslam_StreamCovered) == 8, "fastslam_StreamCovered must match the Rust layout");
+_Static_assert(offsetof(fastslam_StreamCovered, stream) == 0, "fastslam_StreamCovered must match the Rust layout");
+_Static_assert(offsetof(fastslam_StreamCovered, reserved) == 4, "fastslam_StreamCovered must match the Rust layout");
+_Static_assert(offsetof(fastslam_StreamCovered, covered_ns) == 8, "fastslam_StreamCovered must match the Rust layout");
 
 /* fastslam::Checkpointed: what the service's last checkpoint covers; a resumed service's request */
 #define FASTSLAM_CHECKPOINTED_TYPE_NAME "fastslam::Checkpointed"
 typedef struct fastslam_Checkpointed {
     fastslam_Header header;
-    uint64_t covered_ns[2]; /* ns: stamp of the last input the checkpoint holds: odometry, lidar */
+    uint32_t stream_count; /* —: entries of `covered` in use */
     uint32_t resume; /* —: 1: a resumed service asks for everything after `covered_ns`; 0: a checkpoint was written */
-    uint32_t reserved; /* —: 0 */
+    fastslam_StreamCovered covered[4]; /* —: per input stream, the stamp of the last input the checkpoint holds: the first `stream_count` entries */
 } fastslam_Checkpointed;
-_Static_assert(sizeof(fastslam_Checkpointed) == 40, "fastslam_Checkpointed must match the Rust layout");
+_Static_assert(sizeof(fastslam_Checkpointed) == 88, "fastslam_Checkpointed must match the Rust layout");
 _Static_assert(_Alignof(fastslam_Checkpointed) == 8, "fastslam_Checkpointed must match the Rust layout");
 _Static_assert(offsetof(fastslam_Checkpointed, header.stamp_ns) == 0, "fastslam_Checkpointed must match the Rust layout");
 _Static_assert(offsetof(fastslam_Checkpointed, header.seq) == 8, "fastslam_Checkpointed must match the Rust layout");
-_Static_assert(offsetof(fastslam_Checkpointed, covered_ns) == 16, "fastslam_Checkpointed must match the Rust layout");
-_Static_assert(offsetof(fastslam_Checkpointed, resume) == 32, "fastslam_Checkpointed must match the Rust layout");
-_Static_assert(offsetof(fastslam_Checkpointed, reserved) == 36, "fastslam_Checkpointed must match the Rust layout");
+_Static_assert(offsetof(fastslam_Checkpointed, stream_count) == 16, "fastslam_Checkpointed must match the Rust layout");
+_Static_assert(offsetof(fastslam_Checkpointed, resume) == 20, "fastslam_Checkpointed must match the Rust layout");
+_Static_assert(offsetof(fastslam_Checkpointed, covered) == 24, "fastslam_Checkpointed must match the Rust layout");
 
 /* fastslam::EndOfStream: "this stream is finished" */
 #define FASTSLAM_END_OF_STREAM_TYPE_NAME "fastslam::EndOfStream"

@@ -221,8 +221,26 @@ class MapRequest(ctypes.Structure):
         return "fastslam::MapRequest"
 
 
+class StreamStatus(ctypes.Structure):
+    """`fastslam::StreamStatus` (24 bytes, alignment 8): one input stream's state, an entry of the service's status."""
+
+    _fields_ = [
+        ("stream", ctypes.c_uint32),  # —: the stream id (`EndOfStream.stream`'s values); 0 in an unused entry
+        ("queued", ctypes.c_uint32),  # —: inputs of the stream waiting in the service's queue
+        ("last_input_ns", ctypes.c_uint64),  # ns: newest accepted stamp of the stream (0 before the first)
+        ("quiet", ctypes.c_uint32),  # —: 1: quiet beyond its deadline, not waited for (odometry: scans are processed without prediction; the lidar: odometry keeps predicting); 0: heard from in time
+        ("reserved", ctypes.c_uint32),  # —: 0
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::StreamStatus"
+
+
 class ServiceStatus(ctypes.Structure):
-    """`fastslam::ServiceStatus` (232 bytes, alignment 8): the service's filter health and input bookkeeping."""
+    """`fastslam::ServiceStatus` (312 bytes, alignment 8): the service's filter health and input bookkeeping."""
 
     _fields_ = [
         ("header", Header),
@@ -233,12 +251,13 @@ class ServiceStatus(ctypes.Structure):
         ("distinct_particles", ctypes.c_uint32),  # —: distinct particles after the last step
         ("landmarks", ctypes.c_uint64),  # —: landmarks in the best particle's map
         ("step_time_ns", ctypes.c_uint64),  # ns: wall-clock time of the last filter update, sending its pose included (the pose goes out before the maps are updated, so it is seen earlier than this)
-        ("queued", ctypes.c_uint32 * 2),  # —: inputs waiting: odometry, observations
-        ("last_input_ns", ctypes.c_uint64 * 2),  # ns: newest accepted stamp: odometry, observations
-        ("flags", ctypes.c_uint32),  # —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline); bit 2: odometry quiet; bit 3: lidar quiet; bit 4: final status, sent at shutdown (not a step); bit 5: noise check failed (NIS above its χ² band for a whole window); bit 6: with bit 5, the pose term dominates (odometry noise suspected; else the sensor's)
+        ("flags", ctypes.c_uint32),  # —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline: which one, `streams[k].quiet`); bit 4: final status, sent at shutdown (not a step); bit 5: noise check failed (NIS above its χ² band for a whole window); bit 6: with bit 5, the pose term dominates (odometry noise suspected; else the sensor's); bits 2 and 3 unused
         ("nis_dof", ctypes.c_uint32),  # —: degrees of freedom in the noise check's window (2 per matched observation)
         ("rejections", ctypes.c_uint64 * 16),  # —: rejected inputs by reason: 0 non-finite, 1 out of range, 2 bad count, 3 stamp backwards, 4 refused by the filter, 5 duplicate seq, 6 stamp jump, 7 teleporting odometry, 8 queue overflow (oldest dropped), 9 late (after a quiet stream), 10 lost (sent while the service was down, no longer kept by its sensor for the resumed service)
         ("nis", ctypes.c_double),  # —: noise check: NIS per degree of freedom over the last 50 scans, predicted from the motion prior (1 when the noise model fits; NaN before any match; docs/ALGORITHMS.md)
+        ("stream_count", ctypes.c_uint32),  # —: entries of `streams` in use
+        ("reserved", ctypes.c_uint32),  # —: 0
+        ("streams", StreamStatus * 4),  # —: the service's input streams (odometry first, then the lidar), the first `stream_count` entries
     ]
 
     @staticmethod
@@ -248,14 +267,30 @@ class ServiceStatus(ctypes.Structure):
         return "fastslam::ServiceStatus"
 
 
+class StreamCovered(ctypes.Structure):
+    """`fastslam::StreamCovered` (16 bytes, alignment 8): what a checkpoint holds of one input stream."""
+
+    _fields_ = [
+        ("stream", ctypes.c_uint32),  # —: the stream id (`EndOfStream.stream`'s values); 0 in an unused entry
+        ("reserved", ctypes.c_uint32),  # —: 0
+        ("covered_ns", ctypes.c_uint64),  # ns: stamp of the stream's last input the checkpoint holds
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::StreamCovered"
+
+
 class Checkpointed(ctypes.Structure):
-    """`fastslam::Checkpointed` (40 bytes, alignment 8): what the service's last checkpoint covers; a resumed service's request."""
+    """`fastslam::Checkpointed` (88 bytes, alignment 8): what the service's last checkpoint covers; a resumed service's request."""
 
     _fields_ = [
         ("header", Header),
-        ("covered_ns", ctypes.c_uint64 * 2),  # ns: stamp of the last input the checkpoint holds: odometry, lidar
+        ("stream_count", ctypes.c_uint32),  # —: entries of `covered` in use
         ("resume", ctypes.c_uint32),  # —: 1: a resumed service asks for everything after `covered_ns`; 0: a checkpoint was written
-        ("reserved", ctypes.c_uint32),  # —: 0
+        ("covered", StreamCovered * 4),  # —: per input stream, the stamp of the last input the checkpoint holds: the first `stream_count` entries
     ]
 
     @staticmethod
@@ -400,8 +435,10 @@ LAYOUTS = {
     LandmarkMapHeader: (24, 8, {"header": 0, "count": 16, "reserved": 20}),
     MapLandmark: (56, 8, {"id": 0, "x": 8, "y": 16, "cov_xx": 24, "cov_xy": 32, "cov_yy": 40, "observations": 48}),
     MapRequest: (8, 8, {"reserved": 0}),
-    ServiceStatus: (232, 8, {"header": 0, "steps": 16, "resamplings": 24, "n_eff": 32, "particles": 40, "distinct_particles": 44, "landmarks": 48, "step_time_ns": 56, "queued": 64, "last_input_ns": 72, "flags": 88, "nis_dof": 92, "rejections": 96, "nis": 224}),
-    Checkpointed: (40, 8, {"header": 0, "covered_ns": 16, "resume": 32, "reserved": 36}),
+    StreamStatus: (24, 8, {"stream": 0, "queued": 4, "last_input_ns": 8, "quiet": 16, "reserved": 20}),
+    ServiceStatus: (312, 8, {"header": 0, "steps": 16, "resamplings": 24, "n_eff": 32, "particles": 40, "distinct_particles": 44, "landmarks": 48, "step_time_ns": 56, "flags": 64, "nis_dof": 68, "rejections": 72, "nis": 200, "stream_count": 208, "reserved": 212, "streams": 216}),
+    StreamCovered: (16, 8, {"stream": 0, "reserved": 4, "covered_ns": 8}),
+    Checkpointed: (88, 8, {"header": 0, "stream_count": 16, "resume": 20, "covered": 24}),
     EndOfStream: (24, 8, {"header": 0, "stream": 16, "reserved": 20}),
     LaserScanHeader: (48, 8, {"header": 0, "angle_min": 16, "angle_increment": 20, "time_increment": 24, "scan_time": 28, "range_min": 32, "range_max": 36, "ranges": 40, "intensities": 44}),
     OccupancyGridHeader: (56, 8, {"header": 0, "resolution": 16, "origin_x": 24, "origin_y": 32, "origin_theta": 40, "width": 48, "height": 52}),

@@ -39,7 +39,7 @@ pub use odometry::Odometry;
 pub use particles::{Particle, ParticlesHeader};
 pub use pose::{GroundTruth, PoseEstimate};
 pub use scan::LaserScanHeader;
-pub use status::{Checkpointed, ServiceStatus};
+pub use status::{Checkpointed, MAX_INPUT_STREAMS, ServiceStatus, StreamCovered, StreamStatus};
 pub use stream::{EndOfStream, StreamId};
 pub use trajectory::{TrajectoryHeader, TrajectoryPose};
 
@@ -47,4 +47,4 @@ pub use trajectory::{TrajectoryHeader, TrajectoryPose};
 /// It changes whenever a message type's layout does, so that peers exchanging the bytes
 /// of messages between hosts (the Zenoh bridge) refuse a peer of another version instead
 /// of misreading it.
-pub const CONTRACT_VERSION: u32 = 1;
+pub const CONTRACT_VERSION: u32 = 2;

@@ -3,6 +3,7 @@
 //! this message; it says how the filter is doing, not how well.
 
 use crate::header::Header;
+use crate::stream::StreamId;
 use bytemuck::{Pod, Zeroable};
 use iceoryx2::prelude::*;
 
@@ -77,13 +78,9 @@ impl RejectionKind {
 pub mod flags {
     /// The last observation step resampled the particles.
     pub const RESAMPLED: u32 = 1;
-    /// An input stream is quiet beyond its deadline: the service runs on what it has.
+    /// An input stream is quiet beyond its deadline: the service runs on what it has
+    /// (which one: [`super::StreamStatus::quiet`]).
     pub const DEGRADED: u32 = 2;
-    /// The odometry stream is quiet beyond its deadline (scans are processed without
-    /// prediction).
-    pub const ODOMETRY_QUIET: u32 = 4;
-    /// The lidar stream is quiet beyond its deadline (odometry keeps predicting).
-    pub const LIDAR_QUIET: u32 = 8;
     /// The service's last status, sent at shutdown just before its end-of-stream: not
     /// an observation step (the step's fields repeat the last step's), but the final
     /// counters, landmark count, queues and stamps.
@@ -95,6 +92,28 @@ pub mod flags {
     /// odometry noise (`sigma_v`, `sigma_omega`) is the likelier culprit; without it, the
     /// sensor's (`sigma_range`, `sigma_bearing`).
     pub const NIS_POSE: u32 = 64;
+}
+
+/// Most input streams a [`ServiceStatus`] or a [`Checkpointed`] lists.
+pub const MAX_INPUT_STREAMS: usize = 4;
+
+/// One input stream's state, an entry of [`ServiceStatus::streams`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ZeroCopySend, Pod, Zeroable)]
+#[type_name("fastslam::StreamStatus")]
+#[repr(C)]
+pub struct StreamStatus {
+    /// The stream's [`StreamId`] as `u32` (0 in an unused entry).
+    pub stream: u32,
+    /// Inputs of the stream waiting in the service's queue.
+    pub queued: u32,
+    /// Newest accepted stamp of the stream, ns (0 before the first).
+    pub last_input_ns: u64,
+    /// 1: the stream is quiet beyond its deadline and not waited for (odometry: scans
+    /// are processed without prediction; the lidar: odometry keeps predicting); 0: heard
+    /// from in time.
+    pub quiet: u32,
+    /// Reserved, 0.
+    pub reserved: u32,
 }
 
 /// Published by the service after every observation step, and whenever an input stream
@@ -121,10 +140,6 @@ pub struct ServiceStatus {
     /// included (ns). The pose goes out before the maps are updated, so it is seen
     /// earlier than this.
     pub step_time_ns: u64,
-    /// Inputs waiting in the service's queues (odometry, observations).
-    pub queued: [u32; 2],
-    /// Newest accepted stamp per input stream (odometry, observations), ns.
-    pub last_input_ns: [u64; 2],
     /// Bit set of [`flags`].
     pub flags: u32,
     /// Degrees of freedom of the noise check's window (2 per matched observation).
@@ -134,11 +149,54 @@ pub struct ServiceStatus {
     /// The noise check: normalised innovation squared per degree of freedom over the
     /// last scans (1 when the noise model fits; NaN before any match).
     pub nis: f64,
+    /// Entries of `streams` in use.
+    pub stream_count: u32,
+    /// Reserved, 0.
+    pub reserved: u32,
+    /// The service's input streams, in the order it registered them (odometry first):
+    /// the first `stream_count` entries ([`ServiceStatus::streams`]).
+    pub streams: [StreamStatus; MAX_INPUT_STREAMS],
+}
+
+impl ServiceStatus {
+    /// The input streams listed.
+    pub fn streams(&self) -> &[StreamStatus] {
+        &self.streams[..(self.stream_count as usize).min(MAX_INPUT_STREAMS)]
+    }
+
+    /// The entry of input stream `id`, if listed.
+    pub fn stream(&self, id: StreamId) -> Option<&StreamStatus> {
+        self.streams().iter().find(|s| s.stream == id as u32)
+    }
+
+    /// Lists `streams` (the first [`MAX_INPUT_STREAMS`]; any entries beyond are dropped).
+    pub fn set_streams(&mut self, streams: impl IntoIterator<Item = StreamStatus>) {
+        self.streams = [StreamStatus::default(); MAX_INPUT_STREAMS];
+        let mut count = 0;
+        for (slot, s) in self.streams.iter_mut().zip(streams) {
+            *slot = s;
+            count += 1;
+        }
+        self.stream_count = count;
+    }
+}
+
+/// One input stream's entry of [`Checkpointed::covered`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ZeroCopySend, Pod, Zeroable)]
+#[type_name("fastslam::StreamCovered")]
+#[repr(C)]
+pub struct StreamCovered {
+    /// The stream's [`StreamId`] as `u32` (0 in an unused entry).
+    pub stream: u32,
+    /// Reserved, 0.
+    pub reserved: u32,
+    /// Stamp of the stream's last input the checkpoint holds, ns.
+    pub covered_ns: u64,
 }
 
 /// What the service's last checkpoint covers, published on
 /// [`crate::topics::CHECKPOINT`] each time it writes one: a service resumed from that
-/// checkpoint skips every input stamped at or before `covered_ns` of its stream, so a
+/// checkpoint skips every input stamped at or before its stream's `covered_ns`, so a
 /// sensor may forget what it sent up to there. A sensor keeps what it sent since; a
 /// service resumed after a crash asks for it with `resume` set.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, ZeroCopySend, Pod, Zeroable)]
@@ -147,12 +205,83 @@ pub struct ServiceStatus {
 pub struct Checkpointed {
     /// Stamp of the last observation step the checkpoint holds, and sequence number.
     pub header: Header,
-    /// Stamp of the last input the checkpoint holds per stream (odometry, lidar), ns.
-    pub covered_ns: [u64; 2],
+    /// Entries of `covered` in use.
+    pub stream_count: u32,
     /// 1: sent once by a service that has just resumed from this checkpoint and
     /// subscribed to its inputs: send again everything after `covered_ns`, then go on.
     /// 0: a checkpoint was written.
     pub resume: u32,
-    /// Reserved, 0.
-    pub reserved: u32,
+    /// What the checkpoint holds of each input stream: the first `stream_count` entries
+    /// ([`Checkpointed::covered`]).
+    pub covered: [StreamCovered; MAX_INPUT_STREAMS],
+}
+
+impl Checkpointed {
+    /// The notice for a checkpoint stamped by `header` holding each stream up to its
+    /// stamp in `covered` (the first [`MAX_INPUT_STREAMS`]); with `resume`, the request
+    /// of a service that has just resumed from it.
+    pub fn new(
+        header: Header,
+        covered: impl IntoIterator<Item = (StreamId, u64)>,
+        resume: bool,
+    ) -> Self {
+        let mut notice = Self {
+            header,
+            resume: u32::from(resume),
+            ..Self::default()
+        };
+        for (slot, (stream, covered_ns)) in notice.covered.iter_mut().zip(covered) {
+            *slot = StreamCovered {
+                stream: stream as u32,
+                reserved: 0,
+                covered_ns,
+            };
+            notice.stream_count += 1;
+        }
+        notice
+    }
+
+    /// The streams listed.
+    pub fn covered(&self) -> &[StreamCovered] {
+        &self.covered[..(self.stream_count as usize).min(MAX_INPUT_STREAMS)]
+    }
+
+    /// Stamp of stream `id`'s last input the checkpoint holds, if listed.
+    pub fn covered_ns(&self, id: StreamId) -> Option<u64> {
+        (self.covered().iter())
+            .find(|c| c.stream == id as u32)
+            .map(|c| c.covered_ns)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stream_lists_hold_what_was_set_and_are_found_by_id() {
+        let mut status = ServiceStatus::default();
+        let entry = |id: StreamId, queued| StreamStatus {
+            stream: id as u32,
+            queued,
+            ..StreamStatus::default()
+        };
+        status.set_streams([entry(StreamId::Odometry, 3), entry(StreamId::Scan, 1)]);
+        assert_eq!(status.streams().len(), 2);
+        assert_eq!(status.stream(StreamId::Scan).map(|s| s.queued), Some(1));
+        assert_eq!(status.stream(StreamId::Observations), None);
+        let h = Header {
+            stamp_ns: 5,
+            seq: 1,
+        };
+        let notice = Checkpointed::new(h, [(StreamId::Odometry, 7), (StreamId::Scan, 9)], true);
+        assert_eq!(notice.covered_ns(StreamId::Scan), Some(9));
+        assert_eq!(notice.covered_ns(StreamId::Pose), None);
+        assert_eq!((notice.resume, notice.covered().len()), (1, 2));
+        let many = (0..9).map(|k| (StreamId::Odometry, k));
+        assert_eq!(
+            Checkpointed::new(h, many, false).covered().len(),
+            MAX_INPUT_STREAMS
+        );
+    }
 }

@@ -51,6 +51,18 @@ fn element(ty: &str) -> (&str, usize) {
     }
 }
 
+/// (C type, ctypes type, size) of a wire type: a scalar, or a type of `types` (an array
+/// element such as `StreamStatus`).
+fn wire(types: &[DocType], ty: &str) -> (String, String, usize) {
+    match types.iter().find(|t| short(&t.name) == ty) {
+        Some(t) => (format!("fastslam_{ty}"), ty.to_string(), t.size),
+        None => {
+            let (c, py, size) = scalar(ty);
+            (c.to_string(), py.to_string(), size)
+        }
+    }
+}
+
 /// (C type, ctypes type, size) of a scalar wire type.
 fn scalar(ty: &str) -> (&'static str, &'static str, usize) {
     match ty {
@@ -161,12 +173,12 @@ fn streams() -> Vec<(String, u32)> {
 
 /// Checks that the fields tile the type: each field's width is the gap to the next
 /// offset (or to the end), so the documented types are consistent with the offsets.
-fn check_widths(t: &DocType) {
+fn check_widths(types: &[DocType], t: &DocType) {
     for (k, f) in t.fields.iter().enumerate() {
         let (e, n) = element(&f.ty);
         let end = t.fields.get(k + 1).map_or(t.size, |g| g.offset);
         assert_eq!(
-            f.offset + scalar(e).2 * n,
+            f.offset + wire(types, e).2 * n,
             end,
             "{}: field `{}` ({}) at {} does not end where the next begins",
             t.name,
@@ -265,7 +277,7 @@ fn c_header(types: &[DocType], topics: &[DocTopic]) -> String {
         writeln!(w, "typedef struct fastslam_{s} {{").unwrap();
         for m in members(t) {
             match m {
-                Member::Field(f) => c_field(w, &f.name, f),
+                Member::Field(f) => c_field(w, types, &f.name, f),
                 Member::Nested { name, .. } => {
                     writeln!(w, "    fastslam_{} {name};", nested_type(name)).unwrap()
                 }
@@ -302,7 +314,7 @@ fn none_dash(s: &str) -> &str {
     if s.is_empty() { "none" } else { s }
 }
 
-fn c_field(w: &mut String, name: &str, f: &DocField) {
+fn c_field(w: &mut String, types: &[DocType], name: &str, f: &DocField) {
     let (e, n) = element(&f.ty);
     let array = if n > 1 {
         format!("[{n}]")
@@ -312,7 +324,7 @@ fn c_field(w: &mut String, name: &str, f: &DocField) {
     writeln!(
         w,
         "    {} {name}{array}; /* {}: {} */",
-        scalar(e).0,
+        wire(types, e).0,
         f.unit,
         f.meaning
     )
@@ -415,7 +427,7 @@ fn python_module(types: &[DocType], topics: &[DocTopic]) -> String {
         writeln!(w, "    _fields_ = [").unwrap();
         for m in members(t) {
             match m {
-                Member::Field(f) => py_field(w, &f.name, f),
+                Member::Field(f) => py_field(w, types, &f.name, f),
                 Member::Nested { name, .. } => {
                     writeln!(w, "        ({name:?}, {}),", nested_type(name)).unwrap()
                 }
@@ -467,12 +479,12 @@ fn python_module(types: &[DocType], topics: &[DocTopic]) -> String {
     p
 }
 
-fn py_field(w: &mut String, name: &str, f: &DocField) {
+fn py_field(w: &mut String, types: &[DocType], name: &str, f: &DocField) {
     let (e, n) = element(&f.ty);
     let ty = if n > 1 {
-        format!("{} * {n}", scalar(e).1)
+        format!("{} * {n}", wire(types, e).1)
     } else {
-        scalar(e).1.to_string()
+        wire(types, e).1
     };
     writeln!(w, "        ({name:?}, {ty}),  # {}: {}", f.unit, f.meaning).unwrap();
 }
@@ -498,7 +510,7 @@ fn the_readme_types_tile_their_sizes_and_topics_match_topics_rs() {
     assert!(types.len() >= 9, "{types:?}");
     for t in &types {
         assert!(!t.fields.is_empty(), "{} has no field table", t.name);
-        check_widths(t);
+        check_widths(&types, t);
     }
     let documented = documented_topics(README);
     let rust = rust_topics();

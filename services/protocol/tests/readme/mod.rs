@@ -30,7 +30,8 @@ pub struct DocField {
     pub offset: usize,
     /// Field name; `header.seq` for a field of a nested struct.
     pub name: String,
-    /// Wire type: `u8`…`u64`, `i8`…`i64`, `f32`, `f64`, or an array `[T; N]`.
+    /// Wire type: `u8`…`u64`, `i8`…`i64`, `f32`, `f64`, or an array `[T; N]` of those or
+    /// of a documented type.
     pub ty: String,
     /// Unit.
     pub unit: String,
