@@ -13,15 +13,15 @@ use serde::{Deserialize, Serialize};
 pub struct Se2 {
     /// Translation x (m).
     #[serde(rename = "x_m")]
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub x: f64,
     /// Translation y (m).
     #[serde(rename = "y_m")]
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub y: f64,
     /// Rotation (rad, in (−π, π]).
     #[serde(rename = "theta_rad")]
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub theta: f64,
 }
 

@@ -9,6 +9,7 @@ pub mod align;
 pub mod expect;
 pub mod foxglove_log;
 pub mod inputs;
+pub mod json_number;
 pub mod latency;
 pub mod mcap;
 pub mod metrics;

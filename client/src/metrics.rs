@@ -28,25 +28,12 @@ pub const LANDMARK_CUTOFF_M: f64 = 5.0;
 /// Upper 95 % point of χ² with 3 degrees of freedom: a consistent filter's pose NEES
 /// stays below it at 95 % of the steps.
 pub const CHI2_3_95: f64 = 7.814_727_903_251_178;
-/// Reads a number of `metrics.json`, where a value that is not a number (NaN: nothing to
-/// measure) is written as `null`, back into an `f64`.
-///
-/// # Errors
-/// The deserializer's error for anything but a number or `null`.
-pub fn number<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
-}
-
 /// The service's iceoryx2 node name, whose CPU time is the filter's cost.
 pub const SERVICE_NODE: &str = "fastslam-service";
 
 /// Everything the client measured, as written to `metrics.json` (whose shape leaves out
 /// what a run did not measure, see [`crate::metrics_json`]).
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-#[serde(
-    into = "crate::metrics_json::MetricsFile",
-    from = "crate::metrics_json::MetricsFile"
-)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Metrics {
     /// Every stream ended: true when the client received the end of every stream it
     /// waits for; false when the run was interrupted before. It says nothing of what the
@@ -110,11 +97,11 @@ pub struct Consistency {
     /// Poses whose covariance is not positive definite.
     pub singular: usize,
     /// Mean NEES over `poses` (≈ 3 for a consistent filter; larger means over-confident).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub nees_mean: f64,
     /// Fraction of all compared poses (`poses + singular`) with NEES below the χ²₃ 95 %
     /// point (≈ 0.95 when consistent).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub nees_within_95: f64,
 }
 
@@ -132,10 +119,10 @@ pub struct MapMetrics {
     /// Estimated landmarks without a true one.
     pub spurious: usize,
     /// RMSE of the matched landmarks' position error (m).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub rmse_m: f64,
     /// The assignment cut-off (m).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub cutoff_m: f64,
 }
 
@@ -149,30 +136,30 @@ pub struct FilterHealth {
     /// Number of particles (of the last step).
     pub particles: u32,
     /// Mean effective sample size before resampling.
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub n_eff_mean: f64,
     /// Smallest effective sample size.
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub n_eff_min: f64,
     /// Mean of `N_eff / particles` (1 = all weights equal).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub n_eff_ratio_mean: f64,
     /// Mean number of distinct particles after a step (all steps).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub distinct_mean: f64,
     /// Mean number of distinct particles right after resampling (diversity).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub distinct_after_resampling_mean: f64,
     /// Fewest distinct particles after a step.
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub distinct_min: f64,
     /// The noise check: mean over the steps of the windowed NIS per degree of freedom
     /// (1 when the noise model fits the data).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub nis_mean: f64,
     /// Fraction of the steps at which the noise check failed (NIS above its χ² band for
     /// a whole window).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub nis_high_fraction: f64,
     /// Where the noise check points when it failed: `odometry` (the pose term dominates
     /// the innovations), `sensor`, or empty when it never failed.
@@ -225,15 +212,15 @@ pub struct Cost {
     /// CPU time and peak memory of each process of the stack.
     pub processes: Vec<ProcessUsage>,
     /// CPU time of the FastSLAM service (s); NaN when it was not found.
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub service_cpu_s: f64,
     /// CPU time of all processes of the stack together (s).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub stack_cpu_s: f64,
     /// Wall time from the first observation to the last pose the client received (s):
     /// the run streamed through the processes, start-up and scoring left out; NaN when
     /// no pose arrived.
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub stream_wall_s: f64,
 }
 

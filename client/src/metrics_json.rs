@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 
 /// `metrics.json` as written.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub(crate) struct MetricsFile {
+struct MetricsFile {
     complete: bool,
     /// A file without the key is one of a run with ground truth.
     #[serde(default = "with_truth")]
@@ -89,7 +89,7 @@ struct SmoothedFile {
     rpe: Option<Vec<Rpe>>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     relations: Option<RelationErrors>,
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     chi2_per_dof: f64,
     solves: u32,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -99,7 +99,7 @@ struct SmoothedFile {
 /// Reads a number that is there, `null` (NaN) included; an absent one is `None` (the
 /// field's default).
 fn present<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
-    crate::metrics::number(d).map(Some)
+    crate::json_number::number(d).map(Some)
 }
 
 impl TrajectoryFile {
@@ -211,6 +211,20 @@ impl From<MetricsFile> for Metrics {
             inputs: f.inputs,
             cost: f.cost,
         }
+    }
+}
+
+/// [`Metrics`] is written as its [`MetricsFile`].
+impl Serialize for Metrics {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        MetricsFile::from(self.clone()).serialize(serializer)
+    }
+}
+
+/// [`Metrics`] is read back from its [`MetricsFile`].
+impl<'de> Deserialize<'de> for Metrics {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        MetricsFile::deserialize(deserializer).map(Self::from)
     }
 }
 

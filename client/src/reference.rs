@@ -25,13 +25,13 @@ pub use fastslam_estimation::graph::NoiseModel;
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct ReferenceMetrics {
     /// ATE RMSE of the reference trajectory (m), scored as the estimate is.
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub ate_rmse_m: f64,
     /// Position error of the reference's last pose (m).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub final_error_m: f64,
     /// χ² of the solution per degree of freedom: about 1 when the noise model fits.
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub chi2_per_dof: f64,
     /// Wall time of the solve (s).
     pub solve_s: f64,

@@ -26,19 +26,19 @@ pub struct ProcessUsage {
     /// Process id.
     pub pid: i32,
     /// CPU time in user mode (s).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub cpu_user_s: f64,
     /// CPU time in the kernel on the process's behalf (s).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub cpu_system_s: f64,
     /// Total CPU time (s): the scheduler's run time summed over the process's threads
     /// (`schedstat`, ns resolution), or user plus system time (clock ticks, exited threads
     /// included) when that is larger or `schedstat` is not available.
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub cpu_s: f64,
     /// Peak resident set size, `VmHWM` (MiB). Shared-memory pages the process touched
     /// count too, so the sum over processes counts shared pages more than once.
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub peak_rss_mib: f64,
 }
 

@@ -14,15 +14,15 @@ pub const RPE_DELTAS_M: [f64; 3] = [1.0, 10.0, 100.0];
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
 pub struct Rpe {
     /// Distance travelled (along the true path) between the two poses of a pair (m).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub delta_m: f64,
     /// Pose pairs compared (one per start pose that has a pose `delta_m` further on).
     pub pairs: usize,
     /// RMSE of the translation part of the relative error (m).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub translation_rmse_m: f64,
     /// RMSE of the rotation part of the relative error (rad).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub rotation_rmse_rad: f64,
 }
 

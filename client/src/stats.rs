@@ -48,16 +48,16 @@ pub struct Spread {
     /// Number of samples.
     pub samples: usize,
     /// Median (nearest rank).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub median: f64,
     /// 99th percentile (nearest rank).
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub p99: f64,
     /// 99.9th percentile (nearest rank): the tail a real-time budget must cover.
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub p999: f64,
     /// Largest sample.
-    #[serde(deserialize_with = "crate::metrics::number")]
+    #[serde(deserialize_with = "crate::json_number::number")]
     pub max: f64,
 }
 

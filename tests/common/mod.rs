@@ -4,6 +4,8 @@
 
 #![allow(dead_code)] // each test binary uses a different subset
 
+pub mod stacks;
+
 pub use fastslam_protocol::ipc::remove_stack_files;
 use fastslam_protocol::ipc::shared_memory_files;
 use fastslam_sensors_sim::Scenario;

@@ -12,6 +12,8 @@
 //! - [`trail`]: each particle's pose history at keyframes, shared between resampled
 //!   copies, for the occupancy grid of the best particle;
 //! - [`proposal`]: FastSLAM 2.0's proposal, drawn after the prediction when configured;
+//! - `published`: what the filter gives out between steps (the best particle, the
+//!   weighted cloud, the published map); `reanchor`: moving it onto a smoothed solution;
 //! - [`PoseRefiner`]: the seam for the optimiser after the proposal, with
 //!   [`refine::OptimiserRefiner`] the optimisers of §4 behind it in the mode §3 and §3.1
 //!   describe.
@@ -47,6 +49,8 @@ pub mod landmarks;
 mod merge;
 mod particle;
 pub mod proposal;
+mod published;
+mod reanchor;
 pub mod refine;
 pub mod snapshot;
 pub mod trail;
@@ -473,84 +477,6 @@ impl FastSlam {
         Ok(())
     }
 
-    /// Steps 3–6 for one scan from the configured sensor, without pose refinement
-    /// (FastSLAM 1.0, or 2.0 when configured); see [`update_with`](Self::update_with).
-    ///
-    /// # Errors
-    /// As [`update_with`](Self::update_with).
-    pub fn update(&mut self, observations: &[Observation]) -> Result<StepReport> {
-        let sensor = self.config.sensor.clone();
-        self.update_with(observations, &sensor, None)
-    }
-
-    /// One scan taken by `sensor` (a scan may carry its own noise, range and field of
-    /// view): FastSLAM 2.0's proposal when configured, the optional refiner,
-    /// association and weighing (3), normalisation (5), resampling (6), map updates and
-    /// negative evidence (4).
-    ///
-    /// A particle's weight increment is the scan's likelihood at its final pose, unless
-    /// the proposal or the refiner gave it another ([`WeightBasis`]).
-    ///
-    /// Observations that are not finite, have a range the sensor cannot report
-    /// ([`Sensor::can_report`]), or lack an id under known association are skipped and
-    /// counted in [`StepReport::rejected`].
-    ///
-    /// # Errors
-    /// [`Error::InvalidParameter`] for a bad `sensor` or a refiner on a filter
-    /// [`without_motion_prior`](Self::without_motion_prior), the refiner's error, or
-    /// [`Error::DegenerateWeights`] when no particle keeps a usable weight. On these errors
-    /// weights and maps are unchanged (the proposal or a refiner may already have moved
-    /// poses).
-    ///
-    /// # Performance
-    /// O(N · n · (log M + k)) for n observations and k landmarks per search window:
-    /// independent of the map size M but for the logarithm. Resampling copies no map.
-    pub fn update_with(
-        &mut self,
-        observations: &[Observation],
-        sensor: &Sensor,
-        refiner: Option<&mut dyn PoseRefiner>,
-    ) -> Result<StepReport> {
-        self.update_publishing(observations, sensor, refiner, |_| {})
-    }
-
-    /// [`update_with`](Self::update_with), handing the step's pose estimate to `publish`
-    /// the moment it is known: after weighing, before resampling and the map updates
-    /// (see the module documentation for what it is). A caller can send the pose while
-    /// the maps are still being written, which takes about half of a step.
-    ///
-    /// `publish` is called once if the step succeeds, never if it fails.
-    ///
-    /// # Errors
-    /// As [`update_with`](Self::update_with).
-    pub fn update_publishing(
-        &mut self,
-        observations: &[Observation],
-        sensor: &Sensor,
-        refiner: Option<&mut dyn PoseRefiner>,
-        publish: impl FnOnce(&PoseEstimate),
-    ) -> Result<StepReport> {
-        sensor.validate()?;
-        if refiner.is_some() && !self.motion_prior {
-            return Err(Error::InvalidParameter {
-                name: "optimizer",
-                reason: "a pose refiner needs the motion prior".into(),
-            });
-        }
-        let mut accepted = std::mem::take(&mut self.scratch.accepted);
-        accepted.clear();
-        let association = self.config.association.clone();
-        accepted.extend(observations.iter().copied().filter(|obs| {
-            obs.validate().is_ok() && sensor.can_report(obs) && association.accepts(obs)
-        }));
-        let scan = Scan::new(&accepted, sensor, &association, self.step + 1);
-        let result = self.run_stages(&scan, refiner, publish);
-        self.scratch.accepted = accepted;
-        let mut report = result?;
-        report.rejected = observations.len() - self.scratch.accepted.len();
-        Ok(report)
-    }
-
     /// Records every particle's current pose under `keyframe` in its [`Trail`] (for
     /// grid mapping from the best particle's own trajectory).
     ///
@@ -560,149 +486,6 @@ impl FastSlam {
         for p in &mut self.particles {
             p.trail.push(keyframe, p.pose);
         }
-    }
-
-    /// The particle that weighed most at the last step (before resampling, which leaves
-    /// every copy the same weight): the one whose map and trajectory are published.
-    pub fn best(&self) -> &Particle {
-        &self.particles[self.best]
-    }
-
-    /// The particles as they are now, weighted: each particle's pose, or its motion prior
-    /// `N(x̂, P)` with deferred sampling (where a drawn particle's prior is its pose with
-    /// the floor covariance). After an update this is the cloud after resampling; the
-    /// step's published estimate was taken before it.
-    ///
-    /// # Performance
-    /// O(N).
-    pub fn estimate(&self) -> PoseEstimate {
-        let zero = Matrix3::zeros();
-        let components = self.particles.iter().map(|p| {
-            if self.deferred {
-                (p.prior.mean, p.prior.covariance)
-            } else {
-                (p.pose, zero)
-            }
-        });
-        PoseEstimate::from_mixture(components, self.weights.as_slice())
-    }
-
-    /// Step 7: the map of the particle that weighed most at the last step
-    /// ([`best`](Self::best)), ordered by id, without its provisional landmarks (see
-    /// [`is_confirmed`](Self::is_confirmed)).
-    ///
-    /// # Performance
-    /// O(M log M) (collect and sort).
-    pub fn best_map(&self) -> Vec<MapLandmark> {
-        let best = self.best();
-        let confirmed = best.map.iter().filter(|l| self.is_confirmed(l));
-        let association = &self.config.association;
-        let gate = association.map_merge_gate;
-        let mut landmarks: Vec<MapLandmark> =
-            if gate > 0.0 && association.mode == AssociationMode::Unknown {
-                let mut shown = LandmarkMap::new(association.cell_size);
-                confirmed.for_each(|l| shown.insert(*l));
-                merge::keep_best_supported(&mut shown, gate, association.search_radius);
-                shown.iter().map(MapLandmark::from).collect()
-            } else {
-                confirmed.map(MapLandmark::from).collect()
-            };
-        landmarks.sort_unstable_by_key(|l| l.id);
-        landmarks
-    }
-
-    /// True when `landmark` has earned its place in the published map: under unknown
-    /// association with negative evidence, once it was seen in `min_hits` scans; a
-    /// provisional landmark is used by its particle but not published (it may still be
-    /// removed, docs/ALGORITHMS.md §1 step 4).
-    pub fn is_confirmed(&self, landmark: &Landmark) -> bool {
-        landmark.hits >= self.config.negative_evidence_in_effect().min_hits
-    }
-
-    /// Landmarks in the published map ([`best_map`](Self::best_map)), counted without
-    /// collecting them.
-    pub fn confirmed_landmarks(&self) -> usize {
-        if self.config.association.map_merge_gate > 0.0 {
-            return self.best_map().len();
-        }
-        self.best()
-            .map
-            .iter()
-            .filter(|l| self.is_confirmed(l))
-            .count()
-    }
-
-    /// Moves every particle onto a smoothed solution (re-anchoring, docs/ALGORITHMS.md
-    /// §8.1): each pose, motion prior and landmark by the rigid `correction` (applied on
-    /// the left: world → corrected world), then the landmarks the solution has (`(id,
-    /// position, covariance)`, in the corrected world) set to the solution's values.
-    ///
-    /// # Performance
-    /// O(N · M log M): every landmark of every particle is touched (shared maps are
-    /// copied where they change).
-    pub fn reanchor(
-        &mut self,
-        correction: &Pose2,
-        landmarks: &[(u64, Vector2<f64>, Matrix2<f64>)],
-    ) {
-        let solved: std::collections::HashMap<u64, (Vector2<f64>, Matrix2<f64>)> =
-            landmarks.iter().map(|&(id, m, c)| (id, (m, c))).collect();
-        let (s, c) = correction.theta.sin_cos();
-        let rotation = Matrix2::new(c, -s, s, c);
-        let rotation3 = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
-        let moved = |p: &Vector2<f64>| {
-            let q = correction.compose(&Pose2::new(p.x, p.y, 0.0));
-            Vector2::new(q.x, q.y)
-        };
-        self.check_prior.mean = correction.compose(&self.check_prior.mean);
-        self.check_prior.covariance =
-            rotation3 * self.check_prior.covariance * rotation3.transpose();
-        for particle in &mut self.particles {
-            particle.pose = correction.compose(&particle.pose);
-            particle.prior.mean = correction.compose(&particle.prior.mean);
-            particle.prior.covariance =
-                rotation3 * particle.prior.covariance * rotation3.transpose();
-
-            let ids: Vec<u64> = particle.map.iter().map(|l| l.id).collect();
-            for id in ids {
-                particle.map.update(id, |l| match solved.get(&id) {
-                    Some(&(mean, covariance)) => (l.mean, l.covariance) = (mean, covariance),
-                    None => {
-                        l.mean = moved(&l.mean);
-                        l.covariance = rotation * l.covariance * rotation.transpose();
-                    }
-                });
-            }
-        }
-    }
-
-    /// The last scan's accepted observations as the best particle explains them now:
-    /// each with `id` set to the landmark of the best particle's map it is associated
-    /// with (the one it updated or created), those it ignores left out. Taken by
-    /// `sensor` (the last update's). The keyed sightings of the smoothing back-end
-    /// (`graph::Smoother`), which works with unknown association too.
-    ///
-    /// # Performance
-    /// One association of the scan against one map.
-    pub fn best_sightings(&self, sensor: &Sensor) -> Vec<Observation> {
-        let best = self.best();
-        let association = &self.config.association;
-        let accepted = &self.scratch.accepted;
-        let scan = Scan::new(accepted, sensor, association, self.step);
-        let decisions = scan.associate(&best.map, &best.pose).decisions;
-        (accepted.iter().zip(decisions))
-            .filter_map(|(obs, decision)| {
-                let id = match decision {
-                    Decision::Update { slot, .. } => slot.id(),
-                    Decision::New { id: Some(id) } => id,
-                    Decision::New { id: None } | Decision::Ignore => return None,
-                };
-                Some(Observation {
-                    id: Some(id),
-                    ..*obs
-                })
-            })
-            .collect()
     }
 }
 
@@ -731,80 +514,6 @@ mod tests {
         };
         assert_eq!(landmarks_after(0.0), 2, "no merging by default");
         assert_eq!(landmarks_after(9.21), 1);
-    }
-
-    #[test]
-    fn the_published_map_shows_a_duplicate_once_and_the_particle_keeps_both() {
-        let seen = Observation {
-            range: 5.0,
-            bearing: 0.1,
-            id: None,
-        };
-        let far = Observation {
-            range: 8.0,
-            bearing: -1.0,
-            id: None,
-        };
-        let mut config = FastSlamConfig {
-            particles: 5,
-            ..FastSlamConfig::default()
-        };
-        config.association.map_merge_gate = 9.21;
-        let mut slam = FastSlam::new(config, Pose2::default()).unwrap();
-        // Two scans, each detecting one point twice and another once: the particle holds
-        // three landmarks, all confirmed (seen twice).
-        slam.update(&[seen, seen, far]).unwrap();
-        slam.update(&[seen, seen, far]).unwrap();
-        assert_eq!(slam.best().map.len(), 3);
-        let shown = slam.best_map();
-        assert_eq!(shown.len(), 2, "{shown:?}");
-        assert_eq!(slam.confirmed_landmarks(), 2);
-        assert_eq!(slam.best().map.len(), 3, "the filter keeps its hypotheses");
-    }
-
-    #[test]
-    fn reanchoring_moves_poses_and_maps_and_takes_the_solved_landmarks() {
-        let config = FastSlamConfig {
-            particles: 5,
-            ..FastSlamConfig::default()
-        };
-        let mut slam = FastSlam::new(config, Pose2::new(1.0, 0.0, 0.0)).unwrap();
-        let seen = [
-            Observation {
-                range: 10.0,
-                bearing: 0.0,
-                id: None,
-            },
-            Observation {
-                range: 5.0,
-                bearing: std::f64::consts::FRAC_PI_2,
-                id: None,
-            },
-        ];
-        slam.update(&seen).unwrap();
-        assert!(slam.best_map().is_empty(), "provisional after one sighting");
-        slam.update(&seen).unwrap();
-        let before = slam.best_map();
-        assert_eq!(before.len(), 2, "confirmed by the second");
-        // A quarter turn about the origin, then 2 m along x; the first landmark solved.
-        let correction = Pose2::new(2.0, 0.0, std::f64::consts::FRAC_PI_2);
-        let solved = (
-            before[0].id,
-            Vector2::new(-7.0, 3.0),
-            Matrix2::identity() * 0.5,
-        );
-        slam.reanchor(&correction, &[solved]);
-        for p in slam.particles() {
-            assert!((p.pose.x - 2.0).abs() < 1e-9 && (p.pose.y - 1.0).abs() < 1e-9);
-            assert!((p.pose.theta - std::f64::consts::FRAC_PI_2).abs() < 1e-9);
-        }
-        let after = slam.best_map();
-        assert_eq!((after[0].mean, after[0].covariance), (solved.1, solved.2));
-        let moved = correction.compose(&Pose2::new(before[1].mean.x, before[1].mean.y, 0.0));
-        assert!((after[1].mean - Vector2::new(moved.x, moved.y)).norm() < 1e-9);
-        // The covariance turns with the map: xx and yy swap under a quarter turn.
-        let (b, a) = (before[1].covariance, after[1].covariance);
-        assert!((a[(0, 0)] - b[(1, 1)]).abs() < 1e-12 && (a[(1, 1)] - b[(0, 0)]).abs() < 1e-12);
     }
 
     #[test]

@@ -1,10 +1,88 @@
-//! One update of [`FastSlam`], stage by stage in the order they run: FastSLAM 2.0's
-//! proposal, the optional refiner, association, weighing, the estimate (before
+//! One update of [`FastSlam`]: its entry points, then the stages in the order they run:
+//! FastSLAM 2.0's proposal, the optional refiner, association, weighing, the estimate (before
 //! resampling), the resampling draw, the map updates and the resampled copies.
 
 use super::*;
 
 impl FastSlam {
+    /// Steps 3–6 for one scan from the configured sensor, without pose refinement
+    /// (FastSLAM 1.0, or 2.0 when configured); see [`update_with`](Self::update_with).
+    ///
+    /// # Errors
+    /// As [`update_with`](Self::update_with).
+    pub fn update(&mut self, observations: &[Observation]) -> Result<StepReport> {
+        let sensor = self.config.sensor.clone();
+        self.update_with(observations, &sensor, None)
+    }
+
+    /// One scan taken by `sensor` (a scan may carry its own noise, range and field of
+    /// view): FastSLAM 2.0's proposal when configured, the optional refiner,
+    /// association and weighing (3), normalisation (5), resampling (6), map updates and
+    /// negative evidence (4).
+    ///
+    /// A particle's weight increment is the scan's likelihood at its final pose, unless
+    /// the proposal or the refiner gave it another ([`WeightBasis`]).
+    ///
+    /// Observations that are not finite, have a range the sensor cannot report
+    /// ([`Sensor::can_report`]), or lack an id under known association are skipped and
+    /// counted in [`StepReport::rejected`].
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] for a bad `sensor` or a refiner on a filter
+    /// [`without_motion_prior`](Self::without_motion_prior), the refiner's error, or
+    /// [`Error::DegenerateWeights`] when no particle keeps a usable weight. On these errors
+    /// weights and maps are unchanged (the proposal or a refiner may already have moved
+    /// poses).
+    ///
+    /// # Performance
+    /// O(N · n · (log M + k)) for n observations and k landmarks per search window:
+    /// independent of the map size M but for the logarithm. Resampling copies no map.
+    pub fn update_with(
+        &mut self,
+        observations: &[Observation],
+        sensor: &Sensor,
+        refiner: Option<&mut dyn PoseRefiner>,
+    ) -> Result<StepReport> {
+        self.update_publishing(observations, sensor, refiner, |_| {})
+    }
+
+    /// [`update_with`](Self::update_with), handing the step's pose estimate to `publish`
+    /// the moment it is known: after weighing, before resampling and the map updates
+    /// (see the module documentation for what it is). A caller can send the pose while
+    /// the maps are still being written, which takes about half of a step.
+    ///
+    /// `publish` is called once if the step succeeds, never if it fails.
+    ///
+    /// # Errors
+    /// As [`update_with`](Self::update_with).
+    pub fn update_publishing(
+        &mut self,
+        observations: &[Observation],
+        sensor: &Sensor,
+        refiner: Option<&mut dyn PoseRefiner>,
+        publish: impl FnOnce(&PoseEstimate),
+    ) -> Result<StepReport> {
+        sensor.validate()?;
+        if refiner.is_some() && !self.motion_prior {
+            return Err(Error::InvalidParameter {
+                name: "optimizer",
+                reason: "a pose refiner needs the motion prior".into(),
+            });
+        }
+        let mut accepted = std::mem::take(&mut self.scratch.accepted);
+        accepted.clear();
+        let association = self.config.association.clone();
+        accepted.extend(observations.iter().copied().filter(|obs| {
+            obs.validate().is_ok() && sensor.can_report(obs) && association.accepts(obs)
+        }));
+        let scan = Scan::new(&accepted, sensor, &association, self.step + 1);
+        let result = self.run_stages(&scan, refiner, publish);
+        self.scratch.accepted = accepted;
+        let mut report = result?;
+        report.rejected = observations.len() - self.scratch.accepted.len();
+        Ok(report)
+    }
+
     /// The stages of one update, in the order they run.
     pub(super) fn run_stages(
         &mut self,

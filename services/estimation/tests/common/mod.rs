@@ -1,5 +1,9 @@
 //! What the estimation crate's integration tests share: a ray cast against wall segments
-//! for their simulated lasers.
+//! for their simulated lasers, and a simulated run for the FastSLAM behaviour tests.
+
+#![allow(dead_code)] // each test binary uses a different subset
+
+pub mod bailey;
 
 /// A wall from `(x1, y1)` to `(x2, y2)`: `[x1, y1, x2, y2]` (m).
 pub type Segment = [f64; 4];
