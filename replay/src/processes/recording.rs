@@ -95,7 +95,7 @@ impl Args {
 }
 
 /// The recording `source` names, with `topics` for a bag.
-pub fn recording(source: &Source, topics: &TopicArgs) -> Recording {
+fn recording(source: &Source, topics: &TopicArgs) -> Recording {
     match (&source.rosbag, &source.carmen) {
         (Some(path), _) => Recording::Rosbag {
             path: path.clone(),
