@@ -102,6 +102,22 @@ pub fn find(name: &str) -> Option<&'static DataSetKind> {
     DATA_SETS.iter().find(|kind| kind.name == name)
 }
 
+/// The subcommand `matches` holds, looked up by its name with `find`, and its own matches.
+///
+/// # Errors
+/// No subcommand, or one `find` does not know.
+pub fn chosen<T>(
+    matches: &ArgMatches,
+    find: impl FnOnce(&str) -> Option<T>,
+) -> Result<(T, &ArgMatches), clap::Error> {
+    use clap::error::ErrorKind;
+    let (name, sub) = matches
+        .subcommand()
+        .ok_or_else(|| clap::Error::new(ErrorKind::MissingSubcommand))?;
+    let found = find(name).ok_or_else(|| clap::Error::new(ErrorKind::InvalidSubcommand))?;
+    Ok((found, sub))
+}
+
 /// Every replay process of [`DATA_SETS`], once each, in the table's order.
 fn processes() -> impl Iterator<Item = &'static Process> {
     DATA_SETS
@@ -140,13 +156,7 @@ impl ProcessCommand {
 
 impl clap::FromArgMatches for ProcessCommand {
     fn from_arg_matches(matches: &ArgMatches) -> Result<Self, clap::Error> {
-        use clap::error::ErrorKind;
-        let (name, sub) = matches
-            .subcommand()
-            .ok_or_else(|| clap::Error::new(ErrorKind::MissingSubcommand))?;
-        let process = processes()
-            .find(|p| p.name == name)
-            .ok_or_else(|| clap::Error::new(ErrorKind::InvalidSubcommand))?;
+        let (process, sub) = chosen(matches, |name| processes().find(|p| p.name == name))?;
         Ok(Self {
             process,
             matches: sub.clone(),

@@ -29,12 +29,7 @@ pub struct DataSet {
 
 impl clap::FromArgMatches for DataSet {
     fn from_arg_matches(matches: &clap::ArgMatches) -> Result<Self, clap::Error> {
-        use clap::error::ErrorKind;
-        let (name, sub) = matches
-            .subcommand()
-            .ok_or_else(|| clap::Error::new(ErrorKind::MissingSubcommand))?;
-        let kind =
-            registry::find(name).ok_or_else(|| clap::Error::new(ErrorKind::InvalidSubcommand))?;
+        let (kind, sub) = registry::chosen(matches, registry::find)?;
         Ok(Self {
             kind,
             matches: sub.clone(),
