@@ -90,15 +90,9 @@ enum Command {
     /// The landmark sensor process (started by `run`).
     #[command(hide = true)]
     LidarSim(lidar::Args),
-    /// The MRCLAM replay process (started by `replay mrclam`).
-    #[command(hide = true)]
-    ReplayMrclam(fastslam_replay::processes::mrclam::Args),
-    /// The Victoria Park replay process (started by `replay victoria-park`).
-    #[command(hide = true)]
-    ReplayVictoriaPark(fastslam_replay::processes::victoria_park::Args),
-    /// The recording replay process (started by `replay rosbag` and `replay carmen`).
-    #[command(hide = true)]
-    ReplayRecording(fastslam_replay::processes::recording::Args),
+    /// The replay process of each data set (started by `replay <data set>`).
+    #[command(flatten)]
+    ReplayProcess(fastslam_replay::registry::ProcessCommand),
     /// The FastSLAM service process (started by `run`).
     #[command(hide = true)]
     Service(fastslam_service::process::Args),
@@ -156,21 +150,7 @@ fn dispatch(command: Command) -> anyhow::Result<u8> {
         Command::TruthSim(a) => done(run_process("truth-sim", a, truth::run)),
         Command::OdometrySim(a) => done(run_process("odometry-sim", a, odometry::run)),
         Command::LidarSim(a) => done(run_process("lidar-sim", a, lidar::run)),
-        Command::ReplayMrclam(a) => done(run_process(
-            "replay-mrclam",
-            a,
-            fastslam_replay::processes::mrclam::run,
-        )),
-        Command::ReplayVictoriaPark(a) => done(run_process(
-            "replay-victoria-park",
-            a,
-            fastslam_replay::processes::victoria_park::run,
-        )),
-        Command::ReplayRecording(a) => done(run_process(
-            "replay-recording",
-            a,
-            fastslam_replay::processes::recording::run,
-        )),
+        Command::ReplayProcess(p) => done(run_process(p.name(), p, |p| p.run())),
         Command::Service(a) => done(run_process("service", a, fastslam_service::process::run)),
         Command::Client(a) => done(run_process("client", a, fastslam_client::process::run)),
         Command::Viewer(a) => done(run_process("viewer", a, fastslam_client::viewer::run)),

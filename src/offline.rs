@@ -11,7 +11,7 @@ use crate::lists::List;
 use crate::methods::Methods;
 use crate::settings;
 use anyhow::Context;
-use clap::builder::{PossibleValuesParser, TypedValueParser};
+use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use fastslam_client::metrics::{AlignMode, ScoreAt, fit_alignment, scored_at};
 use fastslam_client::occupancy::OCCUPIED_THRESH;
 use fastslam_client::reference::NoiseModel;
@@ -26,7 +26,7 @@ use fastslam_protocol::{Header, StreamId};
 use fastslam_replay::dataset::{Association, DataSet};
 use fastslam_replay::player::{Next, schedule};
 use fastslam_replay::profile::Profile;
-use fastslam_replay::{mrclam, victoria_park};
+use fastslam_replay::registry::{self, DataSetKind, Request};
 use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::offline::{Message, OfflineRun};
 use fastslam_service::config::{MapKind, Overrides, ServiceConfig};
@@ -90,13 +90,15 @@ fn process_cpu() -> Duration {
     })
 }
 
-/// A recorded data set an in-process run can replay.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum DataSetName {
-    /// UTIAS MRCLAM (see `replay mrclam`).
-    Mrclam,
-    /// ACFR Victoria Park (see `replay victoria-park`).
-    VictoriaPark,
+/// `--replay`'s values: the data sets of the [`registry`] an in-process run can read, by
+/// name.
+pub fn in_process_data_sets() -> impl TypedValueParser<Value = &'static DataSetKind> {
+    let names = registry::DATA_SETS.iter().filter_map(|kind| {
+        let reader = kind.in_process.as_ref()?;
+        let help = format!("{} (see `replay {}`)", reader.title, kind.name);
+        Some(PossibleValue::new(kind.name).help(help))
+    });
+    PossibleValuesParser::new(names).map(|name| registry::find(&name).expect("a listed name"))
 }
 
 /// What an in-process run plays.
@@ -134,40 +136,31 @@ impl Source {
     /// the data set's own); `robot` and `association` apply to MRCLAM.
     ///
     /// # Errors
-    /// A missing or malformed data folder or profile.
+    /// A data set without an in-process reader, a missing or malformed data folder or
+    /// profile.
     pub fn replay(
-        set: DataSetName,
+        set: &DataSetKind,
         dir: Option<&std::path::Path>,
         robot: u32,
         association: Association,
         profile: Option<&str>,
     ) -> anyhow::Result<Self> {
-        let (default_profile, default_data) = match set {
-            DataSetName::Mrclam => ("mrclam", "data/mrclam7"),
-            DataSetName::VictoriaPark => ("victoria-park", "data/victoria_park"),
+        let Some(reader) = &set.in_process else {
+            anyhow::bail!("{} is replayed through the processes only", set.name);
         };
-        let profile = Profile::load(profile.unwrap_or(default_profile))?;
-        let dir = dir.unwrap_or(std::path::Path::new(default_data));
+        let profile = Profile::load(profile.unwrap_or(set.profile))?;
+        let dir = dir.unwrap_or(std::path::Path::new(reader.default_data));
         let folder = std::fs::canonicalize(dir)
             .with_context(|| format!("data set folder {}", dir.display()))?
             .file_name()
             .map_or_else(|| "data".into(), |n| n.to_string_lossy().into_owned());
-        let (name, association, data) = match set {
-            DataSetName::Mrclam => {
-                let options = mrclam::Options {
-                    robot,
-                    association,
-                    sensor: profile.sensor,
-                };
-                let name = format!("{folder}-robot{robot}-{}", association.service_mode());
-                (name, association, mrclam::load(dir, &options)?)
-            }
-            DataSetName::VictoriaPark => (
-                folder,
-                Association::Unknown,
-                victoria_park::load(dir, &profile.sensor)?,
-            ),
-        };
+        let (name, association, data) = (reader.load)(&Request {
+            dir,
+            folder: &folder,
+            robot,
+            association,
+            profile: &profile,
+        })?;
         let service = settings::replay_service_table(None, &profile, association)?;
         let scoring = Scoring::from_flags(&profile.client.flags)?;
         Ok(Self::Replay(Box::new(Replay {

@@ -135,7 +135,7 @@ fn in_process_replay_gives_the_metrics_of_the_replay_through_the_processes() {
     assert_success(&result);
     let through_processes = std::fs::read_to_string(out.join("metrics.json")).unwrap();
     let source = offline::Source::replay(
-        offline::DataSetName::VictoriaPark,
+        fastslam_replay::registry::find("victoria-park").unwrap(),
         Some(&data),
         1,
         fastslam_replay::dataset::Association::Unknown,

@@ -9,7 +9,9 @@
 //! which frame), [`recording`] (a user's own bag or log, read by its format, and the
 //! settings derived from its laser),
 //! [`profile`] (sensor description and filter settings per data set), [`player`]
-//! (publishing in stamp order, real time or as fast as possible) and the [`processes`].
+//! (publishing in stamp order, real time or as fast as possible), the [`processes`] and
+//! the [`registry`] of data sets (each one's `replay` subcommand, profile, process and
+//! in-process reader), which the launcher reads.
 
 pub mod args;
 pub mod carmen;
@@ -19,6 +21,7 @@ pub mod player;
 pub mod processes;
 pub mod profile;
 pub mod recording;
+pub mod registry;
 pub mod rosbag;
 pub mod text;
 pub mod victoria_park;

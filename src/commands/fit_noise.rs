@@ -12,7 +12,8 @@ use fastslam_estimation::observation::measure;
 use fastslam_estimation::pose::wrap_angle;
 use fastslam_protocol::{GroundTruth, Odometry};
 use fastslam_replay::dataset::{Association, DataSet};
-use fastslam_stack::offline::{DataSetName, Source};
+use fastslam_replay::registry::DataSetKind;
+use fastslam_stack::offline::{self, Source};
 use nalgebra::Vector2;
 use std::path::PathBuf;
 
@@ -20,8 +21,8 @@ use std::path::PathBuf;
 #[derive(Debug, Clone, clap::Args)]
 pub struct FitNoiseArgs {
     /// The recorded data set (it needs a dense ground truth with headings: MRCLAM).
-    #[arg(long, value_enum, default_value = "mrclam")]
-    pub replay: DataSetName,
+    #[arg(long, value_parser = offline::in_process_data_sets(), default_value = "mrclam")]
+    pub replay: &'static DataSetKind,
     /// Data set folder (default: data/mrclam7).
     #[arg(long)]
     pub data: Option<PathBuf>,

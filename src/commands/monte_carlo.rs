@@ -7,9 +7,10 @@ use anyhow::Context;
 use fastslam_estimation::optimise::OptimiserKind;
 use fastslam_estimation::stats::Summary;
 use fastslam_replay::dataset::Association;
+use fastslam_replay::registry::DataSetKind;
 use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::scenario::DEFAULT_SCENARIO;
-use fastslam_stack::offline::{self, Comparison, DataSetName, Row, Source};
+use fastslam_stack::offline::{self, Comparison, Row, Source};
 use std::path::PathBuf;
 
 /// Flags of `monte-carlo`.
@@ -20,8 +21,8 @@ pub struct MonteCarloArgs {
     pub scenario: String,
     /// Replay a recorded data set instead of simulating a scenario; the seeds then only
     /// seed the filter.
-    #[arg(long, value_enum)]
-    pub replay: Option<DataSetName>,
+    #[arg(long, value_parser = offline::in_process_data_sets())]
+    pub replay: Option<&'static DataSetKind>,
     /// Data set folder of `--replay` (default: data/mrclam7 or data/victoria_park).
     #[arg(long, requires = "replay")]
     pub data: Option<PathBuf>,

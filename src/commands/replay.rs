@@ -5,67 +5,59 @@
 use crate::commands::launch::{Ended, LaunchArgs, Place, conclude, prepare};
 use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::Context;
-use fastslam_replay::dataset::Association;
-use fastslam_replay::processes::recording::{Source, TopicArgs};
+use clap::Args;
 use fastslam_replay::profile::Profile;
 use fastslam_replay::recording::{Recording, merge_tables, planar_laser_settings};
+use fastslam_replay::registry::{self, DataSetKind};
 use fastslam_service::config::{EstimatorChoice, Overrides, ServiceConfig};
 use fastslam_stack::settings;
 use fastslam_stack::topology;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-/// The data set to replay, with its own flags.
-#[derive(Debug, Clone, clap::Subcommand)]
-pub enum DataSet {
-    /// UTIAS MRCLAM: one robot's odometry and barcode observations, scored against Vicon
-    /// ground truth and the true landmarks.
-    Mrclam {
-        /// Data set folder (Barcodes.dat, Landmark_Groundtruth.dat, Robot<r>_*.dat[.gz]).
-        #[arg(long, default_value = "data/mrclam7")]
-        data: PathBuf,
-        /// Robot number.
-        #[arg(long, default_value_t = 1)]
-        robot: u32,
-        /// Known: barcodes as landmark ids; unknown: the service associates by itself.
-        #[arg(long, value_enum, default_value_t = Association::Known)]
-        association: Association,
-        /// Flags every replay takes.
-        #[command(flatten)]
-        run: ReplayRunArgs,
-    },
-    /// ACFR Victoria Park: odometry and tree detections, GPS as sparse ground truth
-    /// (unknown association).
-    VictoriaPark {
-        /// Data set folder (odometry.csv, tree_observations.csv, scan_times.csv, gps.csv,
-        /// each plain or .gz).
-        #[arg(long, default_value = "data/victoria_park")]
-        data: PathBuf,
-        /// Flags every replay takes.
-        #[command(flatten)]
-        run: ReplayRunArgs,
-    },
-    /// Your own ROS 2 bag (rosbag2: MCAP or sqlite3): its laser scans and odometry, the
-    /// laser's mounting from /tf_static; no ground truth needed (docs/REPLAYS.md).
-    Rosbag {
-        /// A rosbag2 folder (with metadata.yaml) or one .mcap / .db3 file.
-        path: PathBuf,
-        /// Topics and frames, where the bag leaves a choice.
-        #[command(flatten)]
-        topics: TopicArgs,
-        /// Flags every replay takes.
-        #[command(flatten)]
-        run: ReplayRunArgs,
-    },
-    /// A CARMEN log (.clf / .log, gzipped or not: FLASER, ROBOTLASER1, ODOM), such as the
-    /// Freiburg benchmark's; no ground truth needed (docs/REPLAYS.md).
-    Carmen {
-        /// The log file.
-        file: PathBuf,
-        /// Flags every replay takes.
-        #[command(flatten)]
-        run: ReplayRunArgs,
-    },
+/// The data set to replay, with its own flags: one subcommand per data set of the
+/// [`registry`](fastslam_replay::registry).
+#[derive(Debug)]
+pub struct DataSet {
+    /// Its row of the registry.
+    kind: &'static DataSetKind,
+    /// Its subcommand's flags, which the row's plan reads.
+    matches: clap::ArgMatches,
+    /// The flags every replay takes.
+    run: ReplayRunArgs,
+}
+
+impl clap::FromArgMatches for DataSet {
+    fn from_arg_matches(matches: &clap::ArgMatches) -> Result<Self, clap::Error> {
+        let (kind, sub) = registry::chosen(matches, registry::find)?;
+        Ok(Self {
+            kind,
+            matches: sub.clone(),
+            run: ReplayRunArgs::from_arg_matches(sub)?,
+        })
+    }
+
+    fn update_from_arg_matches(&mut self, matches: &clap::ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(matches)?;
+        Ok(())
+    }
+}
+
+impl clap::Subcommand for DataSet {
+    fn augment_subcommands(command: clap::Command) -> clap::Command {
+        registry::DATA_SETS.iter().fold(command, |command, kind| {
+            let own = (kind.flags)(clap::Command::new(kind.name));
+            command.subcommand(ReplayRunArgs::augment_args(own).about(kind.about))
+        })
+    }
+
+    fn augment_subcommands_for_update(command: clap::Command) -> clap::Command {
+        Self::augment_subcommands(command)
+    }
+
+    fn has_subcommand(name: &str) -> bool {
+        registry::find(name).is_some()
+    }
 }
 
 /// Flags of `replay` common to every data set.
@@ -103,126 +95,21 @@ pub struct ReplayRunArgs {
     pub launch: LaunchArgs,
 }
 
-/// What the replay process needs beyond the common flags: its subcommand, run-folder
-/// name, default profile, association, its own flags (the data's path first), and the
-/// recording when it is a user's bag or log.
-struct Plan<'a> {
-    process: &'static str,
-    label: String,
-    default_profile: &'static str,
-    association: Association,
-    flags: Vec<String>,
-    recording: Option<Recording>,
-    run: &'a ReplayRunArgs,
-}
-
-impl DataSet {
-    fn plan(&self) -> anyhow::Result<Plan<'_>> {
-        let folder = |data: &Path| {
-            let name = std::fs::canonicalize(data).with_context(|| {
-                format!(
-                    "data set folder {} (run from the repository root or pass --data)",
-                    data.display()
-                )
-            })?;
-            Ok::<_, anyhow::Error>(
-                name.file_name()
-                    .map_or_else(|| "data".to_string(), |n| n.to_string_lossy().into_owned()),
-            )
-        };
-        let canonical = |path: &Path| {
-            std::fs::canonicalize(path)
-                .with_context(|| format!("{}", path.display()))
-                .map(|p| p.display().to_string())
-        };
-        let stem = |path: &Path| {
-            let name = path.file_name().map_or_else(
-                || "recording".to_string(),
-                |n| n.to_string_lossy().into_owned(),
-            );
-            name.split('.').next().unwrap_or("recording").to_string()
-        };
-        Ok(match self {
-            Self::Mrclam {
-                data,
-                robot,
-                association,
-                run,
-            } => Plan {
-                process: "replay-mrclam",
-                label: format!(
-                    "{}-robot{robot}-{}",
-                    folder(data)?,
-                    association.service_mode()
-                ),
-                default_profile: "mrclam",
-                association: *association,
-                flags: vec![
-                    "--data".into(),
-                    canonical(data)?,
-                    "--robot".into(),
-                    robot.to_string(),
-                    "--association".into(),
-                    association.service_mode().into(),
-                ],
-                recording: None,
-                run,
-            },
-            Self::VictoriaPark { data, run } => Plan {
-                process: "replay-victoria-park",
-                label: folder(data)?,
-                default_profile: "victoria-park",
-                association: Association::Unknown,
-                flags: vec!["--data".into(), canonical(data)?],
-                recording: None,
-                run,
-            },
-            Self::Rosbag { path, topics, run } => {
-                let mut flags = vec!["--rosbag".into(), canonical(path)?];
-                flags.extend(topics.flags());
-                let source = Source {
-                    rosbag: Some(path.clone()),
-                    carmen: None,
-                };
-                Plan {
-                    process: "replay-recording",
-                    label: stem(path),
-                    default_profile: "planar-laser",
-                    association: Association::Unknown,
-                    flags,
-                    recording: Some(fastslam_replay::processes::recording::recording(
-                        &source, topics,
-                    )),
-                    run,
-                }
-            }
-            Self::Carmen { file, run } => Plan {
-                process: "replay-recording",
-                label: stem(file),
-                default_profile: "planar-laser",
-                association: Association::Unknown,
-                flags: vec!["--carmen".into(), canonical(file)?],
-                recording: Some(Recording::Carmen { path: file.clone() }),
-                run,
-            },
-        })
-    }
-}
-
 /// Runs the replay, the service and the client; returns the process exit code (0
 /// finished, 1 failed, 130 interrupted).
 ///
 /// # Errors
 /// When the data set folder, profile or settings are invalid, or a process cannot start.
 pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
-    let plan = data_set.plan()?;
-    let args = plan.run;
+    let kind = data_set.kind;
+    let plan = (kind.plan)(&data_set.matches)?;
+    let args = &data_set.run;
     let expectations = args.launch.judge.expectations()?;
     args.launch.split.check(args.launch.live.live)?;
     let profile_arg = args
         .profile
         .clone()
-        .unwrap_or_else(|| plan.default_profile.to_string());
+        .unwrap_or_else(|| kind.profile.to_string());
     let profile = Profile::load(&profile_arg)?;
     let place = Place::claim(
         args.launch.prefix.as_deref(),
@@ -327,7 +214,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         let (name, flags) = match role.name {
             "client" => ("client", client.clone()),
             "service" => ("service", service_flags.clone()),
-            _ => (plan.process, replay.clone()),
+            _ => (kind.process.name, replay.clone()),
         };
         let mut argv = vec![name.to_string()];
         argv.extend(flags);

@@ -1,10 +1,14 @@
 //! Replays a user's own recording — a ROS 2 bag or a CARMEN log — as odometry poses and
-//! raw laser scans, without ground truth; ends with an end-of-stream per stream.
+//! raw laser scans, without ground truth; ends with an end-of-stream per stream. Also the
+//! rows of both formats in the [`crate::registry`].
 
 use crate::args::ReplayArgs;
+use crate::dataset::Association;
 use crate::player;
 use crate::recording::Recording;
+use crate::registry::{self, DataSetKind, Plan, Process};
 use crate::rosbag::TopicChoice;
+use clap::FromArgMatches;
 use std::path::PathBuf;
 
 /// What `--help` says about this process.
@@ -91,7 +95,7 @@ impl Args {
 }
 
 /// The recording `source` names, with `topics` for a bag.
-pub fn recording(source: &Source, topics: &TopicArgs) -> Recording {
+fn recording(source: &Source, topics: &TopicArgs) -> Recording {
     match (&source.rosbag, &source.carmen) {
         (Some(path), _) => Recording::Rosbag {
             path: path.clone(),
@@ -113,7 +117,85 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     for warning in &loaded.warnings {
         tracing::warn!("{warning}");
     }
-    let ipc = args.replay.join("replay-recording")?;
+    let ipc = args.replay.join(PROCESS.name)?;
     player::play(&ipc, &loaded.data, pacing, args.replay.wait_subscribers)?;
     Ok(())
+}
+
+/// The recording replay process, for a bag and a log alike.
+pub const PROCESS: Process = Process {
+    name: "replay-recording",
+    about: "The recording replay process (started by `replay rosbag` and `replay carmen`)",
+    args: <Args as clap::Args>::augment_args,
+    run: |matches| run(Args::from_arg_matches(matches)?),
+};
+
+/// A user's ROS 2 bag in the registry.
+pub const ROSBAG: DataSetKind = DataSetKind {
+    name: "rosbag",
+    about: "Your own ROS 2 bag (rosbag2: MCAP or sqlite3): its laser scans and odometry, the \
+laser's mounting from /tf_static; no ground truth needed (docs/REPLAYS.md)",
+    flags: <RosbagFlags as clap::Args>::augment_args,
+    plan: |matches| RosbagFlags::from_arg_matches(matches)?.plan(),
+    profile: "planar-laser",
+    process: &PROCESS,
+    in_process: None,
+};
+
+/// A CARMEN log in the registry.
+pub const CARMEN: DataSetKind = DataSetKind {
+    name: "carmen",
+    about: "A CARMEN log (.clf / .log, gzipped or not: FLASER, ROBOTLASER1, ODOM), such as the \
+Freiburg benchmark's; no ground truth needed (docs/REPLAYS.md)",
+    flags: <CarmenFlags as clap::Args>::augment_args,
+    plan: |matches| CarmenFlags::from_arg_matches(matches)?.plan(),
+    profile: "planar-laser",
+    process: &PROCESS,
+    in_process: None,
+};
+
+/// `replay rosbag`'s own flags.
+#[derive(Debug, Clone, clap::Args)]
+struct RosbagFlags {
+    /// A rosbag2 folder (with metadata.yaml) or one .mcap / .db3 file.
+    path: PathBuf,
+    /// Topics and frames, where the bag leaves a choice.
+    #[command(flatten)]
+    topics: TopicArgs,
+}
+
+impl RosbagFlags {
+    /// The replay process's flags, the run folder's name and the bag.
+    fn plan(self) -> anyhow::Result<Plan> {
+        let mut flags = vec!["--rosbag".into(), registry::canonical(&self.path)?];
+        flags.extend(self.topics.flags());
+        Ok(Plan {
+            label: registry::stem(&self.path),
+            association: Association::Unknown,
+            flags,
+            recording: Some(Recording::Rosbag {
+                topics: self.topics.choice(),
+                path: self.path,
+            }),
+        })
+    }
+}
+
+/// `replay carmen`'s own flags.
+#[derive(Debug, Clone, clap::Args)]
+struct CarmenFlags {
+    /// The log file.
+    file: PathBuf,
+}
+
+impl CarmenFlags {
+    /// The replay process's flags, the run folder's name and the log.
+    fn plan(self) -> anyhow::Result<Plan> {
+        Ok(Plan {
+            label: registry::stem(&self.file),
+            association: Association::Unknown,
+            flags: vec!["--carmen".into(), registry::canonical(&self.file)?],
+            recording: Some(Recording::Carmen { path: self.file }),
+        })
+    }
 }
