@@ -265,7 +265,10 @@ fn survive_a_sensor_restart(sensor: &'static str, max_ate_m: f64) {
         },
     )
     .unwrap();
-    assert!(!quiet(&watch.borrow().newest, sensor), "{sensor} still quiet");
+    assert!(
+        !quiet(&watch.borrow().newest, sensor),
+        "{sensor} still quiet"
+    );
     stack.wait_all(Duration::from_secs(60));
     follow();
     drop((status, ipc));
