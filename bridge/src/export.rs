@@ -112,7 +112,7 @@ impl Open {
         keys: &Keys,
         route: &'static Route,
     ) -> Result<Self> {
-        let name = route.topic.name;
+        let name = route.row.topic.name;
         let port = route.outgoing(ipc)?;
         let publisher = session
             .declare_publisher(keys.data(name))
@@ -174,7 +174,7 @@ pub fn run(
     }
     let all: Vec<&'static Route> = routes.iter().copied().chain([end_of_stream()]).collect();
     let kinds: Vec<Kind> = all.iter().map(|r| r.kind()).collect();
-    let ours: Vec<StreamId> = routes.iter().filter_map(|r| r.stream).collect();
+    let ours: Vec<StreamId> = routes.iter().filter_map(|r| r.row.stream).collect();
     let probes = all
         .iter()
         .map(|r| r.publishers(ipc))
@@ -257,7 +257,7 @@ pub fn run(
     }
     for (route, p) in all.iter().zip(&progress) {
         if p.sent > 0 {
-            tracing::info!(topic = route.topic.name, messages = p.sent, "sent");
+            tracing::info!(topic = route.row.topic.name, messages = p.sent, "sent");
         }
     }
     Ok(())
@@ -299,7 +299,7 @@ fn send_pending(
         progress[i].sent += 1;
         match stream {
             Some((stream, eos)) => {
-                if let Some(j) = all.iter().position(|r| r.stream == Some(stream)) {
+                if let Some(j) = all.iter().position(|r| r.row.stream == Some(stream)) {
                     progress[j].end.announce(&eos);
                 }
             }
@@ -399,7 +399,7 @@ fn warn_if_peerless(streams: &[(&'static Route, &Progress)]) -> bool {
             p.unmatched_since
                 .is_some_and(|t| t.elapsed() >= PEERLESS_WARNING)
         })
-        .map(|(route, _)| route.topic.name)
+        .map(|(route, _)| route.row.topic.name)
         .collect();
     if waiting.is_empty() {
         return false;
@@ -423,7 +423,7 @@ fn open_streams<'a>(
     all.iter()
         .zip(opens)
         .zip(progress)
-        .filter(|((route, open), _)| route.stream.is_some() && open.is_some())
+        .filter(|((route, open), _)| route.row.stream.is_some() && open.is_some())
         .map(|((route, _), p)| (*route, p))
 }
 
@@ -434,5 +434,5 @@ fn done<'a>(
     peer_ended: &HashSet<String>,
 ) -> bool {
     streams.clone().next().is_some()
-        && streams.all(|(route, p)| p.end.finished() && peer_ended.contains(route.topic.name))
+        && streams.all(|(route, p)| p.end.finished() && peer_ended.contains(route.row.topic.name))
 }

@@ -68,7 +68,7 @@ pub fn run(
     if routes.is_empty() {
         return Ok(());
     }
-    let theirs: Vec<StreamId> = routes.iter().filter_map(|r| r.stream).collect();
+    let theirs: Vec<StreamId> = routes.iter().filter_map(|r| r.row.stream).collect();
     let mut ins: Vec<In> = routes
         .iter()
         .copied()
@@ -102,11 +102,13 @@ pub fn run(
         while let Some(token) = publishers.try_recv().map_err(zenoh_error)? {
             let topic = keys.topic_of(Token::Publisher, token.key_expr().as_str());
             if token.kind() == SampleKind::Put
-                && let Some(i) = ins.iter().position(|s| Some(s.route.topic.name) == topic)
+                && let Some(i) = ins
+                    .iter()
+                    .position(|s| Some(s.route.row.topic.name) == topic)
                 && ins[i].port.is_none()
             {
                 ins[i].port = Some(ins[i].route.incoming(ipc)?);
-                tracing::info!(topic = ins[i].route.topic.name, "a peer publishes it");
+                tracing::info!(topic = ins[i].route.row.topic.name, "a peer publishes it");
             }
         }
         for (i, s) in ins.iter_mut().enumerate() {
@@ -125,12 +127,12 @@ pub fn run(
             Err(RecvTimeoutError::Timeout) => {}
             Err(RecvTimeoutError::Disconnected) => unreachable!("this loop holds a sender"),
         }
-        for s in ins.iter_mut().filter(|s| s.route.stream.is_some()) {
+        for s in ins.iter_mut().filter(|s| s.route.row.stream.is_some()) {
             if s.ended.is_none() && s.port.is_some() && s.end.finished() {
                 s.ended = Some(
                     session
                         .liveliness()
-                        .declare_token(keys.token(Token::Ended, s.route.topic.name))
+                        .declare_token(keys.token(Token::Ended, s.route.row.topic.name))
                         .wait()
                         .map_err(zenoh_error)?,
                 );
@@ -143,7 +145,7 @@ pub fn run(
     for s in &ins {
         if s.received > 0 || s.refused > 0 {
             tracing::info!(
-                topic = s.route.topic.name,
+                topic = s.route.row.topic.name,
                 messages = s.received,
                 repeated = s.repeated,
                 refused = s.refused,
@@ -168,7 +170,7 @@ fn subscribe(
     i: usize,
     tx: SyncSender<(usize, ZBytes)>,
 ) -> Result<Subscriber<()>> {
-    let name = route.topic.name;
+    let name = route.row.topic.name;
     tracing::info!(topic = name, "receiving from the peers");
     session
         .declare_subscriber(keys.data(name))
@@ -233,13 +235,13 @@ fn publish(
         };
         port.publish(body)?;
         s.received += 1;
-        if let Some(carrier) = ins.iter_mut().find(|s| s.route.stream == Some(stream)) {
+        if let Some(carrier) = ins.iter_mut().find(|s| s.route.row.stream == Some(stream)) {
             carrier.end.announce(&end);
         }
         return Ok(());
     }
     let header = header_of(body);
-    if let Some(stream) = s.route.stream
+    if let Some(stream) = s.route.row.stream
         && !delivered.fresh(stream, header)
     {
         s.repeated += 1;
@@ -255,7 +257,7 @@ fn publish(
 fn refuse(s: &mut In, refused: &Refused) {
     if s.refused == 0 {
         tracing::error!(
-            topic = s.route.topic.name,
+            topic = s.route.row.topic.name,
             "refused what a peer sends on this topic (and every further refusal is only counted): {refused}"
         );
     }
@@ -267,7 +269,7 @@ fn refuse(s: &mut In, refused: &Refused) {
 fn done(ins: &[In]) -> bool {
     let mut streams = ins
         .iter()
-        .filter(|s| s.route.stream.is_some() && s.port.is_some())
+        .filter(|s| s.route.row.stream.is_some() && s.port.is_some())
         .peekable();
     streams.peek().is_some() && streams.all(|s| s.end.finished())
 }

@@ -32,7 +32,8 @@ pub mod routes;
 use anyhow::{Result, bail};
 use fastslam_protocol::cli;
 use fastslam_protocol::ipc::Ipc;
-use routes::{Route, SENSOR_TOPICS, SERVICE_TOPICS};
+use fastslam_protocol::topics::{self, Publisher};
+use routes::Route;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
@@ -91,8 +92,8 @@ impl Args {
     /// An unknown topic, a topic both sent and received, or nothing to carry.
     pub fn routes(&self) -> Result<(Vec<&'static Route>, Vec<&'static Route>)> {
         let (export, import): (Vec<String>, Vec<String>) = match self.side {
-            Some(Side::Sensors) => (names(&SENSOR_TOPICS), names(&SERVICE_TOPICS)),
-            Some(Side::Service) => (names(&SERVICE_TOPICS), names(&SENSOR_TOPICS)),
+            Some(Side::Sensors) => (names(Publisher::Sensor), names(Publisher::Service)),
+            Some(Side::Service) => (names(Publisher::Service), names(Publisher::Sensor)),
             None => (self.export.clone(), self.import.clone()),
         };
         if export.is_empty() && import.is_empty() {
@@ -105,9 +106,12 @@ impl Args {
     }
 }
 
-/// The topic names as owned strings.
-fn names(topics: &[&str]) -> Vec<String> {
-    topics.iter().map(|t| t.to_string()).collect()
+/// The names of the topics `publisher` publishes: what its host sends.
+fn names(publisher: Publisher) -> Vec<String> {
+    (topics::TABLE.iter())
+        .filter(|row| row.publisher == publisher)
+        .map(|row| row.topic.name.to_string())
+        .collect()
 }
 
 /// The routes of `topics`.
@@ -120,7 +124,7 @@ fn lookup(topics: &[String]) -> Result<Vec<&'static Route>> {
                 let known: Vec<&str> = routes::ROUTES
                     .iter()
                     .filter(|r| !std::ptr::eq(*r, routes::end_of_stream()))
-                    .map(|r| r.topic.name)
+                    .map(|r| r.row.topic.name)
                     .collect();
                 bail!(
                     "a bridge cannot carry {t:?}; it carries {} (end_of_stream always goes both ways)",
@@ -143,8 +147,8 @@ pub fn run(args: Args) -> Result<()> {
     let timeout = Duration::from_secs_f64(args.wait_timeout_s);
     tracing::info!(
         key = %args.zenoh.key,
-        sends = ?export.iter().map(|r| r.topic.name).collect::<Vec<_>>(),
-        receives = ?import.iter().map(|r| r.topic.name).collect::<Vec<_>>(),
+        sends = ?export.iter().map(|r| r.row.topic.name).collect::<Vec<_>>(),
+        receives = ?import.iter().map(|r| r.row.topic.name).collect::<Vec<_>>(),
         "bridge up"
     );
     // Set when one direction fails, so that the other stops too.
@@ -201,7 +205,7 @@ mod tests {
     }
 
     fn topic_names(routes: &[&Route]) -> Vec<&'static str> {
-        routes.iter().map(|r| r.topic.name).collect()
+        routes.iter().map(|r| r.row.topic.name).collect()
     }
 
     #[test]
@@ -212,7 +216,7 @@ mod tests {
         let (service_out, service_back) = service.routes().unwrap();
         assert_eq!(topic_names(&out), topic_names(&service_back));
         assert_eq!(topic_names(&back), topic_names(&service_out));
-        assert_eq!(topic_names(&out), SENSOR_TOPICS);
+        assert_eq!(topic_names(&out), ["odometry", "observations", "scan"]);
     }
 
     #[test]

@@ -1,6 +1,6 @@
-//! The topics a bridge can carry ([`ROUTES`]), each with its message type, and the two
-//! ends of a route: [`Outgoing`] takes a topic's messages out of shared memory as bytes,
-//! [`Incoming`] publishes bytes from the peer as messages.
+//! The topics a bridge can carry ([`ROUTES`], from the protocol's topic table), each with
+//! its message type, and the two ends of a route: [`Outgoing`] takes a topic's messages
+//! out of shared memory as bytes, [`Incoming`] publishes bytes from the peer as messages.
 //!
 //! Every message type of the contract is plain old data (`bytemuck::Pod`: no padding, any
 //! bit pattern valid), so its bytes are the message, on any host of the same byte order.
@@ -8,26 +8,22 @@
 use crate::frame::Kind;
 use anyhow::Result;
 use bytemuck::Pod;
-use fastslam_protocol::ipc::{HoldingSub, Ipc, Pub, Received, Taken, WakeSource};
-use fastslam_protocol::topics::{self, Topic};
-use fastslam_protocol::{
-    Checkpointed, EndOfStream, GroundTruth, Header, LandmarkMapHeader, LaserScanHeader,
-    MapLandmark, Observation, ObservationsHeader, OccupancyGridHeader, Odometry, Particle,
-    ParticlesHeader, PoseEstimate, ServiceStatus, StreamId, TrajectoryHeader, TrajectoryPose,
-};
+use fastslam_protocol::Header;
+use fastslam_protocol::ipc::{HoldingSub, Ipc, Pub, PublisherCount, Received, Taken, WakeSource};
+use fastslam_protocol::message::{Fixed, FixedMessage, PayloadVisitor, Slice, SliceMessage};
+use fastslam_protocol::topics::{self, Topic, TopicRow};
 use iceoryx2::prelude::ZeroCopySend;
 use iceoryx2::service::static_config::message_type_details::{TypeDetail, TypeVariant};
 use std::cell::RefCell;
 use std::fmt::Debug;
-use std::marker::PhantomData;
+use std::sync::LazyLock;
 
 /// One topic a bridge can carry.
 pub struct Route {
-    /// The topic.
-    pub topic: Topic,
-    /// The stream it carries, whose end the bridge follows; `None` for the end-of-stream
-    /// topic itself and for the checkpoint topic, which never ends.
-    pub stream: Option<StreamId>,
+    /// The topic's row in the protocol's table: its settings, and the stream it carries,
+    /// whose end the bridge follows (`None` for the end-of-stream topic itself and for
+    /// the checkpoint topic, which never ends).
+    pub row: &'static TopicRow,
     /// Publish only the newest: a sample that finds a subscriber's buffer full is not
     /// delivered to it (the checkpoint topic; see `Ipc::newest_only_publisher`).
     pub newest_only: bool,
@@ -35,104 +31,22 @@ pub struct Route {
     carrier: &'static dyn Carrier,
 }
 
-/// The topics the sensors publish: what a sensor host sends to the service's host.
-pub const SENSOR_TOPICS: [&str; 3] = ["odometry", "observations", "scan"];
-/// The topics the service publishes: what the service's host sends back.
-pub const SERVICE_TOPICS: [&str; 8] = [
-    "pose",
-    "map",
-    "grid",
-    "smoothed/trajectory",
-    "smoothed/map",
-    "particles",
-    "status",
-    "checkpoint",
-];
-
-/// Every topic a bridge can carry. The true landmark map (history only, no end) and the
-/// map request–response service are not carried.
-pub static ROUTES: [Route; 13] = [
-    route(
-        topics::GROUND_TRUTH,
-        Some(StreamId::GroundTruth),
-        &Fixed::<GroundTruth>(PhantomData),
-    ),
-    route(
-        topics::ODOMETRY,
-        Some(StreamId::Odometry),
-        &Fixed::<Odometry>(PhantomData),
-    ),
-    route(
-        topics::OBSERVATIONS,
-        Some(StreamId::Observations),
-        &Slice::<ObservationsHeader, Observation>(PhantomData),
-    ),
-    route(
-        topics::SCAN,
-        Some(StreamId::Scan),
-        &Slice::<LaserScanHeader, f32>(PhantomData),
-    ),
-    route(
-        topics::POSE,
-        Some(StreamId::Pose),
-        &Fixed::<PoseEstimate>(PhantomData),
-    ),
-    route(
-        topics::MAP,
-        Some(StreamId::Map),
-        &Slice::<LandmarkMapHeader, MapLandmark>(PhantomData),
-    ),
-    route(
-        topics::GRID,
-        Some(StreamId::Grid),
-        &Slice::<OccupancyGridHeader, i8>(PhantomData),
-    ),
-    route(
-        topics::SMOOTHED_TRAJECTORY,
-        Some(StreamId::SmoothedTrajectory),
-        &Slice::<TrajectoryHeader, TrajectoryPose>(PhantomData),
-    ),
-    route(
-        topics::SMOOTHED_MAP,
-        Some(StreamId::SmoothedMap),
-        &Slice::<LandmarkMapHeader, MapLandmark>(PhantomData),
-    ),
-    route(
-        topics::PARTICLES,
-        Some(StreamId::Particles),
-        &Slice::<ParticlesHeader, Particle>(PhantomData),
-    ),
-    route(
-        topics::STATUS,
-        Some(StreamId::Status),
-        &Fixed::<ServiceStatus>(PhantomData),
-    ),
-    Route {
-        topic: topics::CHECKPOINT,
-        stream: None,
-        newest_only: true,
-        carrier: &Fixed::<Checkpointed>(PhantomData),
-    },
-    route(
-        topics::END_OF_STREAM,
-        None,
-        &Fixed::<EndOfStream>(PhantomData),
-    ),
-];
-
-/// A route that waits rather than lose a sample.
-const fn route(topic: Topic, stream: Option<StreamId>, carrier: &'static dyn Carrier) -> Route {
-    Route {
-        topic,
-        stream,
-        newest_only: false,
-        carrier,
-    }
-}
+/// Every topic a bridge can carry, in the order of the protocol's table. The true landmark
+/// map (history only, no end) and the map request–response service are not carried.
+pub static ROUTES: LazyLock<Vec<Route>> = LazyLock::new(|| {
+    (topics::TABLE.iter())
+        .filter(|row| row.topic != topics::TRUE_LANDMARKS)
+        .map(|row| Route {
+            row,
+            newest_only: row.topic == topics::CHECKPOINT,
+            carrier: row.payload.visit(AsCarrier),
+        })
+        .collect()
+});
 
 /// The route of topic `name`, if a bridge can carry it.
 pub fn by_name(name: &str) -> Option<&'static Route> {
-    ROUTES.iter().find(|r| r.topic.name == name)
+    ROUTES.iter().find(|r| r.row.topic.name == name)
 }
 
 /// The end-of-stream route, which every bridge carries both ways.
@@ -143,8 +57,8 @@ pub fn end_of_stream() -> &'static Route {
 impl Debug for Route {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Route")
-            .field("topic", &self.topic.name)
-            .field("stream", &self.stream)
+            .field("topic", &self.row.topic.name)
+            .field("stream", &self.row.stream)
             .finish_non_exhaustive()
     }
 }
@@ -159,8 +73,8 @@ impl Route {
     ///
     /// # Errors
     /// IPC failures.
-    pub fn publishers(&self, ipc: &Ipc) -> Result<Box<dyn Fn() -> usize>> {
-        self.carrier.publishers(ipc, &self.topic)
+    pub fn publishers(&self, ipc: &Ipc) -> Result<PublisherCount> {
+        Ok(ipc.row_publisher_probe(self.row)?)
     }
 
     /// Subscribes to the topic on this host (it has a publisher by now).
@@ -168,7 +82,7 @@ impl Route {
     /// # Errors
     /// IPC failures.
     pub fn outgoing(&'static self, ipc: &Ipc) -> Result<Box<dyn Outgoing>> {
-        self.carrier.outgoing(ipc, &self.topic)
+        self.carrier.outgoing(ipc, &self.row.topic)
     }
 
     /// Opens a publisher on the topic on this host.
@@ -210,18 +124,28 @@ pub trait Incoming {
     fn wait_until_unsubscribed(&self, ipc: &Ipc) -> Result<()>;
 }
 
-/// How a message type is read from and written to shared memory.
+/// How a message type is read from and written to shared memory: the protocol's
+/// payload types ([`Fixed`], [`Slice`]) are the carriers.
 trait Carrier: Sync {
     fn kind(&self) -> Kind;
-    fn publishers(&self, ipc: &Ipc, topic: &Topic) -> Result<Box<dyn Fn() -> usize>>;
     fn outgoing(&self, ipc: &Ipc, topic: &Topic) -> Result<Box<dyn Outgoing>>;
     fn incoming(&self, ipc: &Ipc, route: &Route) -> Result<Box<dyn Incoming>>;
 }
 
-/// A fixed-size message `T`.
-struct Fixed<T>(PhantomData<fn() -> T>);
-/// A header `H` followed by a slice of `T`.
-struct Slice<H, T>(PhantomData<fn() -> (H, T)>);
+/// The carrier of a payload type named at run time.
+struct AsCarrier;
+
+impl PayloadVisitor for AsCarrier {
+    type Output = &'static dyn Carrier;
+
+    fn fixed<T: FixedMessage>(self, payload: &'static Fixed<T>) -> Self::Output {
+        payload
+    }
+
+    fn slice<H: SliceMessage>(self, payload: &'static Slice<H>) -> Self::Output {
+        payload
+    }
+}
 
 /// The contract's name of type `T`.
 fn type_name<T: ZeroCopySend>() -> String {
@@ -240,7 +164,7 @@ fn size32<T>() -> u32 {
     u32::try_from(size_of::<T>()).expect("messages are small")
 }
 
-impl<T: Pod + Debug + ZeroCopySend + Default> Carrier for Fixed<T> {
+impl<T: FixedMessage> Carrier for Fixed<T> {
     fn kind(&self) -> Kind {
         Kind {
             name: type_name::<T>(),
@@ -249,49 +173,40 @@ impl<T: Pod + Debug + ZeroCopySend + Default> Carrier for Fixed<T> {
         }
     }
 
-    fn publishers(&self, ipc: &Ipc, topic: &Topic) -> Result<Box<dyn Fn() -> usize>> {
-        Ok(Box::new(ipc.publisher_probe::<T, ()>(topic)?))
-    }
-
     fn outgoing(&self, ipc: &Ipc, topic: &Topic) -> Result<Box<dyn Outgoing>> {
         Ok(Box::new(ipc.subscriber::<T>(topic)?.holding()))
     }
 
     fn incoming(&self, ipc: &Ipc, route: &Route) -> Result<Box<dyn Incoming>> {
+        let topic = &route.row.topic;
         Ok(Box::new(if route.newest_only {
-            ipc.newest_only_publisher::<T>(&route.topic)?
+            ipc.newest_only_publisher::<T>(topic)?
         } else {
-            ipc.publisher::<T>(&route.topic)?
+            ipc.publisher::<T>(topic)?
         }))
     }
 }
 
-impl<H, T> Carrier for Slice<H, T>
-where
-    H: Pod + Debug + ZeroCopySend + Default,
-    T: Pod + Debug + ZeroCopySend,
-{
+impl<H: SliceMessage> Carrier for Slice<H> {
     fn kind(&self) -> Kind {
         Kind {
-            name: format!("{} + [{}]", type_name::<H>(), type_name::<T>()),
+            name: format!("{} + [{}]", type_name::<H>(), type_name::<H::Item>()),
             fixed_size: size32::<H>(),
-            element_size: size32::<T>(),
+            element_size: size32::<H::Item>(),
         }
-    }
-
-    fn publishers(&self, ipc: &Ipc, topic: &Topic) -> Result<Box<dyn Fn() -> usize>> {
-        Ok(Box::new(ipc.publisher_probe::<[T], H>(topic)?))
     }
 
     fn outgoing(&self, ipc: &Ipc, topic: &Topic) -> Result<Box<dyn Outgoing>> {
         Ok(Box::new(SliceOut {
-            sub: ipc.slice_subscriber::<H, T>(topic)?.holding(),
+            sub: ipc.slice_subscriber::<H, H::Item>(topic)?.holding(),
             bytes: RefCell::default(),
         }))
     }
 
     fn incoming(&self, ipc: &Ipc, route: &Route) -> Result<Box<dyn Incoming>> {
-        Ok(Box::new(ipc.slice_publisher::<H, T>(&route.topic)?))
+        Ok(Box::new(
+            ipc.slice_publisher::<H, H::Item>(&route.row.topic)?,
+        ))
     }
 }
 
@@ -378,6 +293,11 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fastslam_protocol::{
+        Checkpointed, EndOfStream, GroundTruth, LandmarkMapHeader, LaserScanHeader, MapLandmark,
+        ObservationsHeader, OccupancyGridHeader, Odometry, ParticlesHeader, PoseEstimate,
+        ServiceStatus, TrajectoryHeader,
+    };
     use std::mem::offset_of;
 
     #[test]
@@ -403,7 +323,20 @@ mod tests {
     #[test]
     fn every_route_names_its_contract_types() {
         assert_eq!(ROUTES.len(), 13);
-        for name in SENSOR_TOPICS.iter().chain(&SERVICE_TOPICS) {
+        let sides = [
+            "odometry",
+            "observations",
+            "scan",
+            "pose",
+            "map",
+            "grid",
+            "smoothed/trajectory",
+            "smoothed/map",
+            "particles",
+            "status",
+            "checkpoint",
+        ];
+        for name in sides {
             let route = by_name(name).unwrap_or_else(|| panic!("{name} has a route"));
             assert!(
                 route.kind().name.starts_with("fastslam::"),

@@ -20,6 +20,8 @@
 //! | `/scan` | `foxglove.LaserScan` | raw scan (frame `base_link`) |
 //! | `/observations` | `foxglove.SceneUpdate` | landmark observation message (frame `base_link`) |
 
+use fastslam_protocol::message::Message;
+use fastslam_protocol::topics::{self, Topic};
 use fastslam_protocol::{
     GroundTruth, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation, ObservationsHeader,
     OccupancyGridHeader, Particle, ParticlesHeader, PoseEstimate, TrajectoryHeader, TrajectoryPose,
@@ -92,6 +94,25 @@ impl RunLog {
     ) {
         self.last_ns = self.last_ns.max(stamp_ns);
         channel(self).log_with_time(message, stamp_ns);
+    }
+
+    /// A valid message of `topic` on its channels; the topics without one (status,
+    /// checkpoints, end of stream) log nothing.
+    pub fn message(&mut self, topic: Topic, message: Message<'_>) {
+        match (topic, message) {
+            (topics::GROUND_TRUTH, Message::GroundTruth(m)) => self.truth(m),
+            (topics::ODOMETRY, Message::Odometry(m)) => self.dead_reckoning(m),
+            (topics::OBSERVATIONS, Message::Observations(h, o)) => self.observations(h, o),
+            (topics::SCAN, Message::Scan(h, d)) => self.scan(h, d),
+            (topics::POSE, Message::Pose(m)) => self.pose(m),
+            (topics::MAP, Message::LandmarkMap(h, l)) => self.map(h, l),
+            (topics::SMOOTHED_MAP, Message::LandmarkMap(h, l)) => self.smoothed_map(h, l),
+            (topics::TRUE_LANDMARKS, Message::LandmarkMap(h, l)) => self.true_map(h, l),
+            (topics::GRID, Message::Grid(h, c)) => self.grid(h, c),
+            (topics::SMOOTHED_TRAJECTORY, Message::Trajectory(h, p)) => self.smoothed(h, p),
+            (topics::PARTICLES, Message::Particles(h, p)) => self.particles(h, p),
+            _ => {}
+        }
     }
 
     /// A pose estimate: `/pose` and `/tf`.

@@ -1,14 +1,16 @@
-//! What the client and the live viewer subscribe to ([`Inputs`]), in an order that lets
-//! the stack start, the lidar's output whichever form it takes ([`Lidar`]), whether the
-//! run has ground truth ([`TruthWait`]), and when every stream has ended ([`Ends`]).
+//! What the client and the live viewer subscribe to ([`Inputs`]: every topic of the
+//! protocol's table but the checkpoints), in an order that lets the stack start, with the
+//! lidar's output whichever form it takes, ground truth when the run has it
+//! ([`TruthWait`]), and when every stream has ended ([`Ends`]).
 
 use fastslam_protocol::ipc::{Ipc, Sub, WakeSource};
-use fastslam_protocol::stream::StreamEnd;
-use fastslam_protocol::{
-    EndOfStream, GroundTruth, Header, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation,
-    ObservationsHeader, OccupancyGridHeader, Odometry, Particle, ParticlesHeader, PoseEstimate,
-    ServiceStatus, StreamId, TrajectoryHeader, TrajectoryPose, topics, validate,
+use fastslam_protocol::message::{
+    Fixed, FixedMessage, Message, PayloadVisitor, Slice, SliceMessage,
 };
+use fastslam_protocol::stream::StreamEnd;
+use fastslam_protocol::topics::{self, Publisher, Topic, TopicRow};
+use fastslam_protocol::validate::Rejection;
+use fastslam_protocol::{EndOfStream, StreamId};
 use std::time::{Duration, Instant};
 
 /// How long a consumer waits for a ground-truth publisher when it was not told whether
@@ -25,32 +27,24 @@ pub enum TruthWait {
     Within(Duration),
 }
 
+/// The lidar's topics, one of which a run has: raw scans first, as the service chooses
+/// when both have a publisher.
+const LIDAR: [Topic; 2] = [topics::SCAN, topics::OBSERVATIONS];
+
 /// A subscriber to every topic of the stack a consumer records or shows.
 pub struct Inputs {
-    /// End-of-stream messages.
-    pub eos: Sub<EndOfStream, ()>,
-    /// The true landmark map (`None` without ground truth).
-    pub true_map: Option<Sub<[MapLandmark], LandmarkMapHeader>>,
-    /// The service's landmark map.
-    pub map: Sub<[MapLandmark], LandmarkMapHeader>,
-    /// The service's occupancy grid.
-    pub grid: Sub<[i8], OccupancyGridHeader>,
-    /// The smoothing back-end's trajectory.
-    pub smoothed: Sub<[TrajectoryPose], TrajectoryHeader>,
-    /// The smoothing back-end's map.
-    pub smoothed_map: Sub<[MapLandmark], LandmarkMapHeader>,
-    /// The service's particle cloud (sent only when its `[output] particles_every` asks).
-    pub particles: Sub<[Particle], ParticlesHeader>,
-    /// The service's status.
-    pub status: Sub<ServiceStatus, ()>,
-    /// Raw scans or landmark observations.
-    pub lidar: Lidar,
-    /// Ground truth (`None` without).
-    pub truth: Option<Sub<GroundTruth, ()>>,
-    /// Odometry.
-    pub odometry: Sub<Odometry, ()>,
-    /// Pose estimates.
-    pub pose: Sub<PoseEstimate, ()>,
+    /// One per topic taken, in the order of the protocol's table.
+    inputs: Vec<Input>,
+    /// The lidar's stream: raw scans or observations.
+    lidar: StreamId,
+    /// Whether ground truth is taken.
+    truth: bool,
+}
+
+/// The subscriber to one topic.
+struct Input {
+    row: &'static TopicRow,
+    port: Box<dyn Port>,
 }
 
 impl Inputs {
@@ -60,71 +54,148 @@ impl Inputs {
     /// # Errors
     /// IPC failures, or a timeout when a topic gets no publisher.
     pub fn open(ipc: &Ipc, truth: TruthWait) -> anyhow::Result<Self> {
-        // A producer starts once the subscribers of one topic are there (truth simulator:
-        // ground truth; odometry: odometry; lidar: its scans or observations; service: pose),
-        // and a short run may be over before a later subscription exists: end-of-stream and
-        // each producer's other topics come before the topic it waits on. Ground truth comes
-        // last: nothing is published before it has its subscribers (the sensor simulators
-        // relay the truth; the replay waits for the truth's subscribers too).
-        let eos = ipc.subscriber::<EndOfStream>(&topics::END_OF_STREAM)?;
-        let map = ipc.slice_subscriber::<LandmarkMapHeader, MapLandmark>(&topics::MAP)?;
-        let grid = ipc.slice_subscriber::<OccupancyGridHeader, i8>(&topics::GRID)?;
-        let smoothed =
-            ipc.slice_subscriber::<TrajectoryHeader, TrajectoryPose>(&topics::SMOOTHED_TRAJECTORY)?;
-        let smoothed_map =
-            ipc.slice_subscriber::<LandmarkMapHeader, MapLandmark>(&topics::SMOOTHED_MAP)?;
-        let particles = ipc.slice_subscriber::<ParticlesHeader, Particle>(&topics::PARTICLES)?;
-        let status = ipc.subscriber::<ServiceStatus>(&topics::STATUS)?;
-        let lidar = Lidar::open(ipc)?;
-        let odometry = ipc.subscriber::<Odometry>(&topics::ODOMETRY)?;
-        let pose = ipc.subscriber::<PoseEstimate>(&topics::POSE)?;
-        let (true_map, truth) = if has_truth(ipc, truth)? {
-            (
-                Some(ipc.slice_subscriber(&topics::TRUE_LANDMARKS)?),
-                Some(ipc.subscriber::<GroundTruth>(&topics::GROUND_TRUTH)?),
-            )
-        } else {
-            (None, None)
+        let mut rows: Vec<(usize, &'static TopicRow)> = (topics::TABLE.iter().enumerate())
+            .filter(|(_, row)| row.topic != topics::CHECKPOINT)
+            .collect();
+        rows.sort_by_key(|(_, row)| opening_rank(row));
+        let mut choice = Choice {
+            wait: truth,
+            lidar: None,
+            truth: None,
         };
+        let mut inputs = Vec::new();
+        for (i, row) in rows {
+            if choice.takes(ipc, row)? {
+                let port = row.payload.visit(Open {
+                    ipc,
+                    topic: &row.topic,
+                })?;
+                inputs.push((i, Input { row, port }));
+            }
+        }
+        inputs.sort_by_key(|(i, _)| *i);
+        let lidar = choice.lidar.and_then(|row| row.stream);
         Ok(Self {
-            eos,
-            true_map,
-            map,
-            grid,
-            smoothed,
-            smoothed_map,
-            particles,
-            status,
-            lidar,
-            truth,
-            odometry,
-            pose,
+            inputs: inputs.into_iter().map(|(_, input)| input).collect(),
+            lidar: lidar.expect("every run has a lidar topic"),
+            truth: choice.truth == Some(true),
         })
     }
 
     /// Every subscriber, to wake on.
     pub fn sources(&self) -> Vec<&dyn WakeSource> {
-        let truth = self.truth.as_ref().map(|s| s as &dyn WakeSource);
-        let true_map = self.true_map.as_ref().map(|s| s as &dyn WakeSource);
-        let rest: [&dyn WakeSource; 10] = [
-            &self.odometry,
-            self.lidar.source(),
-            &self.status,
-            &self.map,
-            &self.grid,
-            &self.smoothed,
-            &self.smoothed_map,
-            &self.particles,
-            &self.pose,
-            &self.eos,
-        ];
-        truth.into_iter().chain(rest).chain(true_map).collect()
+        self.inputs
+            .iter()
+            .map(|input| input.port.source())
+            .collect()
     }
 
     /// True when the run has ground truth (its topic is subscribed to).
     pub fn ground_truth(&self) -> bool {
-        self.truth.is_some()
+        self.truth
     }
+
+    /// The lidar's stream: raw scans or landmark observations.
+    pub fn lidar(&self) -> StreamId {
+        self.lidar
+    }
+
+    /// The streams taken, each to follow until it ends.
+    pub fn ends(&self) -> Ends {
+        Ends(
+            (self.inputs.iter())
+                .filter_map(|input| input.row.stream)
+                .map(|id| (id, StreamEnd::default()))
+                .collect(),
+        )
+    }
+
+    /// Calls `each` with every pending message, topic after topic in the order of the
+    /// protocol's table, with its topic's row and the result of its check.
+    ///
+    /// # Errors
+    /// IPC failures.
+    pub fn drain(
+        &self,
+        mut each: impl FnMut(&'static TopicRow, Message<'_>, Result<(), Rejection>),
+    ) -> anyhow::Result<()> {
+        for input in &self.inputs {
+            input
+                .port
+                .drain(&mut |message, checked| each(input.row, message, checked))?;
+        }
+        Ok(())
+    }
+}
+
+/// Where a topic comes among the subscriptions. A producer starts once the subscribers
+/// of one topic are there (truth simulator: ground truth; odometry: odometry; lidar: its
+/// scans or observations; service: pose), and a short run may be over before a later
+/// subscription exists: end-of-stream and each producer's other topics come before the
+/// topic it waits on. Ground truth comes last: nothing is published before it has its
+/// subscribers (the sensor simulators relay the truth; the replay waits for the truth's
+/// subscribers too).
+fn opening_rank(row: &TopicRow) -> u8 {
+    match (row.publisher, row.topic) {
+        (Publisher::EachStream, _) => 0,
+        (Publisher::Service, topics::POSE) => 4,
+        (Publisher::Service, _) => 1,
+        (Publisher::Sensor, topics::ODOMETRY) => 3,
+        (Publisher::Sensor, _) => 2,
+        (Publisher::Truth, topics::GROUND_TRUTH) => 6,
+        (Publisher::Truth, _) => 5,
+    }
+}
+
+/// Which of the topics that a run may or may not have are taken, each decided when the
+/// first of its topics comes up.
+struct Choice {
+    wait: TruthWait,
+    /// The lidar's topic, once chosen.
+    lidar: Option<&'static TopicRow>,
+    /// Whether ground truth and the true map are taken, once decided.
+    truth: Option<bool>,
+}
+
+impl Choice {
+    /// Whether to subscribe to `row`'s topic.
+    ///
+    /// # Errors
+    /// IPC failures, or a timeout when no lidar topic gets a publisher.
+    fn takes(&mut self, ipc: &Ipc, row: &TopicRow) -> anyhow::Result<bool> {
+        if LIDAR.contains(&row.topic) {
+            let lidar = match self.lidar {
+                Some(lidar) => lidar,
+                None => *self.lidar.insert(lidar(ipc)?),
+            };
+            return Ok(row.topic == lidar.topic);
+        }
+        if row.publisher != Publisher::Truth {
+            return Ok(true);
+        }
+        Ok(match self.truth {
+            Some(truth) => truth,
+            None => *self.truth.insert(has_truth(ipc, self.wait)?),
+        })
+    }
+}
+
+/// The lidar's topic: raw scans or landmark observations, whichever has a publisher,
+/// scans when both do (as the service chooses).
+///
+/// # Errors
+/// IPC failures, or a timeout when neither topic gets a publisher.
+fn lidar(ipc: &Ipc) -> anyhow::Result<&'static TopicRow> {
+    let [scans, observations] = LIDAR.map(|topic| topics::row(topic.name).expect("in the table"));
+    let (scans_now, observations_now) = (
+        ipc.row_publisher_probe(scans)?,
+        ipc.row_publisher_probe(observations)?,
+    );
+    ipc.wait_until(
+        || "a publisher on scan or observations".into(),
+        || scans_now() + observations_now() > 0,
+    )?;
+    Ok(if scans_now() > 0 { scans } else { observations })
 }
 
 /// Whether to take ground truth, as `wait` says: for [`TruthWait::Within`], whether the
@@ -133,7 +204,8 @@ fn has_truth(ipc: &Ipc, wait: TruthWait) -> anyhow::Result<bool> {
     let TruthWait::Within(within) = wait else {
         return Ok(false);
     };
-    let publishers = ipc.publisher_probe::<GroundTruth, ()>(&topics::GROUND_TRUTH)?;
+    let truth = topics::row(topics::GROUND_TRUTH.name).expect("in the table");
+    let publishers = ipc.row_publisher_probe(truth)?;
     let start = Instant::now();
     while publishers() == 0 {
         if start.elapsed() >= within {
@@ -148,41 +220,106 @@ fn has_truth(ipc: &Ipc, wait: TruthWait) -> anyhow::Result<bool> {
     Ok(true)
 }
 
+/// A subscriber to one topic, whatever its payload type.
+trait Port {
+    /// The subscriber, to wake on.
+    fn source(&self) -> &dyn WakeSource;
+    /// Calls `each` with every pending message and the result of its check.
+    fn drain(
+        &self,
+        each: &mut dyn FnMut(Message<'_>, Result<(), Rejection>),
+    ) -> anyhow::Result<usize>;
+}
+
+/// A subscriber to a topic of fixed messages `T`.
+struct FixedPort<T: FixedMessage> {
+    sub: Sub<T, ()>,
+    payload: &'static Fixed<T>,
+}
+
+/// A subscriber to a topic of headers `H` and slices.
+struct SlicePort<H: SliceMessage> {
+    sub: Sub<[H::Item], H>,
+    payload: &'static Slice<H>,
+}
+
+impl<T: FixedMessage> Port for FixedPort<T> {
+    fn source(&self) -> &dyn WakeSource {
+        &self.sub
+    }
+
+    fn drain(
+        &self,
+        each: &mut dyn FnMut(Message<'_>, Result<(), Rejection>),
+    ) -> anyhow::Result<usize> {
+        Ok(self.sub.drain(|s| {
+            let (message, checked) = self.payload.read(s.payload());
+            each(message, checked);
+        })?)
+    }
+}
+
+impl<H: SliceMessage> Port for SlicePort<H> {
+    fn source(&self) -> &dyn WakeSource {
+        &self.sub
+    }
+
+    fn drain(
+        &self,
+        each: &mut dyn FnMut(Message<'_>, Result<(), Rejection>),
+    ) -> anyhow::Result<usize> {
+        Ok(self.sub.drain(|s| {
+            let (message, checked) = self.payload.read(s.user_header(), s.payload());
+            each(message, checked);
+        })?)
+    }
+}
+
+/// Opens the subscriber of a topic whose payload type is named at run time.
+struct Open<'a> {
+    ipc: &'a Ipc,
+    topic: &'a Topic,
+}
+
+impl PayloadVisitor for Open<'_> {
+    type Output = anyhow::Result<Box<dyn Port>>;
+
+    fn fixed<T: FixedMessage>(self, payload: &'static Fixed<T>) -> Self::Output {
+        let sub = self.ipc.subscriber::<T>(self.topic)?;
+        Ok(Box::new(FixedPort { sub, payload }))
+    }
+
+    fn slice<H: SliceMessage>(self, payload: &'static Slice<H>) -> Self::Output {
+        let sub = self.ipc.slice_subscriber::<H, H::Item>(self.topic)?;
+        Ok(Box::new(SlicePort { sub, payload }))
+    }
+}
+
 /// The streams a consumer takes until they end, each with its end bookkeeping.
 pub struct Ends(Vec<(StreamId, StreamEnd)>);
 
 impl Ends {
-    /// The stack's streams, with `lidar` (scans or observations) as the lidar's; ground
-    /// truth among them when `truth`.
-    pub fn new(lidar: StreamId, truth: bool) -> Self {
-        let truth = truth.then_some(StreamId::GroundTruth);
-        Self(
-            (truth.into_iter())
-                .chain([
-                    StreamId::Odometry,
-                    lidar,
-                    StreamId::Pose,
-                    StreamId::Map,
-                    StreamId::Grid,
-                    StreamId::SmoothedTrajectory,
-                    StreamId::SmoothedMap,
-                    StreamId::Particles,
-                    StreamId::Status,
-                ])
-                .map(|id| (id, StreamEnd::default()))
-                .collect(),
-        )
+    /// Notes a message of `row`'s topic: an end-of-stream message is recorded (true when
+    /// it closes one of these streams), any other counts as processed for its stream.
+    pub fn note(&mut self, row: &TopicRow, message: Message<'_>) -> bool {
+        if let Message::EndOfStream(eos) = message {
+            return self.announce(eos);
+        }
+        if let Some(id) = row.stream {
+            self.saw(id, message.header().seq);
+        }
+        false
     }
 
     /// The message `seq` of stream `id` was processed.
-    pub fn saw(&mut self, id: StreamId, seq: u64) {
+    fn saw(&mut self, id: StreamId, seq: u64) {
         if let Some((_, end)) = self.0.iter_mut().find(|(s, _)| *s == id) {
             end.saw(seq);
         }
     }
 
     /// Records an end-of-stream message; true when it closes one of these streams.
-    pub fn announce(&mut self, eos: &EndOfStream) -> bool {
+    fn announce(&mut self, eos: &EndOfStream) -> bool {
         let id = StreamId::from_u32(eos.stream);
         match self.0.iter_mut().find(|(s, _)| Some(*s) == id) {
             Some((_, end)) => {
@@ -197,85 +334,4 @@ impl Ends {
     pub fn finished(&self) -> bool {
         self.0.iter().all(|(_, end)| end.finished())
     }
-}
-
-/// The lidar's output, subscribed to only for its stamps (latency): raw scans or landmark
-/// observations, whichever has a publisher, scans when both do (as the service chooses).
-pub enum Lidar {
-    /// Landmark observations.
-    Observations(Sub<[Observation], ObservationsHeader>),
-    /// Raw scans.
-    Scans(Sub<[f32], LaserScanHeader>),
-}
-
-impl Lidar {
-    /// Waits until the scan or the observation topic has a publisher and subscribes to it.
-    ///
-    /// # Errors
-    /// IPC failures, or a timeout when neither topic gets a publisher.
-    pub fn open(ipc: &Ipc) -> anyhow::Result<Self> {
-        let scans = ipc.publisher_probe::<[f32], LaserScanHeader>(&topics::SCAN)?;
-        let observations =
-            ipc.publisher_probe::<[Observation], ObservationsHeader>(&topics::OBSERVATIONS)?;
-        ipc.wait_until(
-            || "a publisher on scan or observations".into(),
-            || scans() + observations() > 0,
-        )?;
-        Ok(if scans() > 0 {
-            Self::Scans(ipc.slice_subscriber(&topics::SCAN)?)
-        } else {
-            Self::Observations(ipc.slice_subscriber(&topics::OBSERVATIONS)?)
-        })
-    }
-
-    /// The stream it carries.
-    pub fn stream(&self) -> StreamId {
-        match self {
-            Self::Observations(_) => StreamId::Observations,
-            Self::Scans(_) => StreamId::Scan,
-        }
-    }
-
-    /// The subscriber to wake on.
-    pub fn source(&self) -> &dyn WakeSource {
-        match self {
-            Self::Observations(s) => s,
-            Self::Scans(s) => s,
-        }
-    }
-
-    /// Calls `each` with the header of every pending message and the message.
-    ///
-    /// # Errors
-    /// IPC failures.
-    pub fn drain(&self, mut each: impl FnMut(Header, LidarMessage<'_>)) -> anyhow::Result<usize> {
-        Ok(match self {
-            Self::Observations(s) => s.drain(|m| {
-                let header = m.user_header();
-                let message = match validate::observations(header, m.payload()) {
-                    Ok(()) => LidarMessage::Observations(header, m.payload()),
-                    Err(_) => LidarMessage::Invalid,
-                };
-                each(header.header, message)
-            })?,
-            Self::Scans(s) => s.drain(|m| {
-                let header = m.user_header();
-                let message = match validate::laser_scan(header, m.payload()) {
-                    Ok(()) => LidarMessage::Scan(header, m.payload()),
-                    Err(_) => LidarMessage::Invalid,
-                };
-                each(header.header, message)
-            })?,
-        })
-    }
-}
-
-/// One message of the lidar, as [`Lidar::drain`] hands it on.
-pub enum LidarMessage<'a> {
-    /// Landmark observations.
-    Observations(&'a ObservationsHeader, &'a [Observation]),
-    /// A raw scan: its header and its ranges (then intensities).
-    Scan(&'a LaserScanHeader, &'a [f32]),
-    /// A message that failed validation: only its stamp counts (latency, stream end).
-    Invalid,
 }

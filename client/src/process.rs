@@ -2,8 +2,8 @@
 //! (or, marked incomplete, on SIGINT/SIGTERM). While it records, it prints a progress
 //! line on stdout a few times a second (see [`crate::progress`]).
 
-use crate::expect::JudgeArgs;
-use crate::inputs::{Ends, Inputs, LidarMessage, TRUTH_WAIT_S, TruthWait};
+use crate::expect::{Expectations, JudgeArgs};
+use crate::inputs::{Ends, Inputs, TRUTH_WAIT_S, TruthWait};
 use crate::latency::LatencyMatcher;
 use crate::mcap::RunMcap;
 use crate::metrics::{AlignMode, ScoreAt, fit_alignment, interpolate, scored_at};
@@ -13,8 +13,10 @@ use crate::relations::{Relation, read_relations};
 use crate::resources::ProcessMonitor;
 use crate::{Metrics, Recording, report};
 use fastslam_protocol::ipc::{Ended, Flow, Ipc};
+use fastslam_protocol::message::Message;
 use fastslam_protocol::stream::Repeats;
-use fastslam_protocol::{StreamId, cli, validate};
+use fastslam_protocol::topics::{Publisher, Topic, TopicRow};
+use fastslam_protocol::{Header, cli, validate};
 use fastslam_service::config::ServiceConfig;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -108,203 +110,178 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         TruthWait::Within(Duration::from_secs_f64(args.truth_wait_s.max(0.0)))
     };
     let inputs = Inputs::open(&ipc, truth_wait)?;
-    let Inputs {
-        eos,
-        true_map,
-        map,
-        grid,
-        smoothed,
-        smoothed_map,
-        particles,
-        status,
-        lidar,
-        truth,
-        odometry,
-        pose,
-    } = &inputs;
-    tracing::info!(lidar = ?lidar.stream(), ground_truth = truth.is_some(), "recording");
+    tracing::info!(lidar = ?inputs.lidar(), ground_truth = inputs.ground_truth(), "recording");
 
     std::fs::create_dir_all(&args.out)?;
-    let mut mcap = RunMcap::create(&args.out.join(report::files::MCAP))?;
-    let mut rec = Recording {
-        without_truth: truth.is_none(),
-        ..Recording::default()
-    };
-    let mut ends = Ends::new(lidar.stream(), truth.is_some());
-    let mut seen = Repeats::default();
-    let mut latency = LatencyMatcher::default();
-    let mut monitor = ProcessMonitor::new();
-    let mut live_ate = LiveAte::default();
-    let mut last_sample = Instant::now();
-    monitor.sample(&ipc);
+    let mut recorder = Recorder::new(&ipc, &inputs, &args.out.join(report::files::MCAP))?;
     let ended = ipc.wake_loop::<anyhow::Error>(&inputs.sources(), Some(SAMPLE_EVERY), || {
-        // Truth before poses, observations before poses: a pose's truth and observation
-        // were published before it, so they are in by the time the pose is.
-        if let Some(truth) = truth {
-            truth.drain(|s| {
-                ends.saw(StreamId::GroundTruth, s.header.seq);
-                accept(validate::ground_truth(s.payload()), "ground truth", || {
-                    rec.add_truth(s.payload());
-                    mcap.truth(s.payload());
-                });
-            })?;
-        }
-        odometry.drain(|s| {
-            if !seen.fresh(StreamId::Odometry, s.header) {
-                return;
-            }
-            ends.saw(StreamId::Odometry, s.header.seq);
-            accept(validate::odometry(s.payload()), "odometry", || {
-                rec.add_odometry(s.payload());
-                mcap.dead_reckoning(s.payload());
-            });
-        })?;
-        lidar.drain(|header, message| {
-            if !seen.fresh(lidar.stream(), header) {
-                return;
-            }
-            ends.saw(lidar.stream(), header.seq);
-            latency.observation(header.stamp_ns, Instant::now());
-            match message {
-                LidarMessage::Observations(h, o) => {
-                    rec.add_observations(h, o);
-                    mcap.observations(h, o);
-                }
-                LidarMessage::Scan(h, data) => mcap.scan(h, data),
-                LidarMessage::Invalid => {}
-            }
-        })?;
-        pose.drain(|s| {
-            if !seen.fresh(StreamId::Pose, s.header) {
-                return;
-            }
-            let stamp_ns = s.header.stamp_ns;
-            latency.pose(stamp_ns, Instant::now());
-            ends.saw(StreamId::Pose, s.header.seq);
-            rec.add_estimate(s.payload());
-            mcap.pose(s.payload());
-            if let Some(t) = interpolate(&rec.truth, stamp_ns) {
-                live_ate.add((s.x - t.x).hypot(s.y - t.y));
-            }
-        })?;
-        status.drain(|s| {
-            if !seen.fresh(StreamId::Status, s.header) {
-                return;
-            }
-            ends.saw(StreamId::Status, s.header.seq);
-            rec.add_status(s.payload());
-        })?;
-        map.drain(|s| {
-            if !seen.fresh(StreamId::Map, s.user_header().header) {
-                return;
-            }
-            ends.saw(StreamId::Map, s.user_header().header.seq);
-            accept(
-                validate::landmark_map(s.user_header(), s.payload()),
-                "map",
-                || {
-                    rec.map = s.payload().to_vec();
-                    mcap.map(s.user_header(), s.payload());
-                },
-            );
-        })?;
-        grid.drain(|s| {
-            if !seen.fresh(StreamId::Grid, s.user_header().header) {
-                return;
-            }
-            ends.saw(StreamId::Grid, s.user_header().header.seq);
-            accept(
-                validate::occupancy_grid(s.user_header(), s.payload()),
-                "grid",
-                || {
-                    mcap.grid(s.user_header(), s.payload());
-                    rec.grid = Some((*s.user_header(), s.payload().to_vec()));
-                },
-            );
-        })?;
-        smoothed.drain(|s| {
-            if !seen.fresh(StreamId::SmoothedTrajectory, s.user_header().header) {
-                return;
-            }
-            ends.saw(StreamId::SmoothedTrajectory, s.user_header().header.seq);
-            accept(
-                validate::trajectory(s.user_header(), s.payload()),
-                "smoothed trajectory",
-                || {
-                    mcap.smoothed(s.user_header(), s.payload());
-                    rec.set_smoothed(s.user_header(), s.payload());
-                },
-            );
-        })?;
-        smoothed_map.drain(|s| {
-            if !seen.fresh(StreamId::SmoothedMap, s.user_header().header) {
-                return;
-            }
-            ends.saw(StreamId::SmoothedMap, s.user_header().header.seq);
-            accept(
-                validate::landmark_map(s.user_header(), s.payload()),
-                "smoothed map",
-                || {
-                    mcap.smoothed_map(s.user_header(), s.payload());
-                    rec.smoothed_map = s.payload().to_vec();
-                },
-            );
-        })?;
-        particles.drain(|s| {
-            if !seen.fresh(StreamId::Particles, s.user_header().header) {
-                return;
-            }
-            ends.saw(StreamId::Particles, s.user_header().header.seq);
-            accept(
-                validate::particles(s.user_header(), s.payload()),
-                "particle cloud",
-                || mcap.particles(s.user_header(), s.payload()),
-            );
-        })?;
-        if let Some(true_map) = true_map {
-            true_map.drain(|s| {
-                accept(
-                    validate::landmark_map(s.user_header(), s.payload()),
-                    "true map",
-                    || {
-                        rec.true_map = s.payload().to_vec();
-                        mcap.true_map(s.user_header(), s.payload());
-                    },
-                );
-            })?;
-        }
+        recorder.wake(&ipc, &inputs)
+    })?;
+    let (rec, mcap) = recorder.finish(&ipc);
+    let (rec, metrics) = score(&args, &rec, ended == Ended::Done, relations, noise);
+    report::write(&args.out, &rec, &metrics)?;
+    mcap.finish(&metrics)?;
+    tracing::info!(
+        folder = %args.out.display(), complete = metrics.complete,
+        ground_truth = metrics.ground_truth, ate_m = metrics.estimate.ate_rmse_m,
+        landmark_rmse_m = metrics.map.rmse_m,
+        relations_trans_m = metrics.estimate.relations.map(|r| r.trans_mean_m),
+        "run folder written"
+    );
+    metrics.require_a_pose(&args.out)?;
+    if args.judge.on() {
+        judge(&args, &expectations, &metrics)?;
+    }
+    Ok(())
+}
+
+/// What the client keeps while it records: the recording and its MCAP file, and the
+/// bookkeeping of the streams, the latency, the live score and the processes' usage.
+struct Recorder {
+    rec: Recording,
+    mcap: RunMcap,
+    ends: Ends,
+    seen: Repeats,
+    latency: LatencyMatcher,
+    monitor: ProcessMonitor,
+    live_ate: LiveAte,
+    last_sample: Instant,
+}
+
+impl Recorder {
+    /// Records `inputs` into a new recording and the MCAP file at `mcap`, with a first
+    /// sample of the processes' usage.
+    ///
+    /// # Errors
+    /// When the file cannot be created.
+    fn new(ipc: &Ipc, inputs: &Inputs, mcap: &Path) -> anyhow::Result<Self> {
+        let mut recorder = Self {
+            rec: Recording {
+                without_truth: !inputs.ground_truth(),
+                ..Recording::default()
+            },
+            mcap: RunMcap::create(mcap)?,
+            ends: inputs.ends(),
+            seen: Repeats::default(),
+            latency: LatencyMatcher::default(),
+            monitor: ProcessMonitor::new(),
+            live_ate: LiveAte::default(),
+            last_sample: Instant::now(),
+        };
+        recorder.monitor.sample(ipc);
+        Ok(recorder)
+    }
+
+    /// One wake-up: takes every pending message, samples the processes and prints the
+    /// progress when due; stops once every stream has ended.
+    ///
+    /// # Errors
+    /// IPC failures.
+    fn wake(&mut self, ipc: &Ipc, inputs: &Inputs) -> anyhow::Result<Flow> {
         let mut announced = false;
-        eos.drain(|s| announced |= ends.announce(s.payload()))?;
+        inputs.drain(|row, message, checked| announced |= self.take(row, message, checked))?;
         // A publisher that announced its end has done its work: sample its CPU time now,
         // before it exits (see `resources`).
-        if announced || last_sample.elapsed() >= SAMPLE_EVERY {
-            last_sample = Instant::now();
-            monitor.sample(&ipc);
-            let p = Progress {
-                sim_s: rec
-                    .estimates
-                    .last()
-                    .map_or(0.0, |e| e.pose.stamp_ns as f64 * 1e-9),
-                ate_m: live_ate.rmse(),
-                poses: rec.estimates.len(),
-            };
-            print_progress(&p);
+        if announced || self.last_sample.elapsed() >= SAMPLE_EVERY {
+            self.last_sample = Instant::now();
+            self.monitor.sample(ipc);
+            print_progress(&self.progress());
         }
-        Ok(if ends.finished() {
+        Ok(if self.ends.finished() {
             Flow::Stop
         } else {
             Flow::Continue
         })
-    })?;
-    monitor.sample(&ipc);
-    rec.latencies = latency.latencies().to_vec();
-    rec.streamed_s = latency.streamed_s();
-    rec.processes = monitor.usage();
+    }
 
-    let alignment = fit_alignment(&scored_at(&rec, args.score_at), args.align);
-    let mut rec = alignment.apply(&rec);
-    let mut metrics = Metrics::compute(&rec, ended == Ended::Done, alignment, args.score_at)
-        .with_smoothed(&mut rec);
+    /// Takes one message of `row`'s topic: a repeat is skipped, any other counts for its
+    /// stream's end and the latency, and, when `checked` passed, is recorded. True when
+    /// it announced the end of one of the streams.
+    fn take(
+        &mut self,
+        row: &TopicRow,
+        message: Message<'_>,
+        checked: Result<(), validate::Rejection>,
+    ) -> bool {
+        if self.repeat(row, message.header()) {
+            return false;
+        }
+        let announced = self.ends.note(row, message);
+        self.time(message);
+        match checked {
+            Ok(()) => self.keep(row.topic, message),
+            // An invalid lidar message counts for its stamp only.
+            Err(_) if matches!(message, Message::Observations(..) | Message::Scan(..)) => {}
+            Err(reason) => tracing::warn!(%reason, "{} skipped", row.what),
+        }
+        announced
+    }
+
+    /// True when the message with `header` was taken already: the sensors and the
+    /// service send again what a resumed service or a restarted bridge may lack (see
+    /// [`Repeats`]); the truth is never sent again.
+    fn repeat(&mut self, row: &TopicRow, header: Header) -> bool {
+        match row.stream {
+            Some(id) if row.publisher != Publisher::Truth => !self.seen.fresh(id, header),
+            _ => false,
+        }
+    }
+
+    /// Notes when a lidar message or a pose arrived, for the latency.
+    fn time(&mut self, message: Message<'_>) {
+        let stamp_ns = message.header().stamp_ns;
+        match message {
+            Message::Observations(..) | Message::Scan(..) => {
+                self.latency.observation(stamp_ns, Instant::now());
+            }
+            Message::Pose(_) => self.latency.pose(stamp_ns, Instant::now()),
+            _ => {}
+        }
+    }
+
+    /// Records a valid message of `topic`, and scores a pose against the truth so far.
+    fn keep(&mut self, topic: Topic, message: Message<'_>) {
+        self.rec.add(topic, message);
+        self.mcap.message(topic, message);
+        if let Message::Pose(p) = message
+            && let Some(t) = interpolate(&self.rec.truth, p.header.stamp_ns)
+        {
+            self.live_ate.add((p.x - t.x).hypot(p.y - t.y));
+        }
+    }
+
+    /// The progress line as it stands.
+    fn progress(&self) -> Progress {
+        Progress {
+            sim_s: (self.rec.estimates.last()).map_or(0.0, |e| e.pose.stamp_ns as f64 * 1e-9),
+            ate_m: self.live_ate.rmse(),
+            poses: self.rec.estimates.len(),
+        }
+    }
+
+    /// The recording with its latencies and the processes' usage, and the MCAP file.
+    fn finish(mut self, ipc: &Ipc) -> (Recording, RunMcap) {
+        self.monitor.sample(ipc);
+        self.rec.latencies = self.latency.latencies().to_vec();
+        self.rec.streamed_s = self.latency.streamed_s();
+        self.rec.processes = self.monitor.usage();
+        (self.rec, self.mcap)
+    }
+}
+
+/// The metrics of `rec` (`complete` when every stream ended) as `args` ask, with the
+/// recording aligned to the truth as they were scored.
+fn score(
+    args: &Args,
+    rec: &Recording,
+    complete: bool,
+    relations: Option<Vec<Relation>>,
+    noise: Option<NoiseModel>,
+) -> (Recording, Metrics) {
+    let alignment = fit_alignment(&scored_at(rec, args.score_at), args.align);
+    let mut rec = alignment.apply(rec);
+    let mut metrics =
+        Metrics::compute(&rec, complete, alignment, args.score_at).with_smoothed(&mut rec);
     if let Some(relations) = &relations {
         metrics = metrics.with_relations(&rec, relations, args.relations_epoch_s);
         if metrics.estimate.relations.is_none() && !rec.estimates.is_empty() {
@@ -319,32 +296,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(noise) = &noise {
         metrics = metrics.with_reference(&mut rec, noise);
     }
-    report::write(&args.out, &rec, &metrics)?;
-    mcap.finish(&metrics)?;
-    tracing::info!(
-        folder = %args.out.display(), complete = metrics.complete,
-        ground_truth = metrics.ground_truth, ate_m = metrics.estimate.ate_rmse_m,
-        landmark_rmse_m = metrics.map.rmse_m,
-        relations_trans_m = metrics.estimate.relations.map(|r| r.trans_mean_m),
-        "run folder written"
-    );
-    metrics.require_a_pose(&args.out)?;
-    if args.judge.on() {
-        let verdict = expectations.judge(&metrics);
-        let mut out = std::io::stdout().lock();
-        for line in verdict.lines() {
-            writeln!(out, "{line}")?;
-        }
-        if let Some(junit) = &args.judge.junit {
-            let suite = args.out.file_name().map_or_else(
-                || "fastslam".to_string(),
-                |n| n.to_string_lossy().into_owned(),
-            );
-            verdict.write_junit(junit, &suite)?;
-        }
-        verdict.into_result()?;
+    (rec, metrics)
+}
+
+/// Judges `metrics` against `expectations`: prints the verdict, writes the JUnit report
+/// `args` ask for.
+///
+/// # Errors
+/// A failed expectation, or a report that cannot be written.
+fn judge(args: &Args, expectations: &Expectations, metrics: &Metrics) -> anyhow::Result<()> {
+    let verdict = expectations.judge(metrics);
+    let mut out = std::io::stdout().lock();
+    for line in verdict.lines() {
+        writeln!(out, "{line}")?;
     }
-    Ok(())
+    if let Some(junit) = &args.judge.junit {
+        let suite = args.out.file_name().map_or_else(
+            || "fastslam".to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
+        verdict.write_junit(junit, &suite)?;
+    }
+    verdict.into_result()
 }
 
 /// The relations of the file at `path`, checked before the run starts.
@@ -366,12 +339,4 @@ fn load_relations(path: &Path) -> anyhow::Result<Vec<Relation>> {
 fn print_progress(p: &Progress) {
     let mut out = std::io::stdout().lock();
     let _ = writeln!(out, "{p}").and_then(|()| out.flush());
-}
-
-/// Runs `keep` for a valid message; logs and skips an invalid one.
-fn accept(check: Result<(), validate::Rejection>, what: &str, keep: impl FnOnce()) {
-    match check {
-        Ok(()) => keep(),
-        Err(reason) => tracing::warn!(%reason, "{what} skipped"),
-    }
 }

@@ -3,6 +3,8 @@
 use crate::resources::ProcessUsage;
 use fastslam_estimation::motion::Control;
 use fastslam_estimation::observation::Observation;
+use fastslam_protocol::message::Message;
+use fastslam_protocol::topics::{self, Topic};
 use fastslam_protocol::{
     GroundTruth, MapLandmark, ObservationsHeader, OccupancyGridHeader, Odometry, PoseEstimate,
     ServiceStatus, TrajectoryHeader, TrajectoryPose, status,
@@ -121,6 +123,26 @@ pub struct StatusSample {
 }
 
 impl Recording {
+    /// Keeps what the scores need of a valid message of `topic`: every ground-truth
+    /// sample, odometry message, pose estimate and status, the observations with a
+    /// landmark id, and the newest of the maps, the grid and the smoothed trajectory.
+    pub fn add(&mut self, topic: Topic, message: Message<'_>) {
+        match (topic, message) {
+            (topics::GROUND_TRUTH, Message::GroundTruth(m)) => self.add_truth(m),
+            (topics::ODOMETRY, Message::Odometry(m)) => self.add_odometry(m),
+            (topics::OBSERVATIONS, Message::Observations(h, o)) => self.add_observations(h, o),
+            (topics::POSE, Message::Pose(m)) => self.add_estimate(m),
+            (topics::STATUS, Message::Status(m)) => self.add_status(m),
+            (topics::MAP, Message::LandmarkMap(_, l)) => self.map = l.to_vec(),
+            (topics::SMOOTHED_MAP, Message::LandmarkMap(_, l)) => self.smoothed_map = l.to_vec(),
+            (topics::TRUE_LANDMARKS, Message::LandmarkMap(_, l)) => self.true_map = l.to_vec(),
+            (topics::GRID, Message::Grid(h, c)) => self.grid = Some((*h, c.to_vec())),
+            (topics::SMOOTHED_TRAJECTORY, Message::Trajectory(h, p)) => self.set_smoothed(h, p),
+            // Raw scans and particle clouds go to run.mcap only.
+            _ => {}
+        }
+    }
+
     /// Keeps a smoothed trajectory (replacing the previous one).
     pub fn set_smoothed(&mut self, h: &TrajectoryHeader, poses: &[TrajectoryPose]) {
         self.smoothed = (poses.iter())

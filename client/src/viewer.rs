@@ -12,16 +12,16 @@
 //! messages rather than block. It exits once every stream of the stack has ended.
 
 use crate::foxglove_log::RunLog;
-use crate::inputs::{Ends, Inputs, Lidar, TRUTH_WAIT_S, TruthWait};
-use fastslam_protocol::ipc::{Flow, Ipc, Received, Sub};
+use crate::inputs::{Ends, Inputs, TRUTH_WAIT_S, TruthWait};
+use fastslam_protocol::ipc::{Flow, Ipc};
+use fastslam_protocol::message::Message;
+use fastslam_protocol::topics::{self, Topic};
 use fastslam_protocol::{
     GroundTruth, LandmarkMapHeader, LaserScanHeader, MapLandmark, Observation, ObservationsHeader,
-    OccupancyGridHeader, Odometry, Particle, ParticlesHeader, PoseEstimate, StreamId,
-    TrajectoryHeader, TrajectoryPose, cli, validate,
+    OccupancyGridHeader, Odometry, Particle, ParticlesHeader, PoseEstimate, TrajectoryHeader,
+    TrajectoryPose, cli,
 };
 use foxglove::{Context, WebSocketServer};
-use iceoryx2::prelude::ZeroCopySend;
-use std::fmt::Debug;
 use std::time::{Duration, Instant};
 
 /// What `--help` says about this process.
@@ -83,7 +83,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let truth = TruthWait::Within(Duration::from_secs_f64(TRUTH_WAIT_S));
     let inputs = Inputs::open(&ipc, truth)?;
     let mut newest = Newest::default();
-    let mut ends = Ends::new(inputs.lidar.stream(), inputs.ground_truth());
+    let mut ends = inputs.ends();
     let mut published = Instant::now();
     let mut resent = Instant::now();
     ipc.wake_loop::<anyhow::Error>(&inputs.sources(), Some(PUBLISH_EVERY), || {
@@ -171,99 +171,44 @@ impl Newest {
     /// Takes every pending sample of every topic, keeping the newest valid one of each
     /// and noting each stream's progress in `ends`.
     fn drain(&mut self, inputs: &Inputs, ends: &mut Ends) -> anyhow::Result<()> {
-        let Inputs {
-            eos,
-            true_map,
-            map,
-            grid,
-            smoothed,
-            smoothed_map,
-            particles,
-            status,
-            lidar,
-            truth,
-            odometry,
-            pose,
-        } = inputs;
-        if let Some(truth) = truth {
-            truth.drain(|s| {
-                ends.saw(StreamId::GroundTruth, s.header.seq);
-                if validate::ground_truth(s.payload()).is_ok() {
-                    self.truth.keep(*s.payload());
-                }
-            })?;
-        }
-        odometry.drain(|s| {
-            ends.saw(StreamId::Odometry, s.header.seq);
-            if validate::odometry(s.payload()).is_ok() {
-                self.odometry.keep(*s.payload());
+        inputs.drain(|row, message, checked| {
+            ends.note(row, message);
+            if checked.is_ok() {
+                self.keep(row.topic, message);
             }
-        })?;
-        match lidar {
-            Lidar::Scans(sub) => {
-                slices(sub, StreamId::Scan, ends, validate::laser_scan, |h, d| {
-                    self.scan.keep_slice(*h, d);
-                })?
+        })
+    }
+
+    /// Keeps a valid message of `topic` as the newest of its topic (a pose also extends
+    /// the trajectory); the status and end of stream only count for the streams' ends.
+    fn keep(&mut self, topic: Topic, message: Message<'_>) {
+        match (topic, message) {
+            (topics::GROUND_TRUTH, Message::GroundTruth(m)) => self.truth.keep(*m),
+            (topics::ODOMETRY, Message::Odometry(m)) => self.odometry.keep(*m),
+            (topics::SCAN, Message::Scan(h, d)) => self.scan.keep_slice(*h, d),
+            (topics::OBSERVATIONS, Message::Observations(h, o)) => {
+                self.observations.keep_slice(*h, o);
             }
-            Lidar::Observations(sub) => slices(
-                sub,
-                StreamId::Observations,
-                ends,
-                validate::observations,
-                |h, o| self.observations.keep_slice(*h, o),
-            )?,
+            (topics::POSE, Message::Pose(m)) => {
+                self.pose.keep(*m);
+                let trajectory = self.trajectory.value.get_or_insert_with(Vec::new);
+                trajectory.push(*m);
+                self.trajectory.fresh = true;
+            }
+            (topics::MAP, Message::LandmarkMap(h, l)) => self.map.keep_slice(*h, l),
+            (topics::SMOOTHED_MAP, Message::LandmarkMap(h, l)) => {
+                self.smoothed_map.keep_slice(*h, l);
+            }
+            (topics::TRUE_LANDMARKS, Message::LandmarkMap(h, l)) => {
+                self.true_map.keep_slice(*h, l);
+            }
+            (topics::GRID, Message::Grid(h, c)) => self.grid.keep_slice(*h, c),
+            (topics::SMOOTHED_TRAJECTORY, Message::Trajectory(h, p)) => {
+                self.smoothed.keep_slice(*h, p);
+            }
+            (topics::PARTICLES, Message::Particles(h, p)) => self.particles.keep_slice(*h, p),
+            _ => {}
         }
-        pose.drain(|s| {
-            ends.saw(StreamId::Pose, s.header.seq);
-            self.pose.keep(*s.payload());
-            let trajectory = self.trajectory.value.get_or_insert_with(Vec::new);
-            trajectory.push(*s.payload());
-            self.trajectory.fresh = true;
-        })?;
-        status.drain(|s| ends.saw(StreamId::Status, s.header.seq))?;
-        let maps = [
-            (map, StreamId::Map, &mut self.map),
-            (smoothed_map, StreamId::SmoothedMap, &mut self.smoothed_map),
-        ];
-        for (sub, id, latest) in maps {
-            slices(sub, id, ends, validate::landmark_map, |h, l| {
-                latest.keep_slice(*h, l);
-            })?;
-        }
-        slices(
-            grid,
-            StreamId::Grid,
-            ends,
-            validate::occupancy_grid,
-            |h, c| {
-                self.grid.keep_slice(*h, c);
-            },
-        )?;
-        slices(
-            smoothed,
-            StreamId::SmoothedTrajectory,
-            ends,
-            validate::trajectory,
-            |h, p| self.smoothed.keep_slice(*h, p),
-        )?;
-        slices(
-            particles,
-            StreamId::Particles,
-            ends,
-            validate::particles,
-            |h, p| self.particles.keep_slice(*h, p),
-        )?;
-        if let Some(true_map) = true_map {
-            true_map.drain(|s| {
-                if validate::landmark_map(s.user_header(), s.payload()).is_ok() {
-                    self.true_map.keep_slice(*s.user_header(), s.payload());
-                }
-            })?;
-        }
-        eos.drain(|s| {
-            ends.announce(s.payload());
-        })?;
-        Ok(())
     }
 
     /// Logs what is new; with `again`, also the maps, the grid and the trajectory as
@@ -307,50 +252,3 @@ impl Newest {
         }
     }
 }
-
-/// Drains a slice topic of stream `id`: notes each sample in `ends` and hands each valid
-/// one (by `check`) to `keep`.
-fn slices<H, T>(
-    sub: &Sub<[T], H>,
-    id: StreamId,
-    ends: &mut Ends,
-    check: fn(&H, &[T]) -> Result<(), validate::Rejection>,
-    mut keep: impl FnMut(&H, &[T]),
-) -> anyhow::Result<()>
-where
-    H: Debug + ZeroCopySend + Sequenced + 'static,
-    T: Debug + ZeroCopySend + 'static,
-{
-    sub.drain(|s: Received<[T], H>| {
-        ends.saw(id, s.user_header().seq());
-        if check(s.user_header(), s.payload()).is_ok() {
-            keep(s.user_header(), s.payload());
-        }
-    })?;
-    Ok(())
-}
-
-/// A slice message's header, which carries the message's sequence number.
-trait Sequenced {
-    /// The message's sequence number.
-    fn seq(&self) -> u64;
-}
-
-macro_rules! sequenced {
-    ($($h:ty),*) => {$(
-        impl Sequenced for $h {
-            fn seq(&self) -> u64 {
-                self.header.seq
-            }
-        }
-    )*};
-}
-
-sequenced!(
-    LaserScanHeader,
-    ObservationsHeader,
-    LandmarkMapHeader,
-    OccupancyGridHeader,
-    TrajectoryHeader,
-    ParticlesHeader
-);

@@ -22,6 +22,7 @@ pub mod header;
 #[cfg(feature = "ipc")]
 pub mod ipc;
 pub mod landmarks;
+pub mod message;
 pub mod odometry;
 pub mod particles;
 pub mod pose;

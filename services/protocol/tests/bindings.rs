@@ -1,7 +1,7 @@
 //! The protocol for other languages: a C header (`include/fastslam_protocol.h`) and a
 //! Python ctypes module (`python/fastslam_protocol.py`), both generated from the README's
 //! tables — which the layout test keeps equal to the Rust types — plus the topic settings
-//! of `topics.rs`. This test regenerates both and fails when the checked-in files differ.
+//! of `topics::TABLE`. This test regenerates both and fails when the checked-in files differ.
 //!
 //! After changing a message type, its README table or a topic, regenerate them with
 //!
@@ -10,7 +10,7 @@
 //! ```
 //!
 //! Adding a type: its README table (and its `layout!` line in `tests/layout.rs`), then
-//! bless. Adding a topic: its README row and one line in [`rust_topics`], then bless.
+//! bless. Adding a topic: its README row and its row in [`topics::TABLE`], then bless.
 
 mod readme;
 
@@ -20,24 +20,9 @@ use readme::{DocField, DocTopic, DocType, README, documented_topics, documented_
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Every topic of `topics.rs`; the README's services table must list exactly these.
+/// Every topic of [`topics::TABLE`]; the README's services table must list exactly these.
 fn rust_topics() -> Vec<Topic> {
-    vec![
-        topics::GROUND_TRUTH,
-        topics::TRUE_LANDMARKS,
-        topics::ODOMETRY,
-        topics::OBSERVATIONS,
-        topics::SCAN,
-        topics::POSE,
-        topics::MAP,
-        topics::GRID,
-        topics::SMOOTHED_TRAJECTORY,
-        topics::SMOOTHED_MAP,
-        topics::PARTICLES,
-        topics::STATUS,
-        topics::CHECKPOINT,
-        topics::END_OF_STREAM,
-    ]
+    topics::TABLE.iter().map(|row| row.topic).collect()
 }
 
 /// A wire type: its element (`f64`, …) and how many (1, or N for `[T; N]`).

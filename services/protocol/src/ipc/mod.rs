@@ -39,6 +39,6 @@ pub use publisher::{
 };
 pub use request_response::SliceServer;
 pub use stack::{StackConfig, remove_dead_nodes, remove_stack_files, shared_memory_files};
-pub use subscriber::{HoldingSub, Received, Sub, Taken};
+pub use subscriber::{HoldingSub, PublisherCount, Received, Sub, Taken};
 pub use wake::{Ended, Flow, LOST_WAKEUP_GUARD, WakeSource};
 pub use wire::{Service, Wire};

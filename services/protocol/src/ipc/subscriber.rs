@@ -1,11 +1,12 @@
 //! Receiving: [`Sub`] drains a topic and clears its wake-ups, [`HoldingSub`] can leave a
 //! sample it cannot use yet in shared memory, and [`Ipc::publisher_probe`] counts a
-//! topic's publishers.
+//! topic's publishers ([`Ipc::row_publisher_probe`]: of a topic of [`crate::topics::TABLE`]).
 
 use super::{Ipc, Result, Service, WakeSource, Wire, iox_err, wake::RECEIVED};
 #[cfg(doc)]
 use super::{IpcError, LOST_WAKEUP_GUARD};
-use crate::topics::Topic;
+use crate::message::{Fixed, FixedMessage, PayloadVisitor, Slice, SliceMessage};
+use crate::topics::{Topic, TopicRow};
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::port::update_connections::UpdateConnections;
@@ -77,6 +78,40 @@ impl Ipc {
     {
         let service = self.pubsub::<P, H>(topic)?;
         Ok(move || service.dynamic_config().number_of_publishers())
+    }
+
+    /// [`Ipc::publisher_probe`] for the topic of `row`, with the payload type it names.
+    ///
+    /// # Errors
+    /// As [`Ipc::publisher_probe`].
+    pub fn row_publisher_probe(&self, row: &'static TopicRow) -> Result<PublisherCount> {
+        row.payload.visit(Probe {
+            ipc: self,
+            topic: &row.topic,
+        })
+    }
+}
+
+/// A probe counting a topic's publishers.
+pub type PublisherCount = Box<dyn Fn() -> usize>;
+
+/// Opens [`Ipc::publisher_probe`] for a payload type named at run time.
+struct Probe<'a> {
+    ipc: &'a Ipc,
+    topic: &'a Topic,
+}
+
+impl PayloadVisitor for Probe<'_> {
+    type Output = Result<PublisherCount>;
+
+    fn fixed<T: FixedMessage>(self, _: &'static Fixed<T>) -> Self::Output {
+        Ok(Box::new(self.ipc.publisher_probe::<T, ()>(self.topic)?))
+    }
+
+    fn slice<H: SliceMessage>(self, _: &'static Slice<H>) -> Self::Output {
+        Ok(Box::new(
+            self.ipc.publisher_probe::<[H::Item], H>(self.topic)?,
+        ))
     }
 }
 
