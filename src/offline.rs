@@ -242,11 +242,11 @@ impl Source {
                         Next::Odometry(i) => Message::Odometry(data.odometry[i]),
                         Next::Scan(i) => {
                             let scan = &data.scans[i];
-                            Message::Observations(scan.header, scan.observations.clone())
+                            Message::Observations(scan.header, scan.items.clone())
                         }
                         Next::RawScan(i) => {
                             let scan = &data.raw_scans[i];
-                            Message::RawScan(scan.header, scan.ranges.clone())
+                            Message::RawScan(scan.header, scan.items.clone())
                         }
                     })),
                 )
@@ -363,7 +363,7 @@ pub fn run_in_process(
                     recording.add_observations(&header, &observations);
                     sequencer.push(Input::Scan(Scan {
                         header,
-                        observations,
+                        items: observations,
                     }));
                 }
             }
@@ -374,7 +374,7 @@ pub fn run_in_process(
                     data.truncate(header.ranges as usize);
                     sequencer.push(Input::RawScan(RawScan {
                         header,
-                        ranges: data,
+                        items: data,
                     }));
                 }
             }

@@ -110,8 +110,8 @@ fn check_tf_only_bag(name: &str) -> rosbag::Bag {
         let ranges: Vec<f32> = (want["ranges"].as_array().unwrap().iter())
             .map(|r| r.as_str().unwrap().parse().unwrap())
             .collect();
-        assert_eq!(got.ranges.len(), ranges.len());
-        for (g, w) in got.ranges.iter().zip(&ranges) {
+        assert_eq!(got.items.len(), ranges.len());
+        for (g, w) in got.items.iter().zip(&ranges) {
             assert!(
                 g.to_bits() == w.to_bits() || (g.is_nan() && w.is_nan()),
                 "{name} scan {k}: {g} vs {w}"
@@ -120,8 +120,8 @@ fn check_tf_only_bag(name: &str) -> rosbag::Bag {
         assert!(got.header.angle_increment > 0.0);
     }
     // A no-return stays a no-return, and the NaN stays invalid.
-    assert_eq!(bag.data.raw_scans[0].ranges[1], f32::INFINITY);
-    assert!(bag.data.raw_scans[0].ranges[3].is_nan());
+    assert_eq!(bag.data.raw_scans[0].items[1], f32::INFINITY);
+    assert!(bag.data.raw_scans[0].items[3].is_nan());
     assert_eq!(bag.skipped.len(), 1, "{:?}", bag.skipped);
     assert_eq!(
         (bag.skipped[0].name.as_str(), bag.skipped[0].count),

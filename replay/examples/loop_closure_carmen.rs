@@ -147,7 +147,7 @@ fn main() -> anyhow::Result<()> {
             angle_increment: f64::from(h.angle_increment),
             range_min: f64::from(h.range_min),
             range_max: f64::from(h.range_max),
-            ranges: &raw.ranges,
+            ranges: &raw.items,
         };
         let t0 = Instant::now();
         let (estimate, covariance) = front_end.step(&pose, &increment, &scan);

@@ -323,7 +323,10 @@ impl Line<'_> {
             ..LaserScanHeader::default()
         };
         let (line, mount, max_range) = (self.number, Pose2::default(), None);
-        let scan = RawScan { header, ranges };
+        let scan = RawScan {
+            header,
+            items: ranges,
+        };
         LaserRecord {
             t_s,
             line,
@@ -439,7 +442,7 @@ fn strictly_increasing<T>(
 fn no_return(scan: &mut RawScan, max_range: f64) {
     let limit = max_range - NO_RETURN_MARGIN_M;
     scan.header.range_max = limit as f32;
-    for r in scan.ranges.iter_mut().filter(|r| f64::from(**r) >= limit) {
+    for r in scan.items.iter_mut().filter(|r| f64::from(**r) >= limit) {
         *r = f32::INFINITY;
     }
 }
@@ -453,7 +456,7 @@ fn build(path: &Path, records: Records) -> Result<CarmenLog> {
     }
     let laser_mount = mount(path, &lasers)?;
     let flaser_max_range_m = (lasers.iter().filter(|l| l.max_range.is_none()))
-        .flat_map(|l| l.scan.ranges.iter().copied().filter(|r| !r.is_nan()))
+        .flat_map(|l| l.scan.items.iter().copied().filter(|r| !r.is_nan()))
         .map(f64::from)
         .reduce(f64::max);
     if messages.flaser > 0 && flaser_max_range_m.is_none_or(|m| m <= NO_RETURN_MARGIN_M) {
@@ -483,7 +486,7 @@ fn build(path: &Path, records: Records) -> Result<CarmenLog> {
             at(&last.odometry) == at(&p.odometry)
         },
     );
-    let bits = |s: &RawScan| s.ranges.iter().map(|r| r.to_bits()).collect::<Vec<u32>>();
+    let bits = |s: &RawScan| s.items.iter().map(|r| r.to_bits()).collect::<Vec<u32>>();
     let (lasers, scan_repairs) = strictly_increasing(
         lasers.into_iter().map(|l| (clock.stamp(l.t_s), l.scan)),
         |last, s| last.header == s.header && bits(last) == bits(s),
@@ -594,8 +597,8 @@ mod tests {
         assert_eq!((h.header.stamp_ns, h.header.seq), (0, 0));
         assert!((f64::from(h.angle_min) + FRAC_PI_2).abs() < 1e-7);
         assert!((h.angle_max() - FRAC_PI_2).abs() < 1e-6);
-        assert_eq!(s.ranges, [1.0, 2.0, f32::INFINITY]);
-        validate::laser_scan(h, &s.ranges).unwrap();
+        assert_eq!(s.items, [1.0, 2.0, f32::INFINITY]);
+        validate::laser_scan(h, &s.items).unwrap();
         assert_eq!(d.laser_mount, Pose2::default());
         assert!(d.truth.is_empty() && d.landmarks.is_empty() && d.scans.is_empty());
         let m = &log.messages;
@@ -610,7 +613,7 @@ mod tests {
         let (s, h) = (&log.data.raw_scans[0], log.data.raw_scans[0].header);
         assert_eq!((h.angle_min, h.angle_increment), (-1.5, 0.75));
         assert_eq!((h.range_max, h.ranges), (39.99, 5));
-        let r = &s.ranges;
+        let r = &s.items;
         assert!(r[1].is_infinite() && r[3].is_nan() && r[4] == 6.0, "{r:?}");
         let o = log.data.odometry[0];
         assert_eq!((o.x, o.v, o.omega), (1.0, 0.4, 0.1));
@@ -712,8 +715,8 @@ mod tests {
             last.header.range_max, s.header.range_max,
             "one maximum per log"
         );
-        assert_eq!(s.ranges[..4], [f32::INFINITY, f32::INFINITY, 81.8, 5.0]);
-        assert!(s.ranges[4..].iter().all(|r| r.is_nan()), "{:?}", s.ranges);
+        assert_eq!(s.items[..4], [f32::INFINITY, f32::INFINITY, 81.8, 5.0]);
+        assert!(s.items[4..].iter().all(|r| r.is_nan()), "{:?}", s.items);
         let none = load_text("noreading.clf", &flaser(&[0.0, f64::NAN], [0.0; 3], 1.0));
         let err = none.unwrap_err().to_string();
         assert!(err.contains("no maximum range"), "{err}");

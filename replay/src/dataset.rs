@@ -20,6 +20,7 @@ use crate::text::{DataError, Result};
 use fastslam_estimation::Pose2;
 use fastslam_estimation::motion::{Control, MotionModel};
 use fastslam_protocol::header::stamp_from_secs;
+use fastslam_protocol::message::Owned;
 use fastslam_protocol::{
     GroundTruth, Header, LaserScanHeader, MapLandmark, Observation, ObservationsHeader, Odometry,
 };
@@ -47,24 +48,13 @@ pub struct DataSet {
     pub epoch_s: f64,
 }
 
-/// One scan's observations as they go on the wire.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Scan {
-    /// The message header (stamp, seq, count, sensor range and field of view).
-    pub header: ObservationsHeader,
-    /// The observations, vehicle frame.
-    pub observations: Vec<Observation>,
-}
+/// One scan's observations as they go on the wire (`items`: the observations, vehicle
+/// frame).
+pub type Scan = Owned<ObservationsHeader>;
 
-/// One raw laser scan as it goes on the wire: ranges only (no intensities), a beam
-/// without a return as +∞ (REP-117).
-#[derive(Debug, Clone, PartialEq)]
-pub struct RawScan {
-    /// The message header (stamp, seq, beam layout, range limits).
-    pub header: LaserScanHeader,
-    /// One range per beam (m).
-    pub ranges: Vec<f32>,
-}
+/// One raw laser scan as it goes on the wire (`items`: one range per beam (m), no
+/// intensities, a beam without a return as +∞, REP-117).
+pub type RawScan = Owned<LaserScanHeader>;
 
 /// Observations grouped per scan, before they become messages: `(stamp_ns, observations)`
 /// in stamp order.
@@ -171,7 +161,7 @@ impl SensorSpec {
                 };
                 Scan {
                     header,
-                    observations,
+                    items: observations,
                 }
             })
             .collect();
@@ -339,7 +329,7 @@ mod tests {
         };
         let (scans, dropped) = sensor.scans(vec![(5, vec![obs(3.0), obs(12.0)]), (9, vec![])]);
         assert_eq!(dropped, 1);
-        assert_eq!(scans[0].observations, vec![obs(3.0)]);
+        assert_eq!(scans[0].items, vec![obs(3.0)]);
         assert_eq!((scans[0].header.count, scans[1].header.count), (1, 0));
         assert_eq!(
             scans[1].header.header,

@@ -307,7 +307,7 @@ mod tests {
         let data = load(&dir, &options(Association::Known)).unwrap();
         assert_eq!(data.scans.len(), 2, "one message per camera frame");
         let ids: Vec<Vec<i64>> = (data.scans.iter())
-            .map(|s| s.observations.iter().map(|o| o.id).collect())
+            .map(|s| s.items.iter().map(|o| o.id).collect())
             .collect();
         assert_eq!(
             ids,
@@ -320,7 +320,7 @@ mod tests {
             unknown
                 .scans
                 .iter()
-                .flat_map(|s| &s.observations)
+                .flat_map(|s| &s.items)
                 .all(|o| o.id == -1)
         );
         std::fs::remove_dir_all(dir).unwrap();
@@ -343,7 +343,7 @@ mod tests {
         // σx = 0.1 along Vicon x = the start frame's −y.
         assert!((l.cov_yy - 0.01).abs() < 1e-12 && (l.cov_xx - 0.04).abs() < 1e-12);
         // The observation of landmark 6 agrees with its true position in that frame.
-        let o = data.scans[0].observations[0];
+        let o = data.scans[0].items[0];
         assert!((o.range - l.x.hypot(l.y)).abs() < 1e-12 && o.bearing.abs() < 1e-12);
         // Dead reckoning: 0.5 m/s from 101 s to 103 s along +x (the start heading).
         let last = data.odometry.last().unwrap();

@@ -160,11 +160,11 @@ pub fn play(ipc: &Ipc, data: &DataSet, pacing: Pacing, consumers: usize) -> Resu
             (Next::Odometry(i), _) => out.odometry.send(data.odometry[i])?,
             (Next::Scan(i), Laser::Observations(p)) => {
                 let scan = &data.scans[i];
-                p.send(scan.header, &scan.observations)?;
+                p.send(scan.header, &scan.items)?;
             }
             (Next::RawScan(i), Laser::Scans(p)) => {
                 let scan = &data.raw_scans[i];
-                p.send(scan.header, &scan.ranges)?;
+                p.send(scan.header, &scan.items)?;
             }
             // A data set with raw scans plays those alone.
             (Next::Scan(_), Laser::Scans(_)) | (Next::RawScan(_), Laser::Observations(_)) => {}
@@ -222,7 +222,7 @@ mod tests {
                         header: at(t),
                         ..Default::default()
                     },
-                    observations: vec![],
+                    items: vec![],
                 })
                 .to_vec(),
             truth: [5, 10]

@@ -115,7 +115,7 @@ pub fn planar_laser_settings(data: &DataSet) -> Result<toml::Table> {
         ));
     };
     let beams = (data.raw_scans.iter())
-        .map(|s| s.ranges.len())
+        .map(|s| s.items.len())
         .max()
         .unwrap_or(0);
     let increment = f64::from(first.header.angle_increment.abs()).max(1e-6);
@@ -171,7 +171,7 @@ mod tests {
                 ranges: beams as u32,
                 ..LaserScanHeader::default()
             },
-            ranges: vec![1.0; beams],
+            items: vec![1.0; beams],
         }
     }
 

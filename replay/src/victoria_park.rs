@@ -241,7 +241,7 @@ fn raw_messages(raw: &[RawLaserScan], clock: &Clock) -> Vec<RawScan> {
                 ranges: BEAMS as u32,
                 intensities: 0,
             },
-            ranges: (scan.ranges.iter())
+            items: (scan.ranges.iter())
                 .map(|&r| if r >= NO_RETURN_M { f32::INFINITY } else { r })
                 .collect(),
         })
@@ -410,15 +410,9 @@ mod tests {
             "the scan without trees is published too"
         );
         let s = &data.scans[0];
-        assert_eq!(s.observations.len(), 1, "the tree at 50 m is beyond range");
-        assert!(
-            s.observations[0].bearing.abs() < 1e-12,
-            "π/2 = straight ahead"
-        );
-        assert_eq!(
-            (s.observations[0].diameter, s.observations[0].id),
-            (0.3, -1)
-        );
+        assert_eq!(s.items.len(), 1, "the tree at 50 m is beyond range");
+        assert!(s.items[0].bearing.abs() < 1e-12, "π/2 = straight ahead");
+        assert_eq!((s.items[0].diameter, s.items[0].id), (0.3, -1));
         assert_eq!(
             s.header.header.stamp_ns, 300_000_000,
             "epoch = first GPS fix"
@@ -507,12 +501,12 @@ mod tests {
             "the mean period"
         );
         assert_eq!(
-            &s.ranges[..2],
+            &s.items[..2],
             &[f32::INFINITY; 2],
             "81.91 and 81.87: no return"
         );
-        assert_eq!((s.ranges[2], s.ranges[180]), (5.0, 12.5));
-        fastslam_protocol::validate::laser_scan(&s.header, &s.ranges).unwrap();
+        assert_eq!((s.items[2], s.items[180]), (5.0, 12.5));
+        fastslam_protocol::validate::laser_scan(&s.header, &s.items).unwrap();
         std::fs::remove_dir_all(dir).unwrap();
     }
 

@@ -15,10 +15,11 @@
 use crate::Scenario;
 use crate::args::SimArgs;
 use fastslam_protocol::ipc::{Ended, Flow, Ipc, IpcError, Pub, Sub, Subscribers, Wire};
+use fastslam_protocol::message::{Owned, SliceMessage};
 use fastslam_protocol::stream::StreamEnd;
 use fastslam_protocol::{
-    Checkpointed, EndOfStream, GroundTruth, Header, LaserScanHeader, Observation,
-    ObservationsHeader, Odometry, StreamId, topics, validate,
+    Checkpointed, EndOfStream, GroundTruth, Header, LaserScanHeader, ObservationsHeader, Odometry,
+    StreamId, topics, validate,
 };
 use iceoryx2::prelude::ZeroCopySend;
 use std::cell::RefCell;
@@ -102,40 +103,31 @@ impl Headed for LaserScanHeader {
     }
 }
 
-/// A message of a slice topic: its user header and its items.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SliceMessage<H, T> {
-    /// The user header.
-    pub header: H,
-    /// The slice.
-    pub items: Vec<T>,
-}
-
-impl<H, T> Message for SliceMessage<H, T>
+impl<H> Message for Owned<H>
 where
-    H: Headed + Debug + Copy + Default + ZeroCopySend + 'static,
-    T: Debug + Copy + ZeroCopySend + 'static,
+    H: SliceMessage + Headed,
+    H::Item: Copy,
 {
-    type Payload = [T];
+    type Payload = [H::Item];
     type UserHeader = H;
 
     fn header(&self) -> Header {
         self.header.header()
     }
 
-    fn send(&self, out: &Pub<[T], H>) -> Result<(), IpcError> {
+    fn send(&self, out: &Pub<[H::Item], H>) -> Result<(), IpcError> {
         out.send(self.header, &self.items)
     }
 
     fn bytes(&self) -> usize {
-        size_of::<H>() + self.items.len() * size_of::<T>()
+        size_of::<H>() + self.items.len() * size_of::<H::Item>()
     }
 }
 
 /// Landmark observations, as the landmark sensor sends them.
-pub type ObservationsMessage = SliceMessage<ObservationsHeader, Observation>;
-/// A raw scan, as the lidar sends it.
-pub type ScanMessage = SliceMessage<LaserScanHeader, f32>;
+pub type ObservationsMessage = Owned<ObservationsHeader>;
+/// A raw scan, as the lidar sends it (`items`: the ranges, then the intensities).
+pub type ScanMessage = Owned<LaserScanHeader>;
 
 /// A simulated sensor process fed by ground truth: its scenario and seed, its stack
 /// connection, and the end-of-stream it owes its subscribers.

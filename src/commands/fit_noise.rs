@@ -193,7 +193,7 @@ pub fn fit(data: &DataSet, window_s: f64) -> anyhow::Result<NoiseFit> {
         let Some(pose) = at(&truth, scan.header.header.stamp_ns) else {
             continue;
         };
-        for obs in &scan.observations {
+        for obs in &scan.items {
             let Some(landmark) = obs
                 .known_id()
                 .and_then(|id| data.landmarks.iter().find(|l| l.id == id))

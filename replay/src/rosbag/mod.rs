@@ -620,7 +620,13 @@ impl Reader<'_> {
             };
             reversed += usize::from(fixes.reversed);
             timing += usize::from(fixes.timing_zeroed);
-            out.push((t, RawScan { header, ranges }));
+            out.push((
+                t,
+                RawScan {
+                    header,
+                    items: ranges,
+                },
+            ));
         }
         let name = &self.contents.topics[topic].name;
         for (n, what) in [
@@ -671,10 +677,10 @@ fn header(stamp_ns: u64, seq: usize) -> Header {
 /// Whether two scans are the same (ranges compared bit for bit, so NaN equals NaN).
 fn same_scan(a: &RawScan, b: &RawScan) -> bool {
     a.header == b.header
-        && a.ranges.len() == b.ranges.len()
-        && a.ranges
+        && a.items.len() == b.items.len()
+        && a.items
             .iter()
-            .zip(&b.ranges)
+            .zip(&b.items)
             .all(|(x, y)| x.to_bits() == y.to_bits())
 }
 

@@ -168,7 +168,7 @@ fn odometry_comes_from_tf_through_an_intermediate_frame() {
     let scan = &bag.data.raw_scans[0];
     assert_eq!(scan.header.header.stamp_ns, 5_000_000_000);
     assert_eq!(
-        scan.ranges,
+        scan.items,
         [1.0, 2.0, f32::INFINITY, f32::NEG_INFINITY, 4.0]
     );
     assert!(bag.skipped.is_empty() && bag.warnings.is_empty(), "{bag:?}");
@@ -233,9 +233,9 @@ fn the_sample_bag_reads_whole() {
     assert!((bag.data.epoch_s - 1_134_864_629.895_182).abs() < 1e-6);
     let first = &bag.data.raw_scans[0];
     assert_eq!(first.header.header.stamp_ns, 0);
-    assert_eq!((first.ranges.len(), first.header.range_max), (361, 80.0));
+    assert_eq!((first.items.len(), first.header.range_max), (361, 80.0));
     // The log's no-return readings (81.91 m) lie beyond range_max: +∞.
-    assert!(first.ranges.contains(&f32::INFINITY));
+    assert!(first.items.contains(&f32::INFINITY));
     let last = bag.data.odometry.last().unwrap();
     assert_eq!(last.header.stamp_ns, 423_997_024_000);
     assert!(bag.data.truth.is_empty() && bag.data.scans.is_empty());

@@ -202,7 +202,7 @@ impl LaneMessage for Received<[Observation], ObservationsHeader> {
         let observations = sequencer.copy_observations(self.payload());
         sequencer.push(Input::Scan(Scan {
             header: *self.user_header(),
-            observations,
+            items: observations,
         }))
     }
 }
@@ -228,6 +228,9 @@ impl LaneMessage for Received<[f32], LaserScanHeader> {
     fn queue(&self, sequencer: &mut Sequencer) -> Pushed {
         let header = *self.user_header();
         let ranges = sequencer.copy_ranges(header.ranges_of(self.payload()));
-        sequencer.push(Input::RawScan(RawScan { header, ranges }))
+        sequencer.push(Input::RawScan(RawScan {
+            header,
+            items: ranges,
+        }))
     }
 }

@@ -16,28 +16,18 @@
 //! [`Sequencer::full`] and [`Sequencer::vouch`].)
 
 use crate::per_stream::PerStream;
+use fastslam_protocol::message::Owned;
 use fastslam_protocol::{
     LaserScanHeader, Observation, ObservationsHeader, Odometry, StreamId, StreamStatus,
 };
 use std::collections::VecDeque;
 
-/// One scan's observations, copied out of shared memory.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Scan {
-    /// The message header (stamp, sensor range and field of view).
-    pub header: ObservationsHeader,
-    /// The observations.
-    pub observations: Vec<Observation>,
-}
+/// One scan's observations, copied out of shared memory (`items`: the observations).
+pub type Scan = Owned<ObservationsHeader>;
 
-/// One raw scan, copied out of shared memory (validated: the counts match).
-#[derive(Debug, Clone, PartialEq)]
-pub struct RawScan {
-    /// The message header (stamp, beam layout, range limits).
-    pub header: LaserScanHeader,
-    /// The ranges (m), one per beam; intensities are not kept.
-    pub ranges: Vec<f32>,
-}
+/// One raw scan, copied out of shared memory and validated (`items`: the ranges (m), one
+/// per beam; intensities are not kept).
+pub type RawScan = Owned<LaserScanHeader>;
 
 /// An input released in stamp order: one variant per message type a lane carries.
 #[derive(Debug, Clone, PartialEq)]
@@ -243,12 +233,12 @@ impl Sequencer {
         match input {
             Input::Odometry(_) => {}
             Input::Scan(mut s) => {
-                s.observations.clear();
-                self.spare_observations.push(s.observations);
+                s.items.clear();
+                self.spare_observations.push(s.items);
             }
             Input::RawScan(mut s) => {
-                s.ranges.clear();
-                self.spare_ranges.push(s.ranges);
+                s.items.clear();
+                self.spare_ranges.push(s.items);
             }
         }
     }
@@ -381,7 +371,7 @@ mod tests {
         };
         Scan {
             header,
-            observations: Vec::new(),
+            items: Vec::new(),
         }
     }
 
@@ -517,7 +507,7 @@ mod tests {
         let storage = first.as_ptr();
         seq.push(Input::Scan(Scan {
             header: scan(10).header,
-            observations: first,
+            items: first,
         }));
         seq.end(ODO);
         let input = seq.release().unwrap();
@@ -544,7 +534,7 @@ mod tests {
                 },
                 ..Default::default()
             },
-            ranges: vec![1.0],
+            items: vec![1.0],
         };
         seq.push(Input::RawScan(raw(15)));
         seq.push(Input::Odometry(odo(10)));
@@ -637,7 +627,7 @@ mod tests {
                     },
                     ..Default::default()
                 },
-                ranges: vec![1.0],
+                items: vec![1.0],
             })
         };
         let mut seq = Sequencer::new(&[ODO, OBS, StreamId::Scan], DEFAULT_MAX_QUEUE);

@@ -257,12 +257,8 @@ impl Slam {
                 }
                 Ok(None)
             }
-            Input::Scan(scan) => self
-                .observe(&scan.header, &scan.observations, publish)
-                .map(Some),
-            Input::RawScan(raw) => self
-                .observe_raw(&raw.header, &raw.ranges, publish)
-                .map(Some),
+            Input::Scan(scan) => self.observe(&scan.header, &scan.items, publish).map(Some),
+            Input::RawScan(raw) => self.observe_raw(&raw.header, &raw.items, publish).map(Some),
         }
     }
 
@@ -448,7 +444,7 @@ mod tests {
         };
         let scan = Input::Scan(Scan {
             header,
-            observations: Vec::new(),
+            items: Vec::new(),
         });
         slam.apply(&scan, &mut |_| {}).unwrap().unwrap().pose.x
     }
@@ -497,7 +493,7 @@ mod tests {
             .apply(
                 &Input::Scan(Scan {
                     header,
-                    observations: vec![obs],
+                    items: vec![obs],
                 }),
                 &mut |pose| published.push(pose),
             )
@@ -569,7 +565,7 @@ mod tests {
                 };
                 let scan = Input::Scan(Scan {
                     header,
-                    observations,
+                    items: observations,
                 });
                 last = slam.apply(&scan, &mut |_| {}).unwrap();
             }
@@ -673,7 +669,13 @@ mod tests {
             ..Default::default()
         };
         let step = slam
-            .apply(&Input::RawScan(RawScan { header, ranges }), &mut |_| {})
+            .apply(
+                &Input::RawScan(RawScan {
+                    header,
+                    items: ranges,
+                }),
+                &mut |_| {},
+            )
             .unwrap()
             .unwrap();
         assert_eq!(step.observations, 1, "one pole, no wall");

@@ -78,6 +78,25 @@ pub trait SliceMessage: Pod + Default + Debug + ZeroCopySend + 'static {
     fn message<'a>(&'a self, items: &'a [Self::Item]) -> Message<'a>;
 }
 
+/// A slice message held as owned values: its header and its elements, copied out of
+/// shared memory or read from a recording. Every owned scan or observation set of the
+/// stack (queued in the service, kept by a sensor for a resend, read from a data set) is
+/// one of these.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Owned<H: SliceMessage> {
+    /// The user header.
+    pub header: H,
+    /// The slice.
+    pub items: Vec<H::Item>,
+}
+
+impl<H: SliceMessage> Owned<H> {
+    /// This message as a [`Message`].
+    pub fn message(&self) -> Message<'_> {
+        self.header.message(&self.items)
+    }
+}
+
 /// Implements [`FixedMessage`] for each type, wrapping it into its [`Message`] variant.
 macro_rules! fixed_messages {
     ($($t:ty => $variant:ident),* $(,)?) => {$(
