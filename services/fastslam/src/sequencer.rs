@@ -375,6 +375,21 @@ mod tests {
         }
     }
 
+    /// A raw scan of one beam.
+    fn raw(t: u64) -> RawScan {
+        let header = LaserScanHeader {
+            header: Header {
+                stamp_ns: t,
+                seq: t,
+            },
+            ..Default::default()
+        };
+        RawScan {
+            header,
+            items: vec![1.0],
+        }
+    }
+
     /// The kind and stamp of an input.
     fn stamp(input: Input) -> (char, u64) {
         match input {
@@ -526,16 +541,6 @@ mod tests {
     #[test]
     fn raw_scans_go_on_their_own_lane() {
         let mut seq = Sequencer::new(&[ODO, StreamId::Scan], DEFAULT_MAX_QUEUE);
-        let raw = |t: u64| RawScan {
-            header: LaserScanHeader {
-                header: Header {
-                    stamp_ns: t,
-                    seq: t,
-                },
-                ..Default::default()
-            },
-            items: vec![1.0],
-        };
         seq.push(Input::RawScan(raw(15)));
         seq.push(Input::Odometry(odo(10)));
         seq.push(Input::Odometry(odo(20)));
@@ -618,20 +623,8 @@ mod tests {
     fn a_third_lane_is_merged_in_stamp_order_and_waited_for() {
         // A test-only third stream: a second laser publishing raw scans beside the
         // observations. Registration order breaks ties: odometry, observations, scans.
-        let raw = |t: u64| {
-            Input::RawScan(RawScan {
-                header: LaserScanHeader {
-                    header: Header {
-                        stamp_ns: t,
-                        seq: t,
-                    },
-                    ..Default::default()
-                },
-                items: vec![1.0],
-            })
-        };
         let mut seq = Sequencer::new(&[ODO, OBS, StreamId::Scan], DEFAULT_MAX_QUEUE);
-        seq.push(raw(20));
+        seq.push(Input::RawScan(raw(20)));
         seq.push(Input::Scan(scan(20)));
         seq.push(Input::Odometry(odo(10)));
         assert_eq!(stamps(&mut seq), vec![('o', 10)], "odometry may bring 15");
