@@ -33,23 +33,24 @@ pub enum StreamId {
 }
 
 impl StreamId {
+    /// Every stream, in wire-value order.
+    pub const ALL: [Self; 11] = [
+        Self::GroundTruth,
+        Self::Odometry,
+        Self::Observations,
+        Self::Pose,
+        Self::Map,
+        Self::Status,
+        Self::Scan,
+        Self::Grid,
+        Self::SmoothedTrajectory,
+        Self::SmoothedMap,
+        Self::Particles,
+    ];
+
     /// The stream for a wire value, if it is one.
     pub fn from_u32(v: u32) -> Option<Self> {
-        [
-            Self::GroundTruth,
-            Self::Odometry,
-            Self::Observations,
-            Self::Pose,
-            Self::Map,
-            Self::Status,
-            Self::Scan,
-            Self::Grid,
-            Self::SmoothedTrajectory,
-            Self::SmoothedMap,
-            Self::Particles,
-        ]
-        .into_iter()
-        .find(|s| *s as u32 == v)
+        Self::ALL.into_iter().find(|s| *s as u32 == v)
     }
 }
 
@@ -243,20 +244,11 @@ mod tests {
 
     #[test]
     fn stream_ids_round_trip() {
-        for id in [
-            StreamId::GroundTruth,
-            StreamId::Odometry,
-            StreamId::Observations,
-            StreamId::Pose,
-            StreamId::Map,
-            StreamId::Status,
-            StreamId::Scan,
-            StreamId::Grid,
-            StreamId::SmoothedTrajectory,
-            StreamId::SmoothedMap,
-        ] {
+        for (k, id) in StreamId::ALL.into_iter().enumerate() {
+            assert_eq!(id as usize, k + 1, "wire values in order, from 1");
             assert_eq!(StreamId::from_u32(id as u32), Some(id));
         }
         assert_eq!(StreamId::from_u32(0), None);
+        assert_eq!(StreamId::from_u32(StreamId::ALL.len() as u32 + 1), None);
     }
 }

@@ -151,8 +151,8 @@ fn constant(name: &str) -> String {
 
 /// The stream ids of [`StreamId`], for end-of-stream messages.
 fn streams() -> Vec<(String, u32)> {
-    (1..64)
-        .filter_map(|k| StreamId::from_u32(k).map(|s| (constant(&format!("{s:?}")), k)))
+    (StreamId::ALL.into_iter())
+        .map(|s| (constant(&format!("{s:?}")), s as u32))
         .collect()
 }
 
