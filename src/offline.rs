@@ -270,6 +270,22 @@ impl Source {
             Self::Replay(r) => !r.data.truth.is_empty(),
         }
     }
+
+    /// The stream its lidar messages come on: raw scans where the scenario has a lidar or
+    /// the data set raw scans (which it then plays alone), else landmark observations. The
+    /// sequencer orders it against odometry, as the service orders the lidar topic it
+    /// subscribed to.
+    fn lidar_stream(&self) -> StreamId {
+        let raw = match self {
+            Self::Simulation(scenario) => scenario.lidar.is_some(),
+            Self::Replay(r) => !r.data.raw_scans.is_empty(),
+        };
+        if raw {
+            StreamId::Scan
+        } else {
+            StreamId::Observations
+        }
+    }
 }
 
 /// The client's scoring flags a replay profile passes.
@@ -289,19 +305,6 @@ impl Scoring {
     }
 }
 
-/// The stream of `source`'s lidar messages for `seed` (its first lidar message's kind):
-/// the sequencer orders it against odometry, as the service orders the lidar topic it
-/// subscribed to.
-fn lidar_stream(source: &Source, seed: u64) -> StreamId {
-    (source.messages(seed))
-        .find_map(|m| match m {
-            Message::Observations(..) => Some(StreamId::Observations),
-            Message::RawScan(..) => Some(StreamId::Scan),
-            _ => None,
-        })
-        .unwrap_or(StreamId::Observations)
-}
-
 /// Runs `source` with simulation seed `seed` through the service configured by `config`
 /// and scores it as the client does.
 ///
@@ -319,7 +322,7 @@ pub fn run_in_process(
     let cpu_start = process_cpu();
     let mut slam = Slam::new(config)?;
     slam.start_smoother(config, Vec::new())?;
-    let lidar = lidar_stream(source, seed);
+    let lidar = source.lidar_stream();
     let mut sequencer = Sequencer::new(&[StreamId::Odometry, lidar], DEFAULT_MAX_QUEUE);
     let mut recording = Recording {
         without_truth: !source.has_truth(),

@@ -351,10 +351,11 @@ impl Restart {
         }
         self.checked = true;
         let delivered = ask_delivered(session, keys)?;
-        let inputs = [StreamId::Odometry, StreamId::Observations, StreamId::Scan];
-        let covered: Vec<(StreamId, u64)> = (inputs.iter())
+        let covered: Vec<(StreamId, u64)> = (topics::TABLE.iter())
+            .filter(|row| row.publisher == topics::Publisher::Sensor)
+            .filter_map(|row| row.stream)
             .filter(|id| ours.contains(id))
-            .filter_map(|&id| delivered.of(id).map(|h| (id, h.stamp_ns)))
+            .filter_map(|id| delivered.of(id).map(|h| (id, h.stamp_ns)))
             .collect();
         if covered.is_empty() {
             return Ok(());
