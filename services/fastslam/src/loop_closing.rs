@@ -300,6 +300,7 @@ impl LoopClosing {
                 seconds: solved.seconds,
             },
             solves: self.solves,
+            whole: true,
             fused: 0,
         }
     }

@@ -16,6 +16,7 @@ use fastslam_estimation::graph::{Feed, NoiseModel, Smoother, SmootherConfig, Sol
 use std::collections::VecDeque;
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::thread::JoinHandle;
+use std::time::Instant;
 
 /// What the back-end reports after each scan it was fed (numbered from 1).
 #[derive(Debug)]
@@ -61,22 +62,32 @@ impl Backend {
         let worker = std::thread::Builder::new()
             .name("smoother".into())
             .spawn(move || {
-                let mut scan = 0;
+                let (mut scan, mut busy, mut spent) = (0, ScanTimes::default(), 0.0);
                 for feed in inbox.iter().flatten() {
+                    let started = Instant::now();
                     let due = smoother.feed(&feed);
                     if matches!(feed, Feed::Scan { .. }) {
                         scan += 1;
-                        let solution = if due { solve(&mut smoother) } else { None };
+                        let solution = if due {
+                            solve(smoother.solve(), &busy)
+                        } else {
+                            None
+                        };
+                        busy.add(spent + started.elapsed().as_secs_f64());
+                        spent = 0.0;
                         if outbox.send(Report { scan, solution }).is_err() {
                             return;
                         }
+                    } else {
+                        spent += started.elapsed().as_secs_f64();
                     }
                 }
-                // The filter's side hung up: the stream ended. A last solve over the rest.
+                // The filter's side hung up: the stream ended. A last solve over everything.
                 if smoother.has_news() {
-                    let solution = solve(&mut smoother);
+                    let solution = solve(smoother.solve_whole(), &busy);
                     let _ = outbox.send(Report { scan, solution });
                 }
+                busy.log();
             })?;
         let mut backend = Self {
             to_worker: Some(to_worker),
@@ -183,13 +194,15 @@ impl Backend {
     }
 }
 
-/// One solve, logged.
-fn solve(smoother: &mut Smoother) -> Option<Solution> {
-    match smoother.solve() {
+/// A solve's outcome, logged.
+fn solve(outcome: fastslam_estimation::Result<Solution>, busy: &ScanTimes) -> Option<Solution> {
+    match outcome {
         Ok(solution) => {
             let r = &solution.report;
             tracing::info!(
                 solve = solution.solves,
+                over = if solution.whole { "whole" } else { "window" },
+                scan = busy.times.len() + 1,
                 poses = solution.poses.len(),
                 landmarks = solution.landmarks.len(),
                 fused = solution.fused,
@@ -205,5 +218,34 @@ fn solve(smoother: &mut Smoother) -> Option<Solution> {
             tracing::warn!("smoother: {e}");
             None
         }
+    }
+}
+
+/// The back-end's time per scan (feeding it in, and the solve it asked for): the figure
+/// to hold against the scan period, logged at the end.
+#[derive(Debug, Default)]
+struct ScanTimes {
+    times: Vec<f64>,
+}
+
+impl ScanTimes {
+    fn add(&mut self, seconds: f64) {
+        self.times.push(seconds);
+    }
+
+    fn log(mut self) {
+        if self.times.is_empty() {
+            return;
+        }
+        self.times.sort_by(f64::total_cmp);
+        let at = |q: f64| self.times[((self.times.len() - 1) as f64 * q).round() as usize];
+        tracing::info!(
+            scans = self.times.len(),
+            median_ms = at(0.5) * 1e3,
+            p99_ms = at(0.99) * 1e3,
+            max_ms = at(1.0) * 1e3,
+            total_s = self.times.iter().sum::<f64>(),
+            "smoother time per scan"
+        );
     }
 }

@@ -299,6 +299,9 @@ impl G2o {
         if !graph.sightings.is_empty() {
             return Err(G2oError::Unwritable("range–bearing sightings".into()));
         }
+        if !graph.landmark_priors.is_empty() {
+            return Err(G2oError::Unwritable("landmark priors".into()));
+        }
         if (graph.betweens.iter()).any(|b| b.residual != PoseResidual::Logmap) {
             return Err(G2oError::Unwritable(
                 "componentwise odometry factors".into(),

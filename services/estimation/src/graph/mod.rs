@@ -31,6 +31,7 @@ mod integrate;
 mod smoother;
 mod solve;
 mod system;
+mod window;
 
 pub use duplicates::duplicates;
 pub use integrate::OdometryIntegrator;
@@ -111,6 +112,18 @@ pub struct Prior {
     pub information: Matrix3<f64>,
 }
 
+/// A prior on one landmark: it is `mean`, with information `information` (what sightings
+/// from poses held fixed say about it, in a window solve).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LandmarkPrior {
+    /// Index of the landmark.
+    pub landmark: usize,
+    /// Its prior mean.
+    pub mean: Vector2<f64>,
+    /// Inverse covariance of the prior.
+    pub information: Matrix2<f64>,
+}
+
 /// The variables and factors of a full-SLAM problem; see the module documentation.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Graph {
@@ -126,6 +139,8 @@ pub struct Graph {
     pub sightings: Vec<Sighting>,
     /// Landmark positions measured in a pose's frame.
     pub offsets: Vec<Offset>,
+    /// Priors on landmarks.
+    pub landmark_priors: Vec<LandmarkPrior>,
 }
 
 /// One factor's residual and its Jacobians with respect to the variables it touches.
@@ -373,11 +388,11 @@ impl Graph {
         3 * self.poses.len() + 2 * self.landmarks.len()
     }
 
-    /// Number of scalar residuals (3 per prior and odometry factor, 2 per sighting and
-    /// offset).
+    /// Number of scalar residuals (3 per prior and odometry factor, 2 per sighting, offset
+    /// and landmark prior).
     pub fn residuals(&self) -> usize {
         3 * (self.priors.len() + self.betweens.len())
-            + 2 * (self.sightings.len() + self.offsets.len())
+            + 2 * (self.sightings.len() + self.offsets.len() + self.landmark_priors.len())
     }
 
     /// `χ² = Σ rᵀ Ω r` over every factor at the current estimates (no robust kernel):
@@ -388,6 +403,10 @@ impl Graph {
             if let Linearised::Prior { r, .. } = p.linearise(&self.poses[p.pose]) {
                 chi2 += (r.transpose() * p.information * r)[0];
             }
+        }
+        for p in &self.landmark_priors {
+            let r = self.landmarks[p.landmark] - p.mean;
+            chi2 += (r.transpose() * p.information * r)[0];
         }
         chi2 + self.chi2_measurements()
     }

@@ -203,6 +203,10 @@ impl Graph {
                 cost += (r.transpose() * p.information * r)[0];
             }
         }
+        for p in &self.landmark_priors {
+            let r = self.landmarks[p.landmark] - p.mean;
+            cost += (r.transpose() * p.information * r)[0];
+        }
         for b in &self.betweens {
             let r = b.residual(&self.poses[b.from], &self.poses[b.to]);
             cost += (r.transpose() * b.information * r)[0];
@@ -330,6 +334,7 @@ impl Graph {
     fn check_indices(&self) -> Result<()> {
         let (np, nl) = (self.poses.len(), self.landmarks.len());
         let bad = self.priors.iter().any(|p| p.pose >= np)
+            || self.landmark_priors.iter().any(|p| p.landmark >= nl)
             || self.betweens.iter().any(|b| b.from >= np || b.to >= np)
             || self
                 .sightings

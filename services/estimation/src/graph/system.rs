@@ -20,7 +20,7 @@ use faer::sparse::linalg::cholesky::{
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side};
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{Matrix2, SMatrix, SVector};
 
 /// The value-array index of each column's first entry in one block (3 columns at most).
 type Columns = [usize; 3];
@@ -54,6 +54,7 @@ pub(crate) struct System {
     /// Lower triangle of `H`, rows sorted in each column, the diagonal first.
     pattern: SymbolicSparseColMat<usize>,
     priors: Vec<Columns>,
+    landmark_priors: Vec<Columns>,
     betweens: Vec<PairSlots>,
     sightings: Vec<PairSlots>,
     offsets: Vec<PairSlots>,
@@ -168,6 +169,9 @@ impl System {
             }
         };
         let priors = graph.priors.iter().map(|p| diagonal(p.pose)).collect();
+        let landmark_priors = (graph.landmark_priors.iter())
+            .map(|p| diagonal(landmark(p.landmark)))
+            .collect();
         let betweens = graph.betweens.iter().map(|b| pair(b.from, b.to)).collect();
         let sightings = (graph.sightings.iter())
             .map(|s| pair(s.pose, landmark(s.landmark)))
@@ -197,6 +201,7 @@ impl System {
             factor: vec![0.0; symbolic.len_val()],
             pattern,
             priors,
+            landmark_priors,
             betweens,
             sightings,
             offsets,
@@ -231,6 +236,11 @@ impl System {
                 let at = layout.start(p.pose);
                 add_single(h, g, slots, at, (&r, &j), &p.information);
             }
+        }
+        for (p, slots) in graph.landmark_priors.iter().zip(&self.landmark_priors) {
+            let r = graph.landmarks[p.landmark] - p.mean;
+            let at = layout.start(layout.poses + p.landmark);
+            add_single(h, g, slots, at, (&r, &Matrix2::identity()), &p.information);
         }
         for (b, slots) in graph.betweens.iter().zip(&self.betweens) {
             let (r, mut j_from, mut j_to) = b.jacobians(&graph.poses[b.from], &graph.poses[b.to]);

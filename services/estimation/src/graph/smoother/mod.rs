@@ -12,13 +12,17 @@
 //! [`SmootherConfig::loop_gap_s`] without a sighting, or — with
 //! [`SmootherConfig::fuse_duplicates`] — when a new key arrives, since under unknown
 //! association a landmark seen again after a drift arrives under a new key; each solve
-//! then fuses the landmarks its solution says are one (`super::duplicates`). The
-//! decision to solve depends on the data alone (never on the wall clock), so the same
-//! inputs give the same solves and the same numbers. Each solve starts from the last
-//! one's solution (new poses chained on by their odometry, new landmarks placed from their
-//! first sighting).
+//! then fuses the landmarks its solution says are one (`super::duplicates`). A solve is
+//! a *window* solve (`super::window`: the newest [`SmootherConfig::window_poses`] poses,
+//! the older ones held) unless the graph has grown by [`SmootherConfig::whole_growth`]
+//! since its last *whole* solve, which then solves and fuses over everything; the end of
+//! the data asks for a whole solve ([`Smoother::solve_whole`]). The decisions depend on
+//! the data alone (never on the wall clock), so the same inputs give the same solves and
+//! the same numbers. Each solve starts from the last one's solution (new poses chained on
+//! by their odometry, new landmarks placed from their first sighting).
 
 use super::duplicates::duplicates;
+use super::window::Window;
 use super::{Graph, Kernel, OdometryIntegrator, Prior, SolveOptions, SolveReport};
 use crate::fastslam::{FastSlamConfig, PriorFloor};
 use crate::motion::{Control, MotionModel};
@@ -31,6 +35,10 @@ use std::collections::{HashMap, HashSet};
 
 /// Most fuse-and-solve rounds per solve ([`Smoother::solve`]).
 const FUSE_ROUNDS: usize = 10;
+
+/// Variance (m²) published for a landmark no solve has placed and whose sightings do not
+/// fix it (never in practice: a sighting fixes a landmark given its pose).
+const UNSEEN_VARIANCE: f64 = 1e6;
 
 /// The noise the graph assumes: the filter's own models.
 #[derive(Debug, Clone, PartialEq)]
@@ -102,6 +110,12 @@ pub struct SmootherConfig {
     pub fuse_duplicates: bool,
     /// The `d²` two landmarks' difference must stay within to be fused (χ²₂ at 99 %).
     pub fuse_gate: f64,
+    /// Poses a window solve moves (the newest); 0: every solve is a whole solve.
+    pub window_poses: usize,
+    /// A solve is a whole solve when the graph has this many times the poses of its last
+    /// whole solve (more than 1): whole solves then cost, summed over a run, a few times
+    /// the last one.
+    pub whole_growth: f64,
 }
 
 impl Default for SmootherConfig {
@@ -117,6 +131,8 @@ impl Default for SmootherConfig {
             reanchor_delay_scans: 25,
             fuse_duplicates: true,
             fuse_gate: 9.21,
+            window_poses: 300,
+            whole_growth: 1.5,
         }
     }
 }
@@ -141,6 +157,9 @@ impl SmootherConfig {
         }
         if !(self.fuse_gate.is_finite() && self.fuse_gate > 0.0) {
             return bad("smoother.fuse_gate", "must be finite and > 0");
+        }
+        if !(self.whole_growth.is_finite() && self.whole_growth > 1.0) {
+            return bad("smoother.whole_growth", "must be finite and > 1");
         }
         if !(1..=10_000).contains(&self.max_iterations) {
             return bad("smoother.max_iterations", "must be in 1..=10000");
@@ -199,6 +218,8 @@ pub struct Solution {
     pub report: SolveReport,
     /// Solves so far, this one included.
     pub solves: u32,
+    /// Whether this solve was over the whole graph (else over the newest poses' window).
+    pub whole: bool,
     /// Landmarks fused into another so far ([`SmootherConfig::fuse_duplicates`]).
     pub fused: usize,
 }
@@ -216,13 +237,19 @@ pub struct Smoother {
     index: HashMap<u64, usize>,
     keys: Vec<u64>,
     last_seen_ns: Vec<u64>,
-    /// Poses when the last solve ran, and whether a loop closed since.
+    /// Poses when the last solve and the last whole solve ran, and whether a loop closed
+    /// since.
     solved_at: usize,
+    whole_at: usize,
     loop_pending: bool,
     solves: u32,
     fused: usize,
     /// Pairs of keys whose fusion the solution refused.
     refused: HashSet<(u64, u64)>,
+    /// The window solves' sums of held sightings.
+    window: Window,
+    /// Each landmark's covariance from the solve that last moved it.
+    covariances: Vec<Matrix2<f64>>,
 }
 
 impl Smoother {
@@ -249,10 +276,13 @@ impl Smoother {
             keys: Vec::new(),
             last_seen_ns: Vec::new(),
             solved_at: 0,
+            whole_at: 0,
             loop_pending: false,
             solves: 0,
             fused: 0,
             refused: HashSet::new(),
+            window: Window::default(),
+            covariances: Vec::new(),
         })
     }
 
@@ -339,17 +369,47 @@ impl Smoother {
         self.graph.poses.len()
     }
 
-    /// True when poses were added since the last solve.
+    /// True when the graph changed since its last whole solve.
     pub fn has_news(&self) -> bool {
-        self.graph.poses.len() > self.solved_at
+        self.graph.poses.len() > self.whole_at || self.solved_at > self.whole_at
     }
 
-    /// Solves the graph from the last solution and returns the new one, with the
-    /// landmarks' marginal covariances.
+    /// The solve that is due: a window solve, or a whole solve when the graph has grown
+    /// by [`SmootherConfig::whole_growth`] since the last (or was never solved whole).
+    /// Returns the solution, with the landmarks' marginal covariances.
     ///
     /// # Errors
     /// When the graph has no sighting yet, or its normal equations cannot be factorised.
     pub fn solve(&mut self) -> Result<Solution> {
+        let n = self.graph.poses.len();
+        let start = n.saturating_sub(self.config.window_poses);
+        if self.whole_at == 0
+            || start <= 1
+            || n as f64 >= self.config.whole_growth * self.whole_at as f64
+        {
+            return self.solve_whole();
+        }
+        let options = self.config.solve_options();
+        let solved = self.window.solve(&mut self.graph, start, &options)?;
+        // A landmark mapped since the last solve and out of the window already: what the
+        // held poses' sightings say about it.
+        for k in self.covariances.len()..self.graph.landmarks.len() {
+            let held = self.window.held_covariance(k);
+            self.covariances
+                .push(held.unwrap_or_else(|| Matrix2::identity() * UNSEEN_VARIANCE));
+        }
+        for (k, covariance) in solved.covariances {
+            self.covariances[k] = covariance;
+        }
+        Ok(self.solution(solved.report, solved.chi2_per_dof, false))
+    }
+
+    /// Solves the whole graph from the last solution (fusing duplicates when configured)
+    /// and returns the new one, with the landmarks' marginal covariances.
+    ///
+    /// # Errors
+    /// When the graph has no sighting yet, or its normal equations cannot be factorised.
+    pub fn solve_whole(&mut self) -> Result<Solution> {
         if self.graph.sightings.is_empty() {
             return Err(Error::InvalidInput {
                 what: "smoother",
@@ -361,26 +421,32 @@ impl Smoother {
         if self.config.fuse_duplicates {
             report = self.fuse_duplicates(&options, report)?;
         }
-        let covariances = self.graph.landmark_covariances(options.kernel)?;
+        self.covariances = self.graph.landmark_covariances(options.kernel)?;
+        self.window.restart();
+        self.whole_at = self.graph.poses.len();
+        let dof = (self.graph.residuals().saturating_sub(self.graph.unknowns())).max(1) as f64;
+        Ok(self.solution(report, self.graph.chi2() / dof, true))
+    }
+
+    /// Counts a solve and returns its solution.
+    fn solution(&mut self, report: SolveReport, chi2_per_dof: f64, whole: bool) -> Solution {
         self.solved_at = self.graph.poses.len();
         self.loop_pending = false;
         self.solves += 1;
-        let dof = (self.graph.residuals().saturating_sub(self.graph.unknowns())).max(1) as f64;
-        Ok(Solution {
-            poses: self
-                .stamps
-                .iter()
-                .copied()
+        Solution {
+            poses: (self.stamps.iter().copied())
                 .zip(self.graph.poses.iter().copied())
                 .collect(),
-            landmarks: (self.keys.iter().zip(&self.graph.landmarks).zip(covariances))
-                .map(|((&key, &at), cov)| (key, at, cov))
+            landmarks: (self.keys.iter().zip(&self.graph.landmarks))
+                .zip(&self.covariances)
+                .map(|((&key, &at), &cov)| (key, at, cov))
                 .collect(),
-            chi2_per_dof: self.graph.chi2() / dof,
+            chi2_per_dof,
             report,
             solves: self.solves,
+            whole,
             fused: self.fused,
-        })
+        }
     }
 
     /// Fuses the landmarks the solution says are one and solves again, until no more are
@@ -503,201 +569,4 @@ impl Smoother {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::motion::Unicycle;
-    use crate::observation::measure;
-
-    fn noise() -> NoiseModel {
-        NoiseModel {
-            motion: MotionModel::Unicycle(Unicycle {
-                sigma_v: 0.1,
-                sigma_omega: 0.05,
-            }),
-            sensor: Matrix2::from_diagonal(&Vector2::new(0.1 * 0.1, 0.02 * 0.02)),
-            floor: Matrix3::identity() * 1e-10,
-        }
-    }
-
-    /// Keyed sightings of every landmark within 12 m of `pose`.
-    fn sightings(pose: &Pose2, landmarks: &[Vector2<f64>]) -> Vec<Observation> {
-        (landmarks.iter().enumerate())
-            .filter_map(|(k, m)| {
-                let z = measure(pose, m);
-                (z[0] < 12.0).then_some(Observation {
-                    range: z[0],
-                    bearing: z[1],
-                    id: Some(k as u64),
-                })
-            })
-            .collect()
-    }
-
-    /// Sixteen landmarks around a circle of 18 m radius, and the control that drives it
-    /// once in 100 s from the origin.
-    fn circle() -> (Vec<Vector2<f64>>, Control) {
-        let landmarks = (0..16)
-            .map(|k| {
-                let a = f64::from(k) * std::f64::consts::TAU / 16.0;
-                Vector2::new(18.0 * a.cos(), 15.9 + 18.0 * a.sin())
-            })
-            .collect();
-        let control = Control {
-            v: 1.0,
-            omega: std::f64::consts::TAU / 100.0,
-            steering: 0.0,
-            ..Control::ZERO
-        };
-        (landmarks, control)
-    }
-
-    /// Two laps of a 100 s circle with landmarks around it, fed at 10 Hz with a scan every
-    /// second. Odometry and sightings carry `noise_scale` times the model's noise (seed
-    /// `seed`; 0: exact data), and the second lap's landmarks are keyed `100 + k` when
-    /// `rekey` (as a filter that mapped them again after its path drifted would key
-    /// them). Returns the smoother, the true poses at the scans and the feed results.
-    fn laps(
-        config: SmootherConfig,
-        noise_scale: f64,
-        rekey: bool,
-        seed: u64,
-    ) -> (Smoother, Vec<Pose2>, Vec<bool>) {
-        use rand::RngExt;
-        let mut rng = crate::rng::seeded(seed);
-        let mut normal = move |sigma: f64| {
-            noise_scale * sigma * rng.sample::<f64, _>(rand_distr::StandardNormal)
-        };
-        let model = noise();
-        let (landmarks, truth_control) = circle();
-        let mut smoother = Smoother::new(config, model.clone()).unwrap();
-        let (mut x, mut truth, mut due) = (Pose2::default(), Vec::new(), Vec::new());
-        for k in 1..=2000_u64 {
-            let (from_ns, to_ns) = ((k - 1) * 100_000_000, k * 100_000_000);
-            let control = Control {
-                v: truth_control.v + normal(0.1),
-                omega: truth_control.omega + normal(0.05),
-                steering: 0.0,
-                ..Control::ZERO
-            };
-            smoother.feed(&Feed::Control {
-                from_ns,
-                to_ns,
-                control,
-            });
-            x = model.motion.propagate(&x, &truth_control, 0.1);
-            if k % 10 == 0 {
-                truth.push(x);
-                let seen = (sightings(&x, &landmarks).into_iter())
-                    .map(|o| Observation {
-                        range: o.range + normal(0.1),
-                        bearing: o.bearing + normal(0.02),
-                        id: o.id.map(|id| if rekey && k > 1000 { 100 + id } else { id }),
-                    })
-                    .collect();
-                due.push(smoother.feed(&Feed::Scan {
-                    stamp_ns: to_ns,
-                    sightings: seen,
-                }));
-            }
-        }
-        (smoother, truth, due)
-    }
-
-    /// [`laps`] with odometry and sightings as noisy as the model says, solved at the end.
-    fn drifting_laps(config: SmootherConfig, rekey: bool, seed: u64) -> Solution {
-        laps(config, 1.0, rekey, seed).0.solve().unwrap()
-    }
-
-    #[test]
-    fn landmarks_mapped_again_after_a_drift_are_fused_and_close_the_loop() {
-        let apart = |a: &Solution, b: &Solution| {
-            (a.poses.iter().zip(&b.poses))
-                .map(|((_, p), (_, q))| (p.x - q.x).hypot(p.y - q.y))
-                .fold(0.0, f64::max)
-        };
-        let unfused = SmootherConfig {
-            fuse_duplicates: false,
-            ..SmootherConfig::default()
-        };
-        for seed in 1..=5 {
-            let known = drifting_laps(unfused.clone(), false, seed);
-            let open = drifting_laps(unfused.clone(), true, seed);
-            let fused = drifting_laps(SmootherConfig::default(), true, seed);
-            assert_eq!(known.landmarks.len(), 16);
-            assert_eq!(open.landmarks.len(), 32);
-            // Every second-lap key fused into its own first-lap landmark, none into a
-            // neighbour: the graph is that of the true keys, and so is its solution.
-            assert_eq!(fused.fused, 16, "seed {seed}");
-            let mut keys: Vec<u64> = fused.landmarks.iter().map(|l| l.0).collect();
-            keys.sort_unstable();
-            assert_eq!(keys, (0..16).collect::<Vec<u64>>(), "seed {seed}");
-            assert!(apart(&fused, &known) < 1e-3, "seed {seed}");
-            assert!(
-                apart(&open, &known) > 0.3,
-                "seed {seed}: the open loop is {} m from the closed one: no drift to close",
-                apart(&open, &known)
-            );
-        }
-    }
-
-    #[test]
-    fn a_loop_asks_for_one_solve_and_exact_data_is_solved_exactly() {
-        let config = SmootherConfig {
-            loop_gap_s: 50.0,
-            min_poses_between_solves: 30,
-            kernel: KernelKind::None,
-            fuse_duplicates: false,
-            ..SmootherConfig::default()
-        };
-        let (mut smoother, truth, due) = laps(config, 0.0, false, 0);
-        // A landmark is out of sight for more than 50 s only once the lap comes round
-        // (one scan a second): the first re-sighting after that asks.
-        let first = due.iter().position(|&d| d).expect("a loop closes");
-        assert!((50..100).contains(&first), "scan {first}");
-        assert!(due[..first].iter().all(|&d| !d));
-        assert_eq!(smoother.poses(), truth.len() + 1);
-        let solution = smoother.solve().unwrap();
-        assert!(!smoother.has_news());
-        let worst = (solution.poses[1..].iter().zip(&truth))
-            .map(|((_, p), t)| (p.x - t.x).hypot(p.y - t.y))
-            .fold(0.0, f64::max);
-        assert!(worst < 1e-6, "exact data: {worst} m");
-        assert!(solution.chi2_per_dof < 1e-9);
-    }
-
-    #[test]
-    fn without_a_loop_no_solve_is_asked() {
-        let config = SmootherConfig {
-            loop_gap_s: 500.0,
-            fuse_duplicates: false,
-            ..SmootherConfig::default()
-        };
-        let (_, _, due) = laps(config, 0.0, false, 0);
-        assert!(due.iter().all(|&d| !d));
-    }
-
-    #[test]
-    fn a_landmark_seen_once_from_the_fixed_start_has_the_sensor_covariance() {
-        let model = noise();
-        let mut smoother = Smoother::new(SmootherConfig::default(), model.clone()).unwrap();
-        let obs = Observation {
-            range: 10.0,
-            bearing: 0.5,
-            id: Some(7),
-        };
-        smoother.feed(&Feed::Scan {
-            stamp_ns: 0,
-            sightings: vec![obs],
-        });
-        let solution = smoother.solve().unwrap();
-        let (key, _, cov) = solution.landmarks[0];
-        let (_, g) = inverse(&Pose2::default(), &obs.z());
-        let expected = g * model.sensor * g.transpose();
-        assert_eq!(key, 7);
-        // The start's prior (variance 1e-8) adds about r² · 1e-8 to it.
-        assert!(
-            (cov - expected).norm() < 1e-4 * expected.norm(),
-            "{cov} vs {expected}"
-        );
-    }
-}
+mod tests;
