@@ -350,7 +350,8 @@ impl Metrics {
         let solved = reference::solve(rec, model);
         let align = self.alignment.method;
         self.reference = (solved.as_ref()).map(|r| r.score(&rec.truth, align, self.scored_at));
-        rec.reference = solved.map_or_else(Vec::new, |r| r.aligned(&rec.truth, align));
+        rec.reference = (solved.as_ref()).map_or_else(Vec::new, |r| r.aligned(&rec.truth, align));
+        rec.reference_graph = solved.map(|r| r.graph);
         self
     }
 

@@ -12,6 +12,7 @@ use crate::reference::NoiseModel;
 use crate::relations::{Relation, read_relations};
 use crate::resources::ProcessMonitor;
 use crate::{Metrics, Recording, report};
+use fastslam_estimation::graph::g2o::G2o;
 use fastslam_protocol::ipc::{Ended, Flow, Ipc};
 use fastslam_protocol::message::Message;
 use fastslam_protocol::stream::Repeats;
@@ -78,6 +79,11 @@ pub struct Args {
     /// the file its service runs with.
     #[arg(long)]
     pub service_config: Option<PathBuf>,
+    /// Write the achievable-accuracy reference's solved graph here as g2o (needs
+    /// `--service-config`; gzipped when the name ends in `.gz`), to check it with another
+    /// solver.
+    #[arg(long, value_name = "FILE")]
+    pub graph_out: Option<PathBuf>,
     /// Expectations on the metrics and a JUnit report.
     #[command(flatten)]
     pub judge: JudgeArgs,
@@ -295,6 +301,19 @@ fn score(
     }
     if let Some(noise) = &noise {
         metrics = metrics.with_reference(&mut rec, noise);
+    }
+    if let Some(path) = &args.graph_out {
+        match &rec.reference_graph {
+            Some(graph) => match G2o::from_graph(graph).save(path) {
+                Ok(()) => tracing::info!(path = %path.display(), "reference graph written"),
+                Err(e) => {
+                    tracing::warn!(path = %path.display(), "reference graph not written: {e}")
+                }
+            },
+            None => tracing::warn!(
+                "--graph-out: no reference was solved (no ground truth, no landmark ids or no --service-config)"
+            ),
+        }
     }
     (rec, metrics)
 }

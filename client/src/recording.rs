@@ -68,6 +68,8 @@ pub struct Recording {
     /// The achievable-accuracy reference's trajectory in the truth's frame, once solved
     /// (see [`crate::reference`]); empty without one.
     pub reference: Vec<StampedPose>,
+    /// The reference's solved graph, once solved.
+    pub reference_graph: Option<fastslam_estimation::graph::Graph>,
     /// The smoothing back-end's newest trajectory (the service's frame; the truth's once
     /// scored, see [`crate::metrics::Metrics::with_smoothed`]); empty without one.
     pub smoothed: Vec<StampedPose>,

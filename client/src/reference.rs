@@ -14,7 +14,7 @@
 use crate::align::Se2;
 use crate::recording::{Recording, StampedPose};
 use crate::scoring::{AlignMode, ScoreAt, TrajectoryMetrics, fit_se2, interpolate, trajectory};
-use fastslam_estimation::graph::{Feed, KernelKind, Smoother, SmootherConfig, SolveOptions};
+use fastslam_estimation::graph::{Feed, Graph, KernelKind, Smoother, SmootherConfig, SolveOptions};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
@@ -52,6 +52,8 @@ pub struct Reference {
     pub solve_s: f64,
     /// Landmarks in the graph.
     pub landmarks: usize,
+    /// The solved graph.
+    pub graph: Graph,
 }
 
 /// Solves the reference of `rec` under `model`; `None` when the recording has no
@@ -101,6 +103,7 @@ pub fn solve(rec: &Recording, model: &NoiseModel) -> Option<Reference> {
         chi2_per_dof: solution.chi2_per_dof,
         solve_s: started.elapsed().as_secs_f64(),
         landmarks: solution.landmarks.len(),
+        graph: graph.graph().clone(),
     })
 }
 

@@ -56,6 +56,7 @@ impl Backend {
         feed: Vec<Feed>,
     ) -> anyhow::Result<Self> {
         let reanchor = config.reanchor;
+        let graph_out = config.graph_out.clone();
         let mut smoother = Smoother::new(config, noise)?;
         let (to_worker, inbox) = channel::<Vec<Feed>>();
         let (outbox, from_worker) = channel::<Report>();
@@ -88,6 +89,9 @@ impl Backend {
                     let _ = outbox.send(Report { scan, solution });
                 }
                 busy.log();
+                if let Some(path) = graph_out {
+                    write_graph(smoother.graph(), &path);
+                }
             })?;
         let mut backend = Self {
             to_worker: Some(to_worker),
@@ -218,6 +222,16 @@ fn solve(outcome: fastslam_estimation::Result<Solution>, busy: &ScanTimes) -> Op
             tracing::warn!("smoother: {e}");
             None
         }
+    }
+}
+
+/// Writes `graph` as g2o at `path`, saying where or why not.
+fn write_graph(graph: &fastslam_estimation::graph::Graph, path: &std::path::Path) {
+    match fastslam_estimation::graph::g2o::G2o::from_graph(graph).save(path) {
+        Ok(()) => {
+            tracing::info!(path = %path.display(), poses = graph.poses.len(), "smoother graph written")
+        }
+        Err(e) => tracing::warn!(path = %path.display(), "smoother graph not written: {e}"),
     }
 }
 

@@ -281,6 +281,68 @@ fn assemble(
 }
 
 impl G2o {
+    /// `graph` in the format's terms, its variables numbered poses first, then
+    /// landmarks: componentwise odometry factors become SE(2)-logarithm edges with their
+    /// information turned into the measurement's frame, range–bearing sightings become
+    /// `EDGE_SE2_XY` offsets `(r cos b, r sin b)` with their covariance carried through the
+    /// polar-to-Cartesian Jacobian at the measurement — the same problem to first order
+    /// about the measurements — and the posed priors become `FIX` lines. Landmark priors
+    /// are left out (a window's, not a graph's).
+    pub fn from_graph(graph: &Graph) -> Self {
+        let mut out = Graph {
+            poses: graph.poses.clone(),
+            landmarks: graph.landmarks.clone(),
+            offsets: graph.offsets.clone(),
+            ..Graph::default()
+        };
+        out.betweens = (graph.betweens.iter())
+            .map(|b| match b.residual {
+                PoseResidual::Logmap => *b,
+                PoseResidual::Componentwise => {
+                    // To first order the logarithm's translation is the componentwise one
+                    // turned by −θ_δ: r_c = T r_l, so Ω_l = Tᵀ Ω_c T.
+                    let (s, c) = b.delta.theta.sin_cos();
+                    let t = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
+                    Between {
+                        information: t.transpose() * b.information * t,
+                        residual: PoseResidual::Logmap,
+                        ..*b
+                    }
+                }
+            })
+            .collect();
+        out.offsets.extend(graph.sightings.iter().filter_map(|s| {
+            let (r, (sb, cb)) = (s.z[0], s.z[1].sin_cos());
+            let g = Matrix2::new(cb, -r * sb, sb, r * cb);
+            let g_inv = g.try_inverse()?;
+            Some(Offset {
+                pose: s.pose,
+                landmark: s.landmark,
+                offset: Vector2::new(r * cb, r * sb),
+                information: g_inv.transpose() * s.information * g_inv,
+            })
+        }));
+        // A fixed vertex is held at its value: the prior's mean.
+        let np = graph.poses.len() as i64;
+        let mut fixed = Vec::new();
+        for p in &graph.priors {
+            out.poses[p.pose] = p.mean;
+            if !fixed.contains(&(p.pose as i64)) {
+                fixed.push(p.pose as i64);
+                out.priors.push(Prior {
+                    information: Matrix3::identity() * ANCHOR_INFORMATION,
+                    ..*p
+                });
+            }
+        }
+        Self {
+            graph: out,
+            pose_ids: (0..np).collect(),
+            landmark_ids: (np..np + graph.landmarks.len() as i64).collect(),
+            fixed,
+        }
+    }
+
     /// Number of edges (pose edges and landmark edges).
     pub fn edges(&self) -> usize {
         self.graph.betweens.len() + self.graph.offsets.len()
@@ -394,6 +456,97 @@ pub fn parse_str(text: &str) -> Result<G2o, G2oError> {
 mod tests {
     use super::*;
     use crate::graph::SolveOptions;
+
+    /// A four-pose loop turning 0.5 rad a step with anisotropic odometry information and
+    /// two landmarks seen by range and bearing, at the true values shifted by `shift`.
+    fn turning(shift: f64) -> Graph {
+        use crate::observation::{Observation, measure};
+        let truth: Vec<Pose2> = (0..4)
+            .map(|k| {
+                let a = 0.5 * f64::from(k);
+                Pose2::new(3.0 * a.sin(), 3.0 * (1.0 - a.cos()), a)
+            })
+            .collect();
+        let marks = [Vector2::new(1.0, 4.0), Vector2::new(4.0, 0.5)];
+        let mut graph = Graph::default();
+        for (k, p) in truth.iter().enumerate() {
+            let (w, sign) = (
+                shift * (k as f64 + 1.0),
+                if k % 2 == 0 { 1.0 } else { -1.0 },
+            );
+            graph.add_pose(Pose2::new(
+                p.x + w * w / shift,
+                p.y + 2.0 * sign * w,
+                p.theta + sign * w,
+            ));
+        }
+        for m in &marks {
+            graph.add_landmark(m + Vector2::new(shift, shift));
+        }
+        graph.priors.push(Prior {
+            pose: 0,
+            mean: truth[0],
+            information: Matrix3::identity() * 1e8,
+        });
+        for k in 1..4 {
+            graph.betweens.push(Between {
+                from: k - 1,
+                to: k,
+                delta: truth[k - 1].inverse().compose(&truth[k]),
+                information: Matrix3::from_diagonal(&nalgebra::Vector3::new(100.0, 1.0, 50.0)),
+                residual: PoseResidual::Componentwise,
+            });
+        }
+        let noise = Matrix2::from_diagonal(&Vector2::new(0.01, 0.0004));
+        for (k, p) in truth.iter().enumerate() {
+            for (j, m) in marks.iter().enumerate() {
+                let z = measure(p, m);
+                let seen = Observation {
+                    range: z[0],
+                    bearing: z[1],
+                    id: None,
+                };
+                graph.add_sighting(k, j, &seen, &noise).unwrap();
+            }
+        }
+        graph
+    }
+
+    #[test]
+    fn a_range_bearing_graph_written_as_g2o_is_the_same_problem_to_first_order() {
+        // Near the measurements the two forms' χ² agree to first order, the odometry's
+        // and the sightings' each.
+        let (graph, near) = (turning(5e-3), G2o::from_graph(&turning(5e-3)));
+        let parts = |g: &Graph| {
+            let odometry = Graph {
+                sightings: Vec::new(),
+                offsets: Vec::new(),
+                ..g.clone()
+            };
+            let seen = Graph {
+                betweens: Vec::new(),
+                ..g.clone()
+            };
+            [odometry.chi2_measurements(), seen.chi2_measurements()]
+        };
+        for (a, b) in parts(&graph).into_iter().zip(parts(&near.graph)) {
+            assert!(a > 0.1, "{a}: the shift must show");
+            assert!((a - b).abs() < 0.05 * a, "{a} against {b}");
+        }
+        // … the file reads back as written, and both solve to the truth.
+        let mut text = Vec::new();
+        near.write(&mut text).unwrap();
+        let mut read = parse_str(std::str::from_utf8(&text).unwrap()).unwrap();
+        assert_eq!(read.graph.offsets.len(), 8);
+        assert_eq!(read.graph.betweens.len(), 3);
+        let mut solved = turning(0.05);
+        solved.solve(&SolveOptions::default()).unwrap();
+        read.graph.solve(&SolveOptions::pose_graph()).unwrap();
+        for (p, q) in solved.poses.iter().zip(&read.graph.poses) {
+            assert!((p.x - q.x).abs() + (p.y - q.y).abs() + (p.theta - q.theta).abs() < 1e-6);
+        }
+        assert!(read.graph.chi2_measurements() < 1e-9);
+    }
 
     /// Three poses on a line, ids out of order, whose three edges disagree by 0.3 m round
     /// the loop, with x-information 1, 2 and 4; and one landmark seen once. Linear in x

@@ -32,6 +32,7 @@ use crate::{Error, Result};
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
+use std::path::PathBuf;
 
 /// Most fuse-and-solve rounds per solve ([`Smoother::solve`]).
 const FUSE_ROUNDS: usize = 10;
@@ -116,6 +117,10 @@ pub struct SmootherConfig {
     /// whole solve (more than 1): whole solves then cost, summed over a run, a few times
     /// the last one.
     pub whole_growth: f64,
+    /// Write the graph of the last whole solve here, as g2o ([`G2o::from_graph`](super::g2o::G2o::from_graph)), at the
+    /// end of the data (a path relative to the service's working directory; gzipped when
+    /// it ends in `.gz`).
+    pub graph_out: Option<PathBuf>,
 }
 
 impl Default for SmootherConfig {
@@ -133,6 +138,7 @@ impl Default for SmootherConfig {
             fuse_gate: 9.21,
             window_poses: 300,
             whole_growth: 1.5,
+            graph_out: None,
         }
     }
 }
@@ -367,6 +373,11 @@ impl Smoother {
     /// Poses in the graph.
     pub fn poses(&self) -> usize {
         self.graph.poses.len()
+    }
+
+    /// The graph at its current estimates.
+    pub fn graph(&self) -> &Graph {
+        &self.graph
     }
 
     /// True when the graph changed since its last whole solve.
