@@ -167,6 +167,12 @@ impl SmootherConfig {
         if !(self.whole_growth.is_finite() && self.whole_growth > 1.0) {
             return bad("smoother.whole_growth", "must be finite and > 1");
         }
+        if let Some(path) = &self.graph_out
+            && let Some(folder) = path.parent()
+            && !(folder.as_os_str().is_empty() || folder.is_dir())
+        {
+            return bad("smoother.graph_out", "its folder does not exist");
+        }
         if !(1..=10_000).contains(&self.max_iterations) {
             return bad("smoother.max_iterations", "must be in 1..=10000");
         }

@@ -292,3 +292,28 @@ fn window_solves_on_exact_data_are_exact() {
         assert!(worst < 1e-6, "solve {}: {worst} m", s.solves);
     }
 }
+
+#[test]
+fn settings_out_of_range_are_refused_by_name() {
+    let refused = |config: SmootherConfig| match config.validate() {
+        Err(Error::InvalidParameter { name, .. }) => name,
+        other => panic!("{other:?}"),
+    };
+    let base = SmootherConfig::default;
+    assert!(base().validate().is_ok());
+    let growth = SmootherConfig {
+        whole_growth: 1.0,
+        ..base()
+    };
+    assert_eq!(refused(growth), "smoother.whole_growth");
+    let nowhere = SmootherConfig {
+        graph_out: Some("/no/such/folder/graph.g2o".into()),
+        ..base()
+    };
+    assert_eq!(refused(nowhere), "smoother.graph_out");
+    let here = SmootherConfig {
+        graph_out: Some("graph.g2o".into()),
+        ..base()
+    };
+    assert!(here.validate().is_ok());
+}
