@@ -368,7 +368,7 @@ fn a_bridge_whose_peer_never_comes_says_what_to_check() {
 }
 
 #[test]
-fn a_bridge_without_peers_or_with_an_unknown_topic_fails_in_one_line() {
+fn a_bridge_without_peers_or_with_bad_flags_fails_in_one_line() {
     let prefix = prefix("bridgeflags");
     let dir = folder(&prefix);
     let out = dir.join("run").display().to_string();
@@ -383,6 +383,14 @@ fn a_bridge_without_peers_or_with_an_unknown_topic_fails_in_one_line() {
                 "tcp/127.0.0.1:1",
             ],
             "cannot carry \"odometri\"",
+        ),
+        (
+            vec!["bridge", "--side", "sensors", "--connect", "nonsense"],
+            "--connect \"nonsense\"",
+        ),
+        (
+            vec!["bridge", "--side", "sensors", "--listen", "tcp/nonsense"],
+            "invalid socket address",
         ),
         (vec!["run", "--host", "sensors", "--out", &out], "--connect"),
         (
@@ -408,6 +416,10 @@ fn a_bridge_without_peers_or_with_an_unknown_topic_fails_in_one_line() {
         let errors: Vec<&str> = stderr.lines().filter(|l| l.contains("error")).collect();
         assert_eq!(errors.len(), 1, "{stderr}");
         assert!(errors[0].contains(says), "{stderr}");
+        assert!(
+            !stderr.contains(".cargo/registry") && !stderr.contains("/rustc/"),
+            "no build machine's paths: {stderr}"
+        );
     }
     assert!(!dir.join("run").exists(), "nothing starts on bad flags");
     assert_no_leftovers_and_remove(&prefix, &dir);

@@ -12,7 +12,7 @@ fn standstill(dir: &std::path::Path) -> std::path::PathBuf {
     let scenario = dir.join("standstill.toml");
     std::fs::write(
         &scenario,
-        text.replace("switch_distance_m = 1.0", "switch_distance_m = 1e9"),
+        text.replace("switch_distance_m = 1.0", "switch_distance_m = 1000.0"),
     )
     .unwrap();
     scenario

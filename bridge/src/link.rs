@@ -48,8 +48,16 @@ impl ZenohArgs {
                  host and --connect (e.g. tcp/<that host>:7447) on the other, or --multicast"
             );
         }
-        zenoh::key_expr::KeyExpr::try_from(self.key.as_str())
-            .map_err(|e| anyhow::anyhow!("--key {:?} is not a Zenoh key: {e}", self.key))?;
+        zenoh::key_expr::KeyExpr::try_from(self.key.as_str()).map_err(|e| {
+            zenoh_error(e).context(format!("--key {:?} is not a Zenoh key", self.key))
+        })?;
+        for (flag, endpoints) in [("--listen", &self.listen), ("--connect", &self.connect)] {
+            for endpoint in endpoints {
+                endpoint.parse::<zenoh::config::EndPoint>().map_err(|e| {
+                    zenoh_error(e).context(format!("{flag} {endpoint:?} is not an endpoint"))
+                })?;
+            }
+        }
         Ok(())
     }
 
@@ -79,7 +87,7 @@ impl ZenohArgs {
         let mut set = |path: &str, value: String| {
             config
                 .insert_json5(path, &value)
-                .map_err(|e| anyhow::anyhow!("{path} = {value}: {e}"))
+                .map_err(|e| zenoh_error(e).context(format!("{path} = {value}")))
         };
         set("mode", "\"peer\"".into())?;
         set("listen/endpoints", json_list(&self.listen))?;
@@ -96,9 +104,39 @@ impl ZenohArgs {
     }
 }
 
-/// A Zenoh error as an `anyhow` error: Zenoh's boxed errors do not convert by `?`.
-pub(crate) fn zenoh_error(e: zenoh::Error) -> anyhow::Error {
-    anyhow::anyhow!(e)
+/// A Zenoh error as an `anyhow` error (Zenoh's boxed errors do not convert by `?`),
+/// without the source locations Zenoh writes into its messages: they name files on the
+/// machine that built the binary, nothing a user can act on.
+pub(crate) fn zenoh_error(e: impl std::fmt::Display) -> anyhow::Error {
+    anyhow::anyhow!(without_source_locations(&e.to_string()))
+}
+
+/// `text` without the ` at <file>.rs:<line>.` Zenoh appends to each of its errors
+/// (nested ones included).
+fn without_source_locations(text: &str) -> String {
+    let is_location = |word: &str| {
+        let word = word.strip_suffix('.').unwrap_or(word);
+        word.rsplit_once(':').is_some_and(|(file, line)| {
+            file.ends_with(".rs") && !line.is_empty() && line.bytes().all(|b| b.is_ascii_digit())
+        })
+    };
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(at) = rest.find(" at ") {
+        let after = &rest[at + " at ".len()..];
+        let end = after
+            .find(|c: char| c.is_whitespace() || "]\"),".contains(c))
+            .unwrap_or(after.len());
+        if is_location(&after[..end]) {
+            out.push_str(&rest[..at]);
+        } else {
+            out.push_str(&rest[..at + " at ".len()]);
+            out.push_str(&after[..end]);
+        }
+        rest = &after[end..];
+    }
+    out.push_str(rest);
+    out
 }
 
 /// A JSON list of strings.
@@ -255,5 +293,36 @@ mod tests {
         };
         let e = args.open().unwrap_err().to_string();
         assert!(e.contains("--listen") && e.contains("--connect"), "{e}");
+    }
+
+    #[test]
+    fn a_bad_endpoint_is_named_without_the_build_machines_paths() {
+        let args = ZenohArgs {
+            listen: vec![],
+            connect: vec!["tcp/127.0.0.1:7447".into(), "nonsense".into()],
+            key: "fastslam".into(),
+            multicast: false,
+        };
+        let e = format!("{:#}", args.check().unwrap_err());
+        assert!(
+            e.starts_with("--connect \"nonsense\" is not an endpoint: "),
+            "{e}"
+        );
+        assert!(!e.contains(".rs:") && !e.contains("/src/"), "{e}");
+    }
+
+    #[test]
+    fn source_locations_leave_zenohs_messages_and_nothing_else() {
+        let zenoh = "Can not create a new TCP listener bound to tcp/1.2.3.4:7447: [1.2.3.4:7447: \
+             Cannot assign requested address (os error 99) at /root/.cargo/registry/src/\
+             index.crates.io-1949cf8c6b5b557f/zenoh-link-commons-1.10.2/src/tcp.rs:61.] at \
+             /root/.cargo/registry/src/x/zenoh-link-tcp-1.10.2/src/unicast.rs:338.";
+        assert_eq!(
+            without_source_locations(zenoh),
+            "Can not create a new TCP listener bound to tcp/1.2.3.4:7447: [1.2.3.4:7447: \
+             Cannot assign requested address (os error 99)]"
+        );
+        let plain = "a peer at tcp/10.0.0.2:7447 left at 12:30.";
+        assert_eq!(without_source_locations(plain), plain);
     }
 }

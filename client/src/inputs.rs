@@ -295,7 +295,9 @@ impl PayloadVisitor for Open<'_> {
     }
 }
 
-/// The streams a consumer takes until they end, each with its end bookkeeping.
+/// The streams a consumer takes until they end, each with its end bookkeeping (none by
+/// default).
+#[derive(Default)]
 pub struct Ends(Vec<(StreamId, StreamEnd)>);
 
 impl Ends {

@@ -5,6 +5,7 @@
 //! account (its status topic) and are reported as such. The run folder (files,
 //! pictures) is described in `METRICS.md`.
 
+pub mod account;
 pub mod align;
 pub mod expect;
 pub mod foxglove_log;

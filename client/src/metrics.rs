@@ -13,11 +13,10 @@ use crate::resources::ProcessUsage;
 use crate::stats::{Spread, mean};
 use fastslam_estimation::wrap_angle;
 use fastslam_protocol::MapLandmark;
-use fastslam_protocol::status::RejectionKind;
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
 
+pub use crate::account::InputAccount;
 pub use crate::scoring::{
     AlignMode, Alignment, ScoreAt, TrajectoryMetrics, error, fit_alignment, fit_se2, interpolate,
     sampled_at, scored_at, trajectory,
@@ -164,41 +163,6 @@ pub struct FilterHealth {
     /// Where the noise check points when it failed: `odometry` (the pose term dominates
     /// the innovations), `sensor`, or empty when it never failed.
     pub nis_suspect: String,
-}
-
-/// Inputs the service dropped or rejected, by reason ([`RejectionKind::name`]), as its
-/// newest status counted them.
-#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
-pub struct InputAccount {
-    /// Every reason with its count, zeros included.
-    pub rejected: BTreeMap<String, u64>,
-    /// All reasons together.
-    pub rejected_total: u64,
-}
-
-impl InputAccount {
-    /// The counts of `rec`.
-    pub fn of(rec: &Recording) -> Self {
-        let rejected: BTreeMap<String, u64> = RejectionKind::ALL
-            .iter()
-            .map(|&kind| (kind.name().to_string(), rec.rejections[kind as usize]))
-            .collect();
-        Self {
-            rejected_total: rejected.values().sum(),
-            rejected,
-        }
-    }
-
-    /// The reasons with a count, as `name count` joined by `, ` (empty when none).
-    pub fn nonzero(&self) -> String {
-        let parts: Vec<String> = self
-            .rejected
-            .iter()
-            .filter(|(_, n)| **n > 0)
-            .map(|(name, n)| format!("{name} {n}"))
-            .collect();
-        parts.join(", ")
-    }
 }
 
 /// Time and memory the run took.

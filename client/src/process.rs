@@ -18,7 +18,8 @@ use fastslam_protocol::message::Message;
 use fastslam_protocol::stream::Repeats;
 use fastslam_protocol::topics::{Publisher, Topic, TopicRow};
 use fastslam_protocol::{Header, cli, validate};
-use fastslam_service::config::ServiceConfig;
+use fastslam_service::config::{InputConfig, ServiceConfig};
+use fastslam_service::health::RejectionLog;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -125,6 +126,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     })?;
     let (rec, mcap) = recorder.finish(&ipc);
     let (rec, metrics) = score(&args, &rec, ended == Ended::Done, relations, noise);
+    for line in metrics.inputs.warnings() {
+        tracing::warn!("{line}");
+    }
     report::write(&args.out, &rec, &metrics)?;
     mcap.finish(&metrics)?;
     tracing::info!(
@@ -142,11 +146,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 /// What the client keeps while it records: the recording and its MCAP file, and the
-/// bookkeeping of the streams, the latency, the live score and the processes' usage.
+/// bookkeeping of the streams, the skipped inputs, the latency, the live score and the
+/// processes' usage.
 struct Recorder {
     rec: Recording,
     mcap: RunMcap,
     ends: Ends,
+    /// Inputs the checks refused, logged once per reason per interval as the service does.
+    rejected: RejectionLog,
     seen: Repeats,
     latency: LatencyMatcher,
     monitor: ProcessMonitor,
@@ -161,21 +168,32 @@ impl Recorder {
     /// # Errors
     /// When the file cannot be created.
     fn new(ipc: &Ipc, inputs: &Inputs, mcap: &Path) -> anyhow::Result<Self> {
-        let mut recorder = Self {
+        let mut recorder = Self::recording(inputs.ends(), !inputs.ground_truth(), mcap)?;
+        recorder.monitor.sample(ipc);
+        Ok(recorder)
+    }
+
+    /// Records the streams of `ends` (`without_truth` when there is no ground truth) into
+    /// a new recording and the MCAP file at `mcap`.
+    ///
+    /// # Errors
+    /// When the file cannot be created.
+    fn recording(ends: Ends, without_truth: bool, mcap: &Path) -> anyhow::Result<Self> {
+        let log_interval = Duration::from_secs_f64(InputConfig::default().log_interval_s);
+        Ok(Self {
             rec: Recording {
-                without_truth: !inputs.ground_truth(),
+                without_truth,
                 ..Recording::default()
             },
             mcap: RunMcap::create(mcap)?,
-            ends: inputs.ends(),
+            ends,
+            rejected: RejectionLog::new(log_interval),
             seen: Repeats::default(),
             latency: LatencyMatcher::default(),
             monitor: ProcessMonitor::new(),
             live_ate: LiveAte::default(),
             last_sample: Instant::now(),
-        };
-        recorder.monitor.sample(ipc);
-        Ok(recorder)
+        })
     }
 
     /// One wake-up: takes every pending message, samples the processes and prints the
@@ -186,6 +204,7 @@ impl Recorder {
     fn wake(&mut self, ipc: &Ipc, inputs: &Inputs) -> anyhow::Result<Flow> {
         let mut announced = false;
         inputs.drain(|row, message, checked| announced |= self.take(row, message, checked))?;
+        self.rejected.flush(Instant::now());
         // A publisher that announced its end has done its work: sample its CPU time now,
         // before it exits (see `resources`).
         if announced || self.last_sample.elapsed() >= SAMPLE_EVERY {
@@ -214,11 +233,23 @@ impl Recorder {
         }
         let announced = self.ends.note(row, message);
         self.time(message);
+        let unusable = self.rec.lidar.note(message, checked.is_ok());
+        if unusable && self.rec.lidar.unusable == 1 && matches!(message, Message::Scan(..)) {
+            tracing::warn!(
+                seq = message.header().seq,
+                "a scan without a single return (every beam NaN, too close or beyond \
+                 range): it gives the filter nothing; such scans are counted in \
+                 metrics.json (/inputs/lidar_unusable), not logged"
+            );
+        }
         match checked {
             Ok(()) => self.keep(row.topic, message),
             // An invalid lidar message counts for its stamp only.
             Err(_) if matches!(message, Message::Observations(..) | Message::Scan(..)) => {}
-            Err(reason) => tracing::warn!(%reason, "{} skipped", row.what),
+            Err(reason) => {
+                let seq = message.header().seq;
+                (self.rejected).reject(Instant::now(), row.what, seq, reason.kind(), &reason);
+            }
         }
         announced
     }
@@ -267,6 +298,7 @@ impl Recorder {
 
     /// The recording with its latencies and the processes' usage, and the MCAP file.
     fn finish(mut self, ipc: &Ipc) -> (Recording, RunMcap) {
+        self.rejected.flush_all();
         self.monitor.sample(ipc);
         self.rec.latencies = self.latency.latencies().to_vec();
         self.rec.streamed_s = self.latency.streamed_s();
@@ -358,4 +390,65 @@ fn load_relations(path: &Path) -> anyhow::Result<Vec<Relation>> {
 fn print_progress(p: &Progress) {
     let mut out = std::io::stdout().lock();
     let _ = writeln!(out, "{p}").and_then(|()| out.flush());
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fastslam_protocol::status::RejectionKind;
+    use fastslam_protocol::{GroundTruth, LaserScanHeader, topics};
+
+    #[test]
+    fn bad_inputs_are_logged_once_per_reason_per_interval_and_every_one_counted() {
+        let dir = std::env::temp_dir().join(format!("client-skips-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut recorder =
+            Recorder::recording(Ends::default(), false, &dir.join("run.mcap")).unwrap();
+        let truth = topics::row("ground_truth").unwrap();
+        for seq in 0..1000 {
+            let sample = GroundTruth {
+                header: Header {
+                    stamp_ns: seq * 1_000_000,
+                    seq,
+                },
+                x: f64::NAN,
+                ..GroundTruth::default()
+            };
+            let checked = validate::ground_truth(&sample);
+            recorder.take(truth, Message::GroundTruth(&sample), checked);
+        }
+        let k = RejectionKind::NonFinite as usize;
+        assert_eq!(recorder.rejected.counts()[k], 1000);
+        assert_eq!(
+            recorder.rejected.pending()[k],
+            999,
+            "one line, the rest summarised"
+        );
+        assert!(recorder.rec.truth.is_empty());
+        let scan = topics::row("scan").unwrap();
+        let h = LaserScanHeader {
+            angle_increment: 0.01,
+            range_max: 30.0,
+            ranges: 3,
+            ..LaserScanHeader::default()
+        };
+        for seq in 0..5 {
+            let h = LaserScanHeader {
+                header: Header { stamp_ns: seq, seq },
+                ..h
+            };
+            let nan = [f32::NAN; 3];
+            recorder.take(
+                scan,
+                Message::Scan(&h, &nan),
+                validate::laser_scan(&h, &nan),
+            );
+        }
+        assert_eq!(recorder.rec.lidar.messages, 5);
+        assert_eq!(recorder.rec.lidar.unusable, 5, "every beam NaN: counted");
+        let account = crate::metrics::InputAccount::of(&recorder.rec);
+        assert_eq!(account.lidar_unusable, 5);
+        assert_eq!(account.warnings().len(), 1, "{:?}", account.warnings());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

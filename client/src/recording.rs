@@ -1,5 +1,6 @@
 //! Everything the client received, kept in stamp order.
 
+use crate::account::LidarCount;
 use crate::resources::ProcessUsage;
 use fastslam_estimation::motion::Control;
 use fastslam_estimation::observation::Observation;
@@ -97,6 +98,8 @@ pub struct Recording {
     /// The service's count of inputs it dropped or rejected, by
     /// [`status::RejectionKind`] index, as of its newest status.
     pub rejections: [u64; status::REJECTION_KINDS],
+    /// The lidar messages received, and those without anything usable.
+    pub lidar: LidarCount,
 }
 
 /// The filter-health part of one [`ServiceStatus`].

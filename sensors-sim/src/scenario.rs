@@ -63,6 +63,21 @@ pub enum ScenarioError {
         /// The parser's message.
         reason: String,
     },
+    /// A number is outside the range that keeps a run finite.
+    #[error(
+        "scenario `{name}`: `{field}` = {} is outside its allowed range {range}",
+        short(*.value)
+    )]
+    OutOfRange {
+        /// The scenario's name.
+        name: String,
+        /// The offending key.
+        field: &'static str,
+        /// Its value.
+        value: f64,
+        /// The allowed range, with its unit.
+        range: &'static str,
+    },
     /// A value is outside its valid range.
     #[error("scenario `{name}`: `{field}` {reason}")]
     Invalid {
@@ -73,6 +88,15 @@ pub enum ScenarioError {
         /// What is wrong with it.
         reason: &'static str,
     },
+}
+
+/// `v` in plain digits, or in scientific notation when very large or small.
+fn short(v: f64) -> String {
+    if v != 0.0 && !(1e-3..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
 }
 
 /// A simulated experiment.
@@ -146,6 +170,26 @@ pub enum VehicleSpec {
 /// The most loops a route may have: 10 000 loops of the Bailey webmap are 23 days of
 /// simulated driving; more is a typo, refused instead of running until a timeout.
 pub const MAX_LOOPS: u32 = 10_000;
+
+/// The bounds of the numbers that set a run's length and output: each key with its
+/// allowed range, inclusive (`key`, lowest, highest, the range in words). A value outside
+/// them is a typo that would run until a timeout, writing gigabytes.
+pub const BOUNDS: &[(&str, f64, f64, &str)] = &[
+    ("timing.control_period_s", 1e-3, 1.0, "0.001 to 1 s"),
+    ("timing.observe_every", 1.0, 1000.0, "1 to 1000"),
+    ("vehicle.speed_mps", 0.01, 50.0, "0.01 to 50 m/s"),
+    ("route.switch_distance_m", 0.01, 1000.0, "0.01 to 1000 m"),
+    (
+        "route / world coordinates",
+        -1e5,
+        1e5,
+        "-100000 to 100000 m",
+    ),
+    ("world.poles radius", 1e-3, 100.0, "0.001 to 100 m"),
+    ("lidar.beams", 2.0, 65536.0, "2 to 65536"),
+    ("lidar.max_range_m", 0.0, 1e4, "up to 10000 m"),
+    ("landmark_sensor.max_range_m", 0.0, 1e4, "up to 10000 m"),
+];
 
 /// The route: waypoints driven in order, `loops` times.
 #[derive(Debug, Clone, Deserialize)]
@@ -386,7 +430,52 @@ impl Scenario {
         Ok(scenario)
     }
 
+    /// The first number outside [`BOUNDS`], as an error naming its key and range.
+    fn check_bounds(&self) -> Result<(), ScenarioError> {
+        let speed = match self.vehicle {
+            VehicleSpec::Bicycle { speed_mps, .. } | VehicleSpec::Unicycle { speed_mps, .. } => {
+                speed_mps
+            }
+        };
+        let w = &self.world;
+        let coordinates = (self.route.waypoints.iter().chain(&w.landmarks).flatten())
+            .chain(w.poles.iter().flat_map(|p| &p[..2]))
+            .chain(w.walls.iter().flatten());
+        let mut values: Vec<(&str, f64)> = vec![
+            ("timing.control_period_s", self.timing.control_period_s),
+            ("timing.observe_every", self.timing.observe_every as f64),
+            ("vehicle.speed_mps", speed),
+            ("route.switch_distance_m", self.route.switch_distance_m),
+        ];
+        values.extend(coordinates.map(|&v| ("route / world coordinates", v)));
+        values.extend(w.poles.iter().map(|p| ("world.poles radius", p[2])));
+        if let Some(l) = &self.lidar {
+            values.push(("lidar.beams", f64::from(l.beams)));
+            values.push(("lidar.max_range_m", l.max_range_m));
+        }
+        values.push((
+            "landmark_sensor.max_range_m",
+            self.landmark_sensor.max_range_m,
+        ));
+        for (field, value) in values {
+            let Some(&(field, low, high, range)) = BOUNDS.iter().find(|b| b.0 == field) else {
+                continue;
+            };
+            // NaN is outside every range.
+            if !(low..=high).contains(&value) {
+                return Err(ScenarioError::OutOfRange {
+                    name: self.name.clone(),
+                    field,
+                    value,
+                    range,
+                });
+            }
+        }
+        Ok(())
+    }
+
     fn validate(&self) -> Result<(), ScenarioError> {
+        self.check_bounds()?;
         let invalid = |field, reason| {
             Err(ScenarioError::Invalid {
                 name: self.name.clone(),
@@ -467,6 +556,18 @@ impl Scenario {
         if !speed_ok {
             return invalid("vehicle", "every parameter must be > 0");
         }
+        let speed = match self.vehicle {
+            VehicleSpec::Bicycle { speed_mps, .. } | VehicleSpec::Unicycle { speed_mps, .. } => {
+                speed_mps
+            }
+        };
+        if speed * self.timing.control_period_s > self.route.switch_distance_m {
+            return invalid(
+                "vehicle.speed_mps",
+                "× timing.control_period_s must be at most route.switch_distance_m: a vehicle \
+                 that moves further in one control period can pass its waypoints forever",
+            );
+        }
         let o = &self.odometry;
         if ![o.sigma_v_mps, o.sigma_steer_deg, o.sigma_omega_deg_s]
             .into_iter()
@@ -546,6 +647,65 @@ mod tests {
     }
 
     #[test]
+    fn numbers_that_would_run_forever_are_refused_with_their_key_and_range() {
+        let good = BUILT_IN[0].1;
+        for (from, to, key) in [
+            (
+                "speed_mps = 3.0",
+                "speed_mps = 1e300",
+                "`vehicle.speed_mps` = 1e300",
+            ),
+            (
+                "speed_mps = 3.0",
+                "speed_mps = 1e-300",
+                "`vehicle.speed_mps`",
+            ),
+            (
+                "control_period_s = 0.025",
+                "control_period_s = 1e-9",
+                "`timing.control_period_s` = 1e-9",
+            ),
+            (
+                "observe_every = 8",
+                "observe_every = 100000",
+                "`timing.observe_every`",
+            ),
+            (
+                "switch_distance_m = 1.0",
+                "switch_distance_m = 1e9",
+                "`route.switch_distance_m`",
+            ),
+            (
+                "[12.649533, -41.588785]",
+                "[12.649533, -2.5e7]",
+                "`route / world coordinates` = -2.5e7",
+            ),
+        ] {
+            assert!(good.contains(from), "{from}");
+            let e = Scenario::parse("t", &good.replacen(from, to, 1)).unwrap_err();
+            let e = e.to_string();
+            assert!(e.contains(key) && e.contains("allowed range"), "{e}");
+            assert_eq!(e.lines().count(), 1, "{e}");
+        }
+        let e = Scenario::parse("t", &good.replace("speed_mps = 3.0", "speed_mps = 45.0"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("vehicle.speed_mps") && e.contains("switch_distance_m"),
+            "{e}"
+        );
+        let beams = BUILT_IN
+            .iter()
+            .find(|(n, _)| *n == "indoor-loop")
+            .unwrap()
+            .1;
+        let e = Scenario::parse("t", &beams.replace("beams = 720", "beams = 4000000000"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`lidar.beams`"), "{e}");
+    }
+
+    #[test]
     fn unknown_keys_and_bad_values_are_rejected() {
         let good = BUILT_IN[0].1;
         let typo = good.replace("loops = 2", "loops = 2\nlooops = 3");
@@ -560,7 +720,7 @@ mod tests {
             assert!(good.contains(from), "{from}");
             assert!(matches!(
                 Scenario::parse("t", &good.replace(from, to)),
-                Err(ScenarioError::Invalid { .. })
+                Err(ScenarioError::Invalid { .. } | ScenarioError::OutOfRange { .. })
             ));
         }
     }

@@ -331,13 +331,8 @@ pub(crate) fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
             100.0 * h.nis_high_fraction
         );
     }
-    if m.inputs.rejected_total > 0 {
-        println!(
-            "  warning: the service dropped or rejected {} inputs ({}): see /inputs in \
-             metrics.json and logs/service.log",
-            m.inputs.rejected_total,
-            m.inputs.nonzero()
-        );
+    for line in m.inputs.warnings() {
+        println!("  warning: {line}");
     }
     Ok(())
 }

@@ -270,7 +270,12 @@ pub enum Floor {
         lost: u64,
     },
     /// The checkpoint holds it: skip it.
-    Covered,
+    Covered {
+        /// It began its stream's resend (the last input the checkpoint holds, sent again
+        /// by design). Any other covered input came from sensors that started over: the
+        /// run that wrote the checkpoint processed it, not this one.
+        mark: bool,
+    },
     /// Sent before its sensor's resend began: skip it, it comes again (so it does not
     /// count towards its stream's end yet).
     ComesAgain,
@@ -316,9 +321,11 @@ impl ResumeFloor {
             return Floor::New { lost: 0 };
         };
         let floor = floor[stream];
+        let mut mark = false;
         if let Some(first) = self.awaiting[stream] {
             let begun = h.stamp_ns <= floor || first.is_some_and(|f| h.seq < f);
             if begun {
+                mark = true;
                 self.awaiting[stream] = None;
             } else {
                 self.awaiting[stream] = Some(first.or(Some(h.seq)));
@@ -329,7 +336,7 @@ impl ResumeFloor {
         if h.stamp_ns <= floor {
             self.skipped += 1;
             self.covered_seq[stream] = Some(h.seq);
-            Floor::Covered
+            Floor::Covered { mark }
         } else {
             let lost = (self.covered_seq[stream].take()).map_or(0, |c| h.seq.saturating_sub(c + 1));
             Floor::New { lost }
@@ -460,11 +467,19 @@ mod tests {
         );
         assert_eq!(
             admits(StreamId::Odometry, 9, 900),
-            Floor::Covered,
+            Floor::Covered { mark: true },
             "the resend begins"
         );
         assert_eq!(admits(StreamId::Odometry, 10, 1000), Floor::New { lost: 0 });
-        assert_eq!(admits(StreamId::Observations, 5, 1000), Floor::Covered);
+        assert_eq!(
+            admits(StreamId::Observations, 5, 900),
+            Floor::Covered { mark: true }
+        );
+        assert_eq!(
+            admits(StreamId::Observations, 5, 1000),
+            Floor::Covered { mark: false },
+            "a sensor that started over sends what the checkpoint holds"
+        );
         assert_eq!(
             admits(StreamId::Observations, 9, 1400),
             Floor::New { lost: 3 },
@@ -474,7 +489,7 @@ mod tests {
             admits(StreamId::Observations, 11, 1600),
             Floor::New { lost: 0 }
         );
-        assert_eq!(floor.skipped(), 3);
+        assert_eq!(floor.skipped(), 4);
         assert!(
             floor.covers(StreamId::Observations, 1000)
                 && !floor.covers(StreamId::Observations, 1001)

@@ -206,6 +206,21 @@ impl RejectionLog {
         );
     }
 
+    /// Counts one input skipped because the checkpoint a resumed service started from
+    /// holds it, other than the mark that begins a resend: not logged one by one (the
+    /// service logs the total at the end).
+    pub fn covered(&mut self) {
+        self.counts[RejectionKind::Covered as usize] += 1;
+    }
+
+    /// Logs the summary of every kind with rejections left unlogged, whatever the
+    /// interval: at the end of a run.
+    pub fn flush_all(&mut self) {
+        for k in 0..REJECTION_KINDS {
+            self.summarise(k);
+        }
+    }
+
     /// Logs the summary of every kind whose interval has passed with rejections left
     /// unlogged; call it now and then (the service does on every wake-up).
     pub fn flush(&mut self, now: Instant) {
@@ -273,5 +288,8 @@ mod tests {
         let counts = log.counts();
         assert_eq!(counts[RejectionKind::NonFinite as usize], 5);
         assert_eq!(counts[RejectionKind::Duplicate as usize], 1);
+        assert!(!log.reject(at(12), "odometry", 7, RejectionKind::NonFinite, &"nan"));
+        log.flush_all();
+        assert_eq!(log.pending(), [0; REJECTION_KINDS], "the end says the rest");
     }
 }

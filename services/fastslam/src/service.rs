@@ -328,8 +328,11 @@ impl Service {
                     self.core.health.log.lost(what, h.seq, lost);
                 }
             }
-            Floor::Covered => {
+            Floor::Covered { mark } => {
                 self.ends[stream].saw(h.seq);
+                if !mark {
+                    self.core.health.log.covered();
+                }
                 return false;
             }
             Floor::ComesAgain => return false,
@@ -405,6 +408,7 @@ impl Service {
         if let Some(solution) = core.slam.finish_smoothing() {
             core.out.smoothed(&solution)?;
         }
+        core.health.log.flush_all();
         let status = core.health.final_status(&core.slam, &core.sequencer);
         core.out.status(status)?;
         core.out.finish(ipc)?;

@@ -86,11 +86,16 @@ impl WaitArgs {
     }
 }
 
-/// Sends `tracing` output to stderr, filtered by `RUST_LOG` (default `info`), each line
-/// tagged with the process name so interleaved logs of a stack stay readable.
+/// The log filter without `RUST_LOG`: `info`, but only errors from Zenoh's crates (the
+/// bridge's), whose warnings repeat the bridge's own errors with the source locations of
+/// the machine that built them, and whose info lines are its internals.
+pub const DEFAULT_LOG: &str = "info,zenoh=error";
+
+/// Sends `tracing` output to stderr, filtered by `RUST_LOG` (default [`DEFAULT_LOG`]),
+/// each line tagged with the process name so interleaved logs of a stack stay readable.
 pub fn init_logging(process: &'static str) {
     use tracing_subscriber::EnvFilter;
-    let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("info"));
+    let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new(DEFAULT_LOG));
     // A second call in the same process (tests) keeps the first subscriber.
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)

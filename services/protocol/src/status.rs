@@ -38,11 +38,16 @@ pub enum RejectionKind {
     /// Sent while the service was down and no longer kept by its sensor when the resumed
     /// service asked for it (the sensor's history bound).
     Lost = 10,
+    /// Skipped by a service resumed from a checkpoint that already holds it, other than
+    /// the input that marks the start of its sensor's resend (not an error: counted so
+    /// that a run whose sensors started over under a resumed service says what it left
+    /// out).
+    Covered = 11,
 }
 
 impl RejectionKind {
     /// Every kind, in index order.
-    pub const ALL: [Self; 11] = [
+    pub const ALL: [Self; 12] = [
         Self::NonFinite,
         Self::OutOfRange,
         Self::BadCount,
@@ -54,6 +59,7 @@ impl RejectionKind {
         Self::Overflow,
         Self::Late,
         Self::Lost,
+        Self::Covered,
     ];
 
     /// A short snake_case name, for logs and metrics.
@@ -70,6 +76,7 @@ impl RejectionKind {
             Self::Overflow => "overflow",
             Self::Late => "late",
             Self::Lost => "lost",
+            Self::Covered => "covered",
         }
     }
 }
