@@ -1,6 +1,6 @@
 //! The stack in one process, without IPC: the simulators' messages ([`OfflineRun`]) or
 //! a recorded data set's (in the replay player's order), the service's own glue
-//! ([`Sequencer`] and [`Slam`]) and the client's scoring ([`Metrics::compute`], with the
+//! ([`Admission`], [`Sequencer`] and [`Slam`]) and the client's scoring ([`Metrics::compute`], with the
 //! alignment a replay profile asks for, and the relation errors when a replay has a
 //! relations file) — the same code the processes run, message for message, so an
 //! in-process run and a run through the processes with the same seed give identical
@@ -21,7 +21,8 @@ use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::moves::{MoveCorrection, MoveStats};
 use fastslam_estimation::optimise::OptimiserKind;
 use fastslam_estimation::stats::Summary;
-use fastslam_protocol::validate::{self, StampOrder};
+use fastslam_protocol::status::RejectionKind;
+use fastslam_protocol::validate;
 use fastslam_protocol::{Header, StreamId};
 use fastslam_replay::dataset::{Association, DataSet};
 use fastslam_replay::player::{Next, schedule};
@@ -29,8 +30,9 @@ use fastslam_replay::profile::Profile;
 use fastslam_replay::registry::{self, DataSetKind, Request};
 use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::offline::{Message, OfflineRun};
+use fastslam_service::admit::Admission;
 use fastslam_service::config::{MapKind, Overrides, ServiceConfig};
-use fastslam_service::sequencer::{DEFAULT_MAX_QUEUE, Input, RawScan, Scan, Sequencer};
+use fastslam_service::sequencer::{Input, Pushed, RawScan, Scan, Sequencer};
 use fastslam_service::slam::{Slam, Smoothed};
 use std::time::{Duration, Instant};
 
@@ -308,9 +310,11 @@ impl Scoring {
 /// Runs `source` with simulation seed `seed` through the service configured by `config`
 /// and scores it as the client does.
 ///
-/// Inputs are admitted as the processes admit them (the service's and the client's
-/// validation and per-stream stamp order), ordered by the service's [`Sequencer`], and
-/// applied by its [`Slam`]; a filter error skips that input, as the service does.
+/// Inputs are admitted by the service's [`Admission`] (so the same inputs are refused,
+/// and counted as the service counts them), ordered by its [`Sequencer`] as it orders
+/// them with sensors that deliver as fast as possible, and applied by its [`Slam`]; a
+/// filter error skips that input, as the service does. The client's recording takes
+/// every message its own checks pass, as the client does.
 ///
 /// # Errors
 /// When the filter cannot be built from `config`.
@@ -322,13 +326,13 @@ pub fn run_in_process(
     let cpu_start = process_cpu();
     let mut slam = Slam::new(config)?;
     slam.start_smoother(config, Vec::new())?;
-    let lidar = source.lidar_stream();
-    let mut sequencer = Sequencer::new(&[StreamId::Odometry, lidar], DEFAULT_MAX_QUEUE);
+    let streams = [StreamId::Odometry, source.lidar_stream()];
+    let mut admission = Admission::new(&streams, config);
+    let mut sequencer = Sequencer::new(&streams, config.input.max_queue);
     let mut recording = Recording {
         without_truth: !source.has_truth(),
         ..Recording::default()
     };
-    let (mut odometry_order, mut scan_order) = (StampOrder::default(), StampOrder::default());
     let mut filter_time = Duration::ZERO;
     let mut last_pose: Option<Header> = None;
     let mut apply = |sequencer: &mut Sequencer, recording: &mut Recording| {
@@ -337,55 +341,59 @@ pub fn run_in_process(
             let step = slam.apply(&input, &mut |_| {});
             filter_time += started.elapsed();
             sequencer.recycle(input);
-            if let Ok(Some(step)) = step {
-                recording.add_estimate(&step.pose);
-                last_pose = Some(step.pose.header);
+            match step {
+                Ok(Some(step)) => {
+                    recording.add_estimate(&step.pose);
+                    last_pose = Some(step.pose.header);
+                }
+                Ok(None) => {}
+                Err(_) => count(recording, RejectionKind::Filter),
             }
         }
     };
     for message in source.messages(seed) {
-        match message {
-            Message::TrueMap(map) => recording.true_map = map,
+        let admitted = match message {
+            Message::TrueMap(map) => {
+                recording.true_map = map;
+                continue;
+            }
             Message::GroundTruth(truth) => {
                 if validate::ground_truth(&truth).is_ok() {
                     recording.add_truth(&truth);
                 }
+                continue;
             }
             Message::Odometry(m) => {
                 if validate::odometry(&m).is_ok() {
                     recording.add_odometry(&m);
-                    if odometry_order.accept(m.header.stamp_ns).is_ok() {
-                        sequencer.push(Input::Odometry(m));
-                    }
                 }
+                admission.odometry(&m).map(|()| Input::Odometry(m))
             }
-            Message::Observations(header, observations) => {
-                let admitted = validate::observations(&header, &observations)
-                    .and_then(|()| scan_order.accept(header.header.stamp_ns));
-                if admitted.is_ok() {
-                    recording.add_observations(&header, &observations);
-                    sequencer.push(Input::Scan(Scan {
-                        header,
-                        items: observations,
-                    }));
+            Message::Observations(header, items) => {
+                if validate::observations(&header, &items).is_ok() {
+                    recording.add_observations(&header, &items);
                 }
+                (admission.observations(&header, &items))
+                    .map(|()| Input::Scan(Scan { header, items }))
             }
-            Message::RawScan(header, mut data) => {
-                let admitted = validate::laser_scan(&header, &data)
-                    .and_then(|()| scan_order.accept(header.header.stamp_ns));
-                if admitted.is_ok() {
-                    data.truncate(header.ranges as usize);
-                    sequencer.push(Input::RawScan(RawScan {
-                        header,
-                        items: data,
-                    }));
-                }
-            }
+            Message::RawScan(header, mut items) => admission.raw_scan(&header, &items).map(|()| {
+                items.truncate(header.ranges as usize);
+                Input::RawScan(RawScan { header, items })
+            }),
+        };
+        match admitted {
+            Ok(input) => match queue(&mut sequencer, input) {
+                Pushed::Queued => {}
+                Pushed::Overflowed => count(&mut recording, RejectionKind::Overflow),
+                Pushed::Late => count(&mut recording, RejectionKind::Late),
+            },
+            Err(rejection) => count(&mut recording, rejection.kind()),
         }
         apply(&mut sequencer, &mut recording);
     }
-    sequencer.end(StreamId::Odometry);
-    sequencer.end(lidar);
+    for stream in streams {
+        sequencer.end(stream);
+    }
     apply(&mut sequencer, &mut recording);
     let stamp_ns = last_pose.map_or(0, |h| h.stamp_ns);
     recording.map = slam.map(Header { stamp_ns, seq: 0 }).1;
@@ -414,6 +422,28 @@ pub fn run_in_process(
         cpu: process_cpu().saturating_sub(cpu_start),
         grid,
     })
+}
+
+/// Queues an admitted `input` as the service does when its sensors deliver as fast as
+/// possible. There a stream whose queue is full is not taken from, and once the other
+/// streams have nothing waiting the sequencer takes them as past its newest stamp
+/// ([`Sequencer::vouch`]): their publisher sends every stream in stamp order from one
+/// thread. An in-process run plays its messages in stamp order from one loop, so a lane
+/// its push filled is vouched for at once; nothing is dropped, and the inputs reach the
+/// filter in the order they reach the service's.
+fn queue(sequencer: &mut Sequencer, input: Input) -> Pushed {
+    let stream = input.stream();
+    let pushed = sequencer.push(input);
+    if sequencer.full(stream) {
+        sequencer.vouch(stream);
+    }
+    pushed
+}
+
+/// Counts an input refused for `kind` in `recording`, as the service's status reports it
+/// to the client.
+fn count(recording: &mut Recording, kind: RejectionKind) {
+    recording.rejections[kind as usize] += 1;
 }
 
 /// One row of the Monte Carlo comparison: an estimator (the service settings a run used)

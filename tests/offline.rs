@@ -1,14 +1,17 @@
 //! An in-process run (the simulators' messages, the service's glue and the client's
 //! scoring in one process) and a run through the real processes over iceoryx2 give the
 //! same metrics for the same seed — so the offline Monte Carlo comparison measures what the
-//! stack computes. Both for landmark observations and for raw scans.
+//! stack computes. For landmark observations, raw scans and grid FastSLAM, and for
+//! recorded data sets, one with inputs the service refuses or holds back.
 
 mod common;
 
 use common::*;
+use fastslam_replay::dataset::Association;
 use fastslam_sensors_sim::Scenario;
 use fastslam_service::config::{EstimatorChoice, Overrides};
 use fastslam_stack::{offline, settings};
+use std::path::Path;
 
 /// The metrics the estimate determines. Sections that are not the estimate's are left out:
 /// `/filter` summarises the service's status topic, which an in-process run does not
@@ -117,31 +120,36 @@ fn in_process_grid_fastslam_gives_the_metrics_of_the_run_through_the_processes()
     assert!(outcome.metrics.estimate.ate_rmse_m < 0.5 * outcome.metrics.dead_reckoning.ate_rmse_m);
 }
 
-#[test]
-fn in_process_replay_gives_the_metrics_of_the_replay_through_the_processes() {
-    // Victoria Park: unknown association, aligned and scored at the GPS fixes.
-    let prefix = prefix("offline_replay");
+/// Replays data set `set` from `data` (robot 1, with `association` where the data set
+/// takes one) through the processes and in process, 20 particles, filter seed 2, and
+/// asserts the metrics the estimate determines are equal, the refused inputs' counts
+/// included.
+fn assert_replay_in_process_equals_processes(
+    name: &str,
+    set: &str,
+    data: &Path,
+    association: Option<Association>,
+) -> offline::RunOutcome {
+    let prefix = prefix(name);
     let dir = folder(&prefix);
     let out = dir.join("run");
-    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/victoria_park");
+    let mut flags = vec!["--particles", "20", "--seed", "2", "--prefix", &prefix];
+    if let Some(association) = association {
+        flags.extend(["--association", association.service_mode()]);
+    }
     let result = std::process::Command::new(LAUNCHER)
-        .args(["replay", "victoria-park", "--data"])
-        .arg(&data)
-        .args(["--particles", "20", "--seed", "2", "--prefix", &prefix])
+        .args(["replay", set, "--data"])
+        .arg(data)
+        .args(flags)
         .args(["--timeout-s", "600", "--out"])
         .arg(&out)
         .output()
         .unwrap();
     assert_success(&result);
     let through_processes = std::fs::read_to_string(out.join("metrics.json")).unwrap();
-    let source = offline::Source::replay(
-        fastslam_replay::registry::find("victoria-park").unwrap(),
-        Some(&data),
-        1,
-        fastslam_replay::dataset::Association::Unknown,
-        None,
-    )
-    .unwrap();
+    let kind = fastslam_replay::registry::find(set).unwrap();
+    let association = association.unwrap_or(Association::Unknown);
+    let source = offline::Source::replay(kind, Some(data), 1, association, None).unwrap();
     let overrides = Overrides {
         particles: Some(20),
         seed: Some(2),
@@ -154,6 +162,91 @@ fn in_process_replay_gives_the_metrics_of_the_replay_through_the_processes() {
         estimate_only(&in_process),
         estimate_only(&through_processes)
     );
-    assert!(outcome.metrics.estimate.poses > 1000);
     std::fs::remove_dir_all(&dir).ok();
+    outcome
+}
+
+/// The rows of `name` (plain or gzipped) in MRCLAM folder `dir`, comments left out.
+fn mrclam_rows(dir: &Path, name: &str) -> Vec<Vec<String>> {
+    let gz = std::fs::File::open(dir.join(format!("{name}.gz"))).unwrap();
+    let mut text = String::new();
+    std::io::Read::read_to_string(&mut flate2::read::GzDecoder::new(gz), &mut text).unwrap();
+    (text.lines())
+        .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
+        .map(|l| l.split_whitespace().map(str::to_string).collect())
+        .collect()
+}
+
+/// The time of a row (s).
+fn time(row: &[String]) -> f64 {
+    row[0].parse().unwrap()
+}
+
+/// Robot 1 of `data/mrclam7` in `dir` with what real logs have and it lacks: repeated
+/// odometry records (equal stamps), odometry records at camera frames' times (an
+/// odometry message and a scan with the same stamp), 5 s without odometry, 90 s
+/// without a landmark in view (more odometry messages between two scans than the
+/// service's queue holds), and odometry whose speed or yaw rate the service refuses.
+fn irregular_mrclam(dir: &Path) {
+    let source = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/mrclam7");
+    std::fs::create_dir_all(dir).unwrap();
+    for file in [
+        "Barcodes.dat",
+        "Landmark_Groundtruth.dat",
+        "Robot1_Groundtruth.dat.gz",
+    ] {
+        std::fs::copy(source.join(file), dir.join(file)).unwrap();
+    }
+    let mut frames = mrclam_rows(&source, "Robot1_Measurement.dat");
+    let mut odometry = mrclam_rows(&source, "Robot1_Odometry.dat");
+    let start = time(&odometry[0]);
+    let blind = start + 200.0..start + 290.0;
+    frames.retain(|row| !blind.contains(&time(row)));
+    let stopped = start + 400.0..start + 405.0;
+    odometry.retain(|row| !stopped.contains(&time(row)));
+    for k in (1000..odometry.len() - 1000).step_by(3000) {
+        odometry[k][2] = "12.0".into();
+        odometry[k + 1000][1] = "40.0".into();
+    }
+    let mut at_frames: Vec<Vec<String>> = (frames.iter().step_by(10))
+        .map(|frame| {
+            let before = odometry.partition_point(|row| time(row) <= time(frame));
+            let mut row = odometry[before.saturating_sub(1)].clone();
+            row[0].clone_from(&frame[0]);
+            row
+        })
+        .collect();
+    let repeated = (odometry.iter().step_by(500)).cloned();
+    at_frames.extend(repeated);
+    odometry.extend(at_frames);
+    odometry.sort_by(|a, b| time(a).total_cmp(&time(b)));
+    for (name, rows) in [
+        ("Robot1_Odometry.dat", odometry),
+        ("Robot1_Measurement.dat", frames),
+    ] {
+        let lines: Vec<String> = rows.iter().map(|row| row.join(" ") + "\n").collect();
+        std::fs::write(dir.join(name), lines.concat()).unwrap();
+    }
+}
+
+#[test]
+fn in_process_replay_gives_the_metrics_of_the_replay_through_the_processes() {
+    // Victoria Park: unknown association, aligned and scored at the GPS fixes.
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/victoria_park");
+    let outcome =
+        assert_replay_in_process_equals_processes("offline_replay", "victoria-park", &data, None);
+    assert!(outcome.metrics.estimate.poses > 1000);
+    // MRCLAM with irregular stamps, a long gap and odometry the service refuses, under
+    // both associations.
+    let dir = folder(&prefix("offline_irregular")).join("mrclam");
+    irregular_mrclam(&dir);
+    for association in [Association::Unknown, Association::Known] {
+        let name = format!("offline_mrclam_{}", association.service_mode());
+        let outcome =
+            assert_replay_in_process_equals_processes(&name, "mrclam", &dir, Some(association));
+        let refused = &outcome.metrics.inputs.rejected;
+        assert!(refused["teleport"] >= 2, "{refused:?}");
+        assert!(outcome.metrics.estimate.poses > 1000);
+    }
+    std::fs::remove_dir_all(dir.parent().unwrap()).ok();
 }

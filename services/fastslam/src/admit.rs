@@ -1,10 +1,15 @@
 //! Admission of inputs: the message checks of `fastslam_protocol::validate`, plus the
 //! per-stream state they need (stamp order, sequence numbers, publisher restarts, the
-//! last odometry for the teleport check).
+//! last odometry for the teleport check). The service admits every input through it, and
+//! so does an in-process run, so both take and refuse the same inputs.
 
+use crate::config::ServiceConfig;
 use crate::per_stream::PerStream;
+use fastslam_estimation::fastslam::AssociationMode;
 use fastslam_protocol::validate::{self, Continuity, MotionLimits, Rejection, StreamCheck};
-use fastslam_protocol::{Header, Odometry, StreamId};
+use fastslam_protocol::{
+    Header, LaserScanHeader, Observation, ObservationsHeader, Odometry, StreamId,
+};
 
 /// The state of the input streams' checks.
 #[derive(Debug, Clone)]
@@ -14,17 +19,22 @@ pub struct Admission {
     last_odometry: Option<Odometry>,
     limits: MotionLimits,
     max_jump_ns: u64,
+    /// Observations must carry landmark ids (known association).
+    known_ids: bool,
 }
 
 impl Admission {
-    /// Checks of `streams` allowing stamp steps up to `max_jump_ns` and odometry within
-    /// `limits`.
-    pub fn new(streams: &[StreamId], max_jump_ns: u64, limits: MotionLimits) -> Self {
+    /// Checks of `streams` with `config`'s limits (`[input]`: stamp steps up to
+    /// `max_stamp_jump_s`, odometry within the motion limits), asking for landmark ids
+    /// under known association.
+    pub fn new(streams: &[StreamId], config: &ServiceConfig) -> Self {
+        let max_jump_ns = (config.input.max_stamp_jump_s * 1e9) as u64;
         Self {
             order: PerStream::new(streams, |_| StreamCheck::new(max_jump_ns)),
             last_odometry: None,
-            limits,
+            limits: config.input.motion_limits(),
             max_jump_ns,
+            known_ids: config.filter.association.mode == AssociationMode::Known,
         }
     }
 
@@ -50,12 +60,35 @@ impl Admission {
         Ok(())
     }
 
-    /// Admits a message of `stream` (a sensor's, not odometry) whose content `check`
-    /// gave, with header `h`.
+    /// Admits a scan's landmark observations: valid, with usable landmark ids under known
+    /// association, and in stream order.
     ///
     /// # Errors
-    /// `check`'s rejection, or the stream-order one.
-    pub fn message(
+    /// The first [`Rejection`]; the streams' state is then unchanged.
+    pub fn observations(
+        &mut self,
+        h: &ObservationsHeader,
+        items: &[Observation],
+    ) -> Result<(), Rejection> {
+        let check = validate::observations(h, items).and_then(|()| match self.known_ids {
+            true => validate::known_ids(items),
+            false => Ok(()),
+        });
+        self.message(StreamId::Observations, check, h.header)
+    }
+
+    /// Admits a raw scan with ranges and intensities `data`: readable, and in stream
+    /// order.
+    ///
+    /// # Errors
+    /// The first [`Rejection`]; the streams' state is then unchanged.
+    pub fn raw_scan(&mut self, h: &LaserScanHeader, data: &[f32]) -> Result<(), Rejection> {
+        self.message(StreamId::Scan, validate::laser_scan(h, data), h.header)
+    }
+
+    /// Admits a message of `stream` (a sensor's, not odometry) whose content `check`
+    /// gave, with header `h`.
+    fn message(
         &mut self,
         stream: StreamId,
         check: Result<(), Rejection>,
@@ -111,10 +144,34 @@ mod tests {
         }
     }
 
+    /// Checks of odometry and observations allowing stamp steps up to 10 s, under
+    /// `mode`.
+    fn admission(mode: AssociationMode) -> Admission {
+        let mut config = ServiceConfig::default();
+        config.input.max_stamp_jump_s = 10.0;
+        config.filter.association.mode = mode;
+        Admission::new(&[StreamId::Odometry, StreamId::Observations], &config)
+    }
+
+    /// A scan at `stamp_ns` numbered `seq` of one observation with landmark id `id`.
+    fn scan(stamp_ns: u64, seq: u64, id: i64) -> (ObservationsHeader, [Observation; 1]) {
+        let header = ObservationsHeader {
+            header: Header { stamp_ns, seq },
+            count: 1,
+            max_range: 10.0,
+            ..Default::default()
+        };
+        let o = Observation {
+            range: 2.0,
+            id,
+            ..Default::default()
+        };
+        (header, [o])
+    }
+
     #[test]
     fn a_restarted_odometry_publisher_may_restart_its_dead_reckoning() {
-        let streams = [StreamId::Odometry, StreamId::Observations];
-        let mut a = Admission::new(&streams, 10_000_000_000, MotionLimits::default());
+        let mut a = admission(AssociationMode::Unknown);
         assert_eq!(a.odometry(&odo(1.0, 0, 0.0)), Ok(()));
         assert_eq!(a.odometry(&odo(1.1, 1, 0.1)), Ok(()));
         assert!(matches!(
@@ -129,16 +186,31 @@ mod tests {
         // Restarted: seq 0 again, stamp later, dead reckoning from the origin again.
         assert_eq!(a.odometry(&odo(3.0, 0, -40.0)), Ok(()));
         assert_eq!(a.odometry(&odo(3.1, 1, -39.9)), Ok(()));
-        let far = Header {
-            stamp_ns: u64::MAX / 2,
-            seq: 0,
-        };
+        let (far, items) = scan(u64::MAX / 2, 0, -1);
         assert!(
             matches!(
-                a.message(StreamId::Observations, Ok(()), far),
+                a.observations(&far, &items),
                 Err(Rejection::StampJump { .. })
             ),
             "a first lidar stamp far ahead of the odometry"
         );
+    }
+
+    #[test]
+    fn landmark_ids_are_asked_for_under_known_association_only() {
+        let (h, anonymous) = scan(1_000_000_000, 0, -1);
+        let mut unknown = admission(AssociationMode::Unknown);
+        assert_eq!(unknown.observations(&h, &anonymous), Ok(()));
+        let mut known = admission(AssociationMode::Known);
+        assert!(matches!(
+            known.observations(&h, &anonymous),
+            Err(Rejection::BadLandmarkId { id: -1, .. })
+        ));
+        let (_, identified) = scan(1_000_000_000, 0, 3);
+        assert_eq!(known.observations(&h, &identified), Ok(()), "state kept");
+        assert!(matches!(
+            known.observations(&h, &identified),
+            Err(Rejection::Duplicate { .. })
+        ));
     }
 }

@@ -251,7 +251,7 @@ impl Default for InputConfig {
             max_speed_mps: 30.0,
             max_yaw_rate_rad_s: 10.0,
             pose_slack_m: 0.5,
-            max_queue: 4096,
+            max_queue: crate::sequencer::DEFAULT_MAX_QUEUE,
             log_interval_s: 5.0,
         }
     }

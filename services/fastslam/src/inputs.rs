@@ -1,13 +1,14 @@
 //! The service's inputs: the subscribers of odometry, of the lidar (landmark observations
 //! or raw scans) and of end-of-stream, and [`LaneMessage`], the one trait through which
-//! the wake loop takes a sensor message of any kind: its stamp, its checks, how it
+//! the wake loop takes a sensor message of any kind: its stamp, its admission, how it
 //! reaches the filter and how it is queued.
 
+use crate::admit::Admission;
 use crate::config::LidarInput;
 use crate::sequencer::{Input, Pushed, RawScan, Scan, Sequencer};
 use crate::slam::{PoseSink, Slam, Step};
 use fastslam_protocol::ipc::{HoldingSub, Ipc, Received, Sub, WakeSource};
-use fastslam_protocol::validate::{self, Rejection};
+use fastslam_protocol::validate::Rejection;
 use fastslam_protocol::{
     EndOfStream, Header, LaserScanHeader, Observation, ObservationsHeader, Odometry, StreamId,
     topics,
@@ -161,12 +162,11 @@ pub(crate) trait LaneMessage {
     /// Its stamp and sequence number.
     fn header(&self) -> Header;
 
-    /// The content check (`fastslam_protocol::validate`); with `known_ids`, landmark ids
-    /// must be usable under known association.
+    /// Admits the message through `admission`: its content and its place in its stream.
     ///
     /// # Errors
-    /// Why the message is unusable.
-    fn check(&self, known_ids: bool) -> Result<(), Rejection>;
+    /// Why the message is refused.
+    fn admit(&self, admission: &mut Admission) -> Result<(), Rejection>;
 
     /// One filter step on the message where it lies (no copy).
     ///
@@ -186,12 +186,8 @@ impl LaneMessage for Received<[Observation], ObservationsHeader> {
         self.user_header().header
     }
 
-    fn check(&self, known_ids: bool) -> Result<(), Rejection> {
-        validate::observations(self.user_header(), self.payload())?;
-        if known_ids {
-            validate::known_ids(self.payload())?;
-        }
-        Ok(())
+    fn admit(&self, admission: &mut Admission) -> Result<(), Rejection> {
+        admission.observations(self.user_header(), self.payload())
     }
 
     fn apply(&self, slam: &mut Slam, publish: PoseSink<'_>) -> fastslam_estimation::Result<Step> {
@@ -215,9 +211,8 @@ impl LaneMessage for Received<[f32], LaserScanHeader> {
         self.user_header().header
     }
 
-    fn check(&self, _known_ids: bool) -> Result<(), Rejection> {
-        // Raw scans carry no landmark ids.
-        validate::laser_scan(self.user_header(), self.payload())
+    fn admit(&self, admission: &mut Admission) -> Result<(), Rejection> {
+        admission.raw_scan(self.user_header(), self.payload())
     }
 
     fn apply(&self, slam: &mut Slam, publish: PoseSink<'_>) -> fastslam_estimation::Result<Step> {

@@ -86,7 +86,7 @@ pub enum Place {
     Queue,
 }
 
-/// Default most inputs waiting per lane.
+/// Default most inputs waiting per lane (`[input] max_queue`).
 pub const DEFAULT_MAX_QUEUE: usize = 4096;
 
 /// One stream: waiting inputs, newest stamp seen, and whether it has ended or is quiet.

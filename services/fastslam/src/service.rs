@@ -21,7 +21,6 @@ use crate::per_stream::PerStream;
 use crate::persist::PersistArgs;
 use crate::sequencer::{Input, Place, Pushed, Sequencer};
 use crate::slam::{PoseSink, Slam, Step};
-use fastslam_estimation::fastslam::AssociationMode;
 use fastslam_protocol::ipc::{Flow, Ipc, Sub, Taken};
 use fastslam_protocol::status::RejectionKind;
 use fastslam_protocol::stream::StreamEnd;
@@ -75,8 +74,6 @@ pub(crate) struct Service {
     pace: Pace,
     /// The streams whose taking stopped at their full queue during this wake-up.
     stopped: PerStream<bool>,
-    /// Observations must carry landmark ids (known association).
-    known_ids: bool,
 }
 
 impl Service {
@@ -92,10 +89,8 @@ impl Service {
         resumed: Option<&Checkpoint>,
         out: Outputs,
     ) -> Self {
-        let input = &config.input;
-        let max_jump_ns = (input.max_stamp_jump_s * 1e9) as u64;
-        let admission = Admission::new(streams, max_jump_ns, input.motion_limits());
-        let deadline = Duration::from_secs_f64(input.deadline_s);
+        let admission = Admission::new(streams, &config);
+        let deadline = Duration::from_secs_f64(config.input.deadline_s);
         Self {
             admission,
             floor: ResumeFloor::of(resumed, streams),
@@ -108,7 +103,6 @@ impl Service {
             hold_limit: deadline / HOLD_SHARE_OF_DEADLINE,
             pace,
             stopped: PerStream::new(streams, |_| false),
-            known_ids: config.filter.association.mode == AssociationMode::Known,
             core: Core::new(streams, config, persist, slam, resumed, out),
         }
     }
@@ -271,12 +265,8 @@ impl Service {
         held_since: Option<Instant>,
         now: Instant,
     ) -> Taken {
-        let (h, known_ids) = (m.header(), self.known_ids);
-        if held_since.is_none()
-            && !self.admit(M::STREAM, h, M::WHAT, now, |a| {
-                a.message(M::STREAM, m.check(known_ids), h)
-            })
-        {
+        let h = m.header();
+        if held_since.is_none() && !self.admit(M::STREAM, h, M::WHAT, now, |a| m.admit(a)) {
             return Taken::Done;
         }
         let held_for = held_since.map_or(Duration::ZERO, |t| now.saturating_duration_since(t));
