@@ -401,6 +401,7 @@ impl Smoother {
         let n = self.graph.poses.len();
         let start = n.saturating_sub(self.config.window_poses);
         if self.whole_at == 0
+            || self.config.window_poses == 0
             || start <= 1
             || n as f64 >= self.config.whole_growth * self.whole_at as f64
         {

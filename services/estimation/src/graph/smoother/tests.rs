@@ -317,3 +317,17 @@ fn settings_out_of_range_are_refused_by_name() {
     };
     assert!(here.validate().is_ok());
 }
+
+#[test]
+fn without_a_window_every_solve_is_whole() {
+    let config = SmootherConfig {
+        window_poses: 0,
+        ..windowed()
+    };
+    let mut kinds = Vec::new();
+    laps_solved(config, 1.0, false, 1, &mut |s| kinds.push(s.whole));
+    assert!(
+        kinds.len() >= 5 && kinds.iter().all(|&whole| whole),
+        "{kinds:?}"
+    );
+}
