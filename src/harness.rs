@@ -22,18 +22,22 @@
 //!
 //! The processes are the launcher's own subcommands (`service`, `client`), started from
 //! the launcher executable you name: in this workspace's tests
-//! `env!("CARGO_BIN_EXE_fastslam-stack")`, elsewhere an installed `fastslam-stack`. Drop
-//! stops what still runs (SIGTERM) and removes the stack's shared memory and root; every
-//! process it starts also dies with the process that started it, however that ends
+//! `env!("CARGO_BIN_EXE_fastslam-stack")`, elsewhere an installed `fastslam-stack`. The
+//! service runs as fast as possible (it takes the publisher's samples as fast as they
+//! come, drops none and waits for a silent one) unless [`StackBuilder::realtime`] says
+//! otherwise. Drop stops what still runs — SIGTERM, then SIGKILL after
+//! [`children::GRACE`] — and removes the stack's shared memory and root; every process
+//! it starts also dies with the process that started it, however that ends
 //! (`PR_SET_PDEATHSIG`, sent when the thread that started the process ends: keep a
 //! [`Stack`] on the thread that made it).
 
-use crate::children::dying_with_this_process;
+use crate::children::{self, Stopping, dying_with_this_process};
 use crate::topology::{REPLAY, Role};
 use anyhow::{Context, bail};
 use fastslam_client::Metrics;
 use fastslam_client::expect::{Expectations, JudgeArgs, Verdict};
 use fastslam_protocol::ipc::{StackConfig, remove_stack_files};
+use nix::sys::signal::Signal;
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
@@ -46,6 +50,8 @@ use std::time::{Duration, Instant};
 pub struct StackBuilder {
     launcher: PathBuf,
     service_config: Option<String>,
+    service_flags: Vec<String>,
+    realtime: bool,
     client_flags: Vec<String>,
     dir: Option<PathBuf>,
     judge: JudgeArgs,
@@ -57,6 +63,20 @@ impl StackBuilder {
     /// default: the service's defaults.
     pub fn service_config(mut self, toml: &str) -> Self {
         self.service_config = Some(toml.to_string());
+        self
+    }
+
+    /// Extra flags for the service (`--save-map=map.csv`).
+    pub fn service_flags<S: Into<String>>(mut self, flags: impl IntoIterator<Item = S>) -> Self {
+        self.service_flags.extend(flags.into_iter().map(Into::into));
+        self
+    }
+
+    /// The service takes its inputs as real-time sensors' instead of as fast as possible:
+    /// a full input queue drops its oldest input, and a sensor silent beyond the deadline
+    /// is not waited for (docs/SENSORS.md).
+    pub fn realtime(mut self, realtime: bool) -> Self {
+        self.realtime = realtime;
         self
     }
 
@@ -130,6 +150,10 @@ impl StackBuilder {
             service.extend(["--config".to_string(), file.display().to_string()]);
             client.extend(["--service-config".to_string(), file.display().to_string()]);
         }
+        if !self.realtime {
+            service.push("--as-fast-as-possible".to_string());
+        }
+        service.extend(self.service_flags);
         client.extend(self.client_flags);
         client.extend(self.judge.flags());
         for role in REPLAY.iter().filter(|r| r.name != "replay") {
@@ -177,6 +201,8 @@ impl Stack {
         StackBuilder {
             launcher: launcher.into(),
             service_config: None,
+            service_flags: Vec::new(),
+            realtime: false,
             client_flags: Vec::new(),
             dir: None,
             judge: JudgeArgs::default(),
@@ -345,16 +371,15 @@ impl Stack {
 
 impl Drop for Stack {
     fn drop(&mut self) {
-        for (name, child) in &mut self.children {
-            if child.try_wait().ok().flatten().is_none() {
-                // The publisher leads a process group of its own: stop all of it.
-                let pid = child.id() as i32;
-                let target = if *name == PUBLISHER { -pid } else { pid };
-                let pid = nix::unistd::Pid::from_raw(target);
-                let _ = nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM);
-                let _ = child.wait();
-            }
-        }
+        // The publisher leads a process group of its own: all of it is stopped, also
+        // what it left running after it ended.
+        let mut running: Vec<Stopping<'_>> = (self.children.iter_mut())
+            .map(|(name, child)| Stopping {
+                group: *name == PUBLISHER,
+                child,
+            })
+            .collect();
+        children::stop(&mut running, &[Signal::SIGTERM, Signal::SIGKILL]);
         let root = self.stack.root.as_deref().map(Path::new);
         remove_stack_files(&self.stack.prefix, root);
     }

@@ -9,7 +9,7 @@
 //! the *thread* that started the child ends, so a supervisor lives on the thread that
 //! made it.
 
-use fastslam_stack::children::dying_with_this_process;
+use fastslam_stack::children::{self, Stopping, dying_with_this_process};
 use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
 use std::fs::{File, OpenOptions};
@@ -20,8 +20,6 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-/// How long a process gets after each signal before the next, stronger one.
-pub const GRACE: Duration = Duration::from_secs(5);
 /// How often children are polled.
 const POLL: Duration = Duration::from_millis(20);
 
@@ -190,26 +188,21 @@ impl Supervisor {
         self.processes.iter()
     }
 
-    /// Stops every running process: SIGINT, SIGTERM, SIGKILL, each after [`GRACE`].
+    /// Stops every running process: SIGINT, SIGTERM, SIGKILL, each after
+    /// [`children::GRACE`].
     pub fn stop_all(&mut self) {
-        for signal in [Signal::SIGINT, Signal::SIGTERM, Signal::SIGKILL] {
-            let running: Vec<&Process> = self.poll().filter(|p| p.status.is_none()).collect();
-            if running.is_empty() {
-                return;
-            }
-            for p in running {
-                tracing::debug!(name = p.name, ?signal, "stopping");
-                // The process may have exited since the poll: ESRCH is fine.
-                let _ = kill(Pid::from_raw(p.child.id() as i32), signal);
-            }
-            let deadline = Instant::now() + GRACE;
-            while Instant::now() < deadline && self.poll().any(|p| p.status.is_none()) {
-                std::thread::sleep(POLL);
-            }
-        }
-        for p in self.processes.iter_mut().filter(|p| p.status.is_none()) {
-            p.status = p.child.wait().ok();
-        }
+        let mut running: Vec<Stopping<'_>> = (self.processes.iter_mut())
+            .filter(|p| p.status.is_none())
+            .map(|p| Stopping {
+                child: &mut p.child,
+                group: false,
+            })
+            .collect();
+        children::stop(
+            &mut running,
+            &[Signal::SIGINT, Signal::SIGTERM, Signal::SIGKILL],
+        );
+        let _ = self.poll();
     }
 }
 

@@ -424,3 +424,54 @@ fn a_bridge_without_peers_or_with_bad_flags_fails_in_one_line() {
     assert!(!dir.join("run").exists(), "nothing starts on bad flags");
     assert_no_leftovers_and_remove(&prefix, &dir);
 }
+
+/// An address nobody answers at (TEST-NET-1): dropped, refused or unroutable, as the
+/// network has it.
+const UNREACHABLE: &str = "tcp/192.0.2.1:7447";
+
+#[test]
+fn a_bridge_whose_peer_cannot_be_reached_gives_up_at_its_timeout_in_one_line() {
+    let prefix = prefix("bridgeunreach");
+    let dir = folder(&prefix);
+    let mut stack = HandStack::new(&prefix, dir.join("logs"));
+    let flags = ["--side", "service", "--connect", UNREACHABLE];
+    stack.start("bridge", &[&flags[..], &["--wait-timeout-s", "3"]].concat());
+    let statuses = stack.wait_all(Duration::from_secs(60));
+    assert!(!statuses[0].1.success(), "{statuses:?}");
+    let log = std::fs::read_to_string(stack.dir.join("bridge.0.log")).unwrap();
+    let errors: Vec<&str> = (log.lines())
+        .filter(|l| l.starts_with("error") || l.contains(" ERROR "))
+        .collect();
+    assert_eq!(errors.len(), 1, "{log}");
+    assert!(
+        errors[0].contains(&format!("no peer answered at {UNREACHABLE} within 3 s")),
+        "{log}"
+    );
+    drop(stack);
+    assert_no_leftovers_and_remove(&prefix, &dir);
+}
+
+#[test]
+fn a_bridge_stops_on_sigterm_while_it_connects() {
+    let prefix = prefix("bridgeterm");
+    let dir = folder(&prefix);
+    let mut stack = HandStack::new(&prefix, dir.join("logs"));
+    let flags = ["--side", "service", "--connect", UNREACHABLE];
+    stack.start(
+        "bridge",
+        &[&flags[..], &["--wait-timeout-s", "600"]].concat(),
+    );
+    let log = stack.dir.join("bridge.0.log");
+    // Zenoh's first line: the bridge is connecting.
+    wait_for("the bridge to connect", Duration::from_secs(30), || {
+        std::fs::read_to_string(&log).is_ok_and(|l| l.contains("Using ZID"))
+    });
+    let pid = nix::unistd::Pid::from_raw(stack.child("bridge").id() as i32);
+    nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM).unwrap();
+    let statuses = stack.wait_all(Duration::from_secs(60));
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(statuses[0].1.success(), "{statuses:?}: {text}");
+    assert!(text.contains("stopped by signal"), "{text}");
+    drop(stack);
+    assert_no_leftovers_and_remove(&prefix, &dir);
+}

@@ -289,7 +289,9 @@ fn the_test_command_passes_the_python_publisher_on_sensible_expectations() {
         );
     }
     let cases = junit_cases(&junit);
-    assert_eq!(cases.len(), 1 + sensible.len(), "{cases:?}");
+    // Every stream ended, nothing dropped (`test`'s default), then the expectations.
+    assert_eq!(cases.len(), 2 + sensible.len(), "{cases:?}");
+    assert_eq!(cases[1].0, "inputs.rejected_total == 0", "{cases:?}");
     assert!(cases.iter().all(|(_, f)| f.is_none()), "{cases:?}");
     let m = metrics(&dir.join("run"));
     assert!(num(&m, "/estimate/ate_rmse_m") < 0.5);

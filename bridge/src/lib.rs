@@ -79,8 +79,8 @@ pub struct Args {
     /// The peers and the key.
     #[command(flatten)]
     pub zenoh: link::ZenohArgs,
-    /// Give up waiting (for a subscriber here to leave, for the stack's services) after
-    /// this many seconds.
+    /// Give up waiting (for a peer to answer at --connect, for a subscriber here to leave,
+    /// for the stack's services) after this many seconds.
     #[arg(long, default_value_t = 60.0)]
     pub wait_timeout_s: f64,
 }
@@ -138,13 +138,16 @@ fn lookup(topics: &[String]) -> Result<Vec<&'static Route>> {
 /// Runs the bridge until every stream it carried has ended (or a signal arrives).
 ///
 /// # Errors
-/// Bad flags, a Zenoh session that cannot be opened, IPC failures.
+/// Bad flags, a Zenoh session that cannot be opened, no peer answering at `--connect`
+/// within `--wait-timeout-s`, IPC failures.
 pub fn run(args: Args) -> Result<()> {
     let (export, import) = args.routes()?;
-    let session = args.zenoh.open()?;
+    let timeout = Duration::from_secs_f64(args.wait_timeout_s);
+    let Some(session) = args.zenoh.connect(timeout)? else {
+        return Ok(()); // a signal while connecting
+    };
     let keys = link::Keys::new(&args.zenoh.key);
     let stack = args.stack.stack();
-    let timeout = Duration::from_secs_f64(args.wait_timeout_s);
     tracing::info!(
         key = %args.zenoh.key,
         sends = ?export.iter().map(|r| r.row.topic.name).collect::<Vec<_>>(),

@@ -9,8 +9,16 @@
 //! sender may then leave, knowing nothing was still on its way).
 
 use anyhow::{Context as _, Result, bail};
+use fastslam_protocol::ipc::shutdown;
 use fastslam_protocol::{Header, StreamId};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, RecvTimeoutError};
+use std::time::{Duration, Instant};
 use zenoh::{Session, Wait};
+
+/// How often a connecting bridge looks for a peer, a signal and its timeout.
+const CONNECT_POLL: Duration = Duration::from_millis(50);
 
 /// The Zenoh key bridges use unless told otherwise.
 pub const DEFAULT_KEY: &str = "fastslam";
@@ -76,6 +84,59 @@ impl ZenohArgs {
         flags
     }
 
+    /// Opens the Zenoh session ([`ZenohArgs::open`]) and, with `--connect`, waits until a
+    /// peer answers. Returns `None` once SIGINT or SIGTERM arrived. The session opens and
+    /// waits on a thread of its own, which is abandoned at a signal or at `timeout`, so
+    /// that neither a session that blocks while it opens nor an endpoint that never
+    /// answers holds the bridge past either.
+    ///
+    /// # Errors
+    /// As [`ZenohArgs::open`], and no peer answering within `timeout`.
+    pub fn connect(&self, timeout: Duration) -> Result<Option<Session>> {
+        shutdown::install();
+        let started = Instant::now();
+        let (sender, receiver) = mpsc::channel();
+        let abandoned = Arc::new(AtomicBool::new(false));
+        let (args, given_up) = (self.clone(), Arc::clone(&abandoned));
+        let span = tracing::Span::current();
+        std::thread::Builder::new()
+            .name("zenoh-connect".into())
+            .spawn(move || {
+                let _in_span = span.enter();
+                let session = args.open().inspect(|s| {
+                    while !args.connect.is_empty()
+                        && !given_up.load(Ordering::Relaxed)
+                        && !has_peers(s)
+                    {
+                        std::thread::sleep(CONNECT_POLL);
+                    }
+                });
+                // Gave up: the session closes here, however long that takes.
+                let _ = sender.send(session);
+            })
+            .context("start the thread that opens the Zenoh session")?;
+        loop {
+            match receiver.recv_timeout(CONNECT_POLL) {
+                Ok(session) => return session.map(Some),
+                Err(RecvTimeoutError::Disconnected) => bail!("opening the Zenoh session panicked"),
+                Err(RecvTimeoutError::Timeout) => {}
+            }
+            let stop = shutdown::requested();
+            if stop || started.elapsed() > timeout {
+                abandoned.store(true, Ordering::Relaxed);
+                if stop {
+                    return Ok(None);
+                }
+                bail!(
+                    "no peer answered at {} within {} s (--wait-timeout-s): is the other \
+                     host's bridge running and listening there, and the port open?",
+                    self.connect.join(", "),
+                    timeout.as_secs_f64()
+                );
+            }
+        }
+    }
+
     /// Opens the Zenoh session: a peer that listens and connects where it was told.
     ///
     /// # Errors
@@ -137,6 +198,11 @@ fn without_source_locations(text: &str) -> String {
     }
     out.push_str(rest);
     out
+}
+
+/// True when the session is connected to a peer.
+fn has_peers(session: &Session) -> bool {
+    session.info().peers_zid().wait().next().is_some()
 }
 
 /// A JSON list of strings.

@@ -59,6 +59,23 @@ impl JudgeArgs {
         Expectations::parse(&self.expect)
     }
 
+    /// These flags with the expectation `default` first, unless one of theirs names the
+    /// same number of metrics.json: a default that the user's own expectation replaces.
+    ///
+    /// # Errors
+    /// As [`JudgeArgs::expectations`], and when `default` is malformed.
+    pub fn with_default(&self, default: &str) -> anyhow::Result<Self> {
+        let theirs = self.expectations()?;
+        let default_path = Expectation::parse(default)
+            .map_err(anyhow::Error::msg)?
+            .path;
+        let mut judge = self.clone();
+        if !theirs.0.iter().any(|e| e.path == default_path) {
+            judge.expect.insert(0, default.to_string());
+        }
+        Ok(judge)
+    }
+
     /// The same flags, for the client a launcher starts.
     pub fn flags(&self) -> Vec<String> {
         let mut flags: Vec<String> = self
@@ -479,6 +496,23 @@ mod tests {
             junit: Some("report.xml".into()),
         };
         bare.expectations().unwrap();
+    }
+
+    #[test]
+    fn a_default_expectation_comes_first_unless_one_names_its_number() {
+        let default = "inputs.rejected_total == 0";
+        let judge = |expect: &[&str]| JudgeArgs {
+            expect: expect.iter().map(ToString::to_string).collect(),
+            junit: None,
+        };
+        let added = judge(&["estimate.ate_rmse_m < 0.5"]).with_default(default);
+        assert_eq!(
+            added.unwrap().expect,
+            [default, "estimate.ate_rmse_m < 0.5"]
+        );
+        let replaced = judge(&["inputs.rejected_total <= 3"]).with_default(default);
+        assert_eq!(replaced.unwrap().expect, ["inputs.rejected_total <= 3"]);
+        assert!(judge(&["nonsense < 1"]).with_default(default).is_err());
     }
 
     #[test]

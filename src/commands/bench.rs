@@ -315,7 +315,7 @@ fn stack_run(
             live: LiveArgs { live, live_port: 0 },
             split: HostArgs::default(),
         },
-        service_flags: Vec::new(),
+        pass: Default::default(),
         busy_poll,
         spin_us,
     };

@@ -49,6 +49,20 @@ pub struct LaunchArgs {
     pub split: HostArgs,
 }
 
+/// Flags a launcher passes through, as they are, to the FastSLAM service and the client
+/// it starts.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct PassThrough {
+    /// An extra flag for the FastSLAM service, passed through as is (repeatable), e.g.
+    /// `--service-flag=--save-map=map.csv` or `--service-flag=--checkpoint=run.ckpt`.
+    #[arg(long = "service-flag", value_name = "FLAG", allow_hyphen_values = true)]
+    pub service: Vec<String>,
+    /// An extra flag for the client, passed through as is (repeatable), e.g.
+    /// `--client-flag=--align=se2` for a publisher whose estimate frame is its own.
+    #[arg(long = "client-flag", value_name = "FLAG", allow_hyphen_values = true)]
+    pub client: Vec<String>,
+}
+
 /// Where a launcher's stack lives: its prefix and iceoryx2 root, owned by this launcher
 /// for as long as the value lives.
 pub(crate) struct Place {

@@ -1,7 +1,7 @@
 //! `fastslam-stack run`: the whole stack on one scenario, under a fresh stack prefix, with
 //! a run folder at the end.
 
-use crate::commands::launch::{Ended, LaunchArgs, Place, conclude, prepare};
+use crate::commands::launch::{Ended, LaunchArgs, PassThrough, Place, conclude, prepare};
 use crate::progress;
 use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::{Context, bail};
@@ -38,10 +38,9 @@ pub struct RunArgs {
     /// Where the stack runs, how fast, for how long, what is judged, the live view.
     #[command(flatten)]
     pub launch: LaunchArgs,
-    /// An extra flag for the FastSLAM service, passed through as is (repeatable), e.g.
-    /// `--service-flag=--save-map=map.csv` or `--service-flag=--checkpoint=run.ckpt`.
-    #[arg(long = "service-flag", value_name = "FLAG", allow_hyphen_values = true)]
-    pub service_flags: Vec<String>,
+    /// Extra flags for the service and the client.
+    #[command(flatten)]
+    pub pass: PassThrough,
     /// The service and the client (the processes between a sensor sample and the pose
     /// that used it) poll their inputs in a busy loop instead of sleeping: a lower latency
     /// tail for one core each at 100 %. See BENCHMARKS.md ("Busy polling").
@@ -112,13 +111,14 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
     if !args.launch.pace.realtime {
         service.push("--as-fast-as-possible".into());
     }
-    service.extend(args.service_flags.iter().cloned());
+    service.extend(args.pass.service.iter().cloned());
     let mut client = stack_flags.clone();
     client.extend(["--out".into(), out.display().to_string()]);
     if let Some(c) = &service_config {
         client.extend(["--service-config".into(), c.display().to_string()]);
     }
     client.extend(args.launch.judge.flags());
+    client.extend(args.pass.client.iter().cloned());
     for flags in [&mut service, &mut client] {
         if args.busy_poll {
             flags.push("--busy-poll".into());

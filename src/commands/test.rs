@@ -3,7 +3,7 @@
 //! [`fastslam_stack::harness`]'s: the service and the client under a fresh prefix and
 //! iceoryx2 root, the publisher a shell command with both in its environment.
 
-use crate::commands::launch::print_summary;
+use crate::commands::launch::{PassThrough, print_summary};
 use crate::supervisor::stop_flag;
 use anyhow::Context;
 use fastslam_client::expect::JudgeArgs;
@@ -22,6 +22,12 @@ and the metrics client under a fresh stack prefix and iceoryx2 root, runs your p
 waits until everything has ended (or --timeout-s), removes the stack's shared memory, prints \
 the headline metrics and one line per expectation, and exits 0 when every stream ended and \
 every expectation holds, else 1.
+
+The service takes your samples as fast as you send them (--realtime: as a real-time \
+sensor's, whose full queue drops inputs). An input the service drops or rejects fails the \
+run: `inputs.rejected_total == 0` is expected unless an --expect of yours names \
+inputs.rejected_total. A publisher still running at the timeout gets SIGTERM, then SIGKILL \
+5 s later.
 
 Your publisher publishes odometry, scans or observations, and — for the client's scoring — \
 ground truth and the true landmarks, then an end-of-stream message on each stream; it should \
@@ -51,32 +57,43 @@ pub struct TestArgs {
     /// Expectations on the metrics and a JUnit report, judged by the client.
     #[command(flatten)]
     pub judge: JudgeArgs,
-    /// Stop everything and fail after this many seconds.
+    /// Stop everything and fail after this many seconds (SIGTERM, then SIGKILL 5 s later
+    /// to what ignores it).
     #[arg(long, default_value_t = 600.0)]
     pub timeout_s: f64,
+    /// The service takes the publisher's samples as a real-time sensor's: a full input
+    /// queue drops its oldest input, a sensor silent beyond the deadline is not waited for
+    /// (default: as fast as the publisher sends; a full queue makes the service wait).
+    #[arg(long)]
+    pub realtime: bool,
     /// Folder for the run folder (`run/`), the service's settings and every process's log.
     #[arg(long, default_value = "runs/test")]
     pub out: PathBuf,
-    /// An extra flag for the client, passed through as is (repeatable), e.g.
-    /// `--client-flag=--align=se2` for a publisher whose estimate frame is its own.
-    #[arg(long = "client-flag", value_name = "FLAG", allow_hyphen_values = true)]
-    pub client_flags: Vec<String>,
+    /// Extra flags for the service and the client.
+    #[command(flatten)]
+    pub pass: PassThrough,
 }
+
+/// What every run is expected to do unless an expectation of the user's names the same
+/// number: the service dropped or rejected no input.
+pub const NOTHING_DROPPED: &str = "inputs.rejected_total == 0";
 
 /// Runs the test; returns the exit code (0 passed, 130 interrupted).
 ///
 /// # Errors
 /// Bad flags or settings (before anything starts), a process that fails or outlives the
-/// timeout, or a run that fails its expectations.
+/// timeout, or a run that fails its expectations ([`NOTHING_DROPPED`] among them).
 pub fn run(args: &TestArgs) -> anyhow::Result<u8> {
-    args.judge.expectations()?;
+    let judge = args.judge.with_default(NOTHING_DROPPED)?;
     let settings = service_settings(args)?;
     let exe = std::env::current_exe().context("locating the launcher's own executable")?;
     let stop = stop_flag()?;
     let mut builder = Stack::builder(exe)
         .dir(&args.out)
-        .client_flags(args.client_flags.iter().cloned())
-        .judge(args.judge.clone())
+        .service_flags(args.pass.service.iter().cloned())
+        .client_flags(args.pass.client.iter().cloned())
+        .realtime(args.realtime)
+        .judge(judge)
         .stop_flag(stop.clone());
     if let Some(toml) = &settings {
         builder = builder.service_config(toml);
