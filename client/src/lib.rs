@@ -12,6 +12,7 @@ pub mod foxglove_log;
 pub mod inputs;
 pub mod json_number;
 pub mod latency;
+pub mod lidar_count;
 pub mod mcap;
 pub mod metrics;
 pub mod metrics_json;

@@ -1,6 +1,6 @@
 //! Everything the client received, kept in stamp order.
 
-use crate::account::LidarCount;
+use crate::lidar_count::LidarCount;
 use crate::resources::ProcessUsage;
 use fastslam_estimation::motion::Control;
 use fastslam_estimation::observation::Observation;
