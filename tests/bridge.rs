@@ -462,9 +462,9 @@ fn a_bridge_stops_on_sigterm_while_it_connects() {
         &[&flags[..], &["--wait-timeout-s", "600"]].concat(),
     );
     let log = stack.dir.join("bridge.0.log");
-    // Zenoh's first line: the bridge is connecting.
+    // The bridge's own line as it starts connecting.
     wait_for("the bridge to connect", Duration::from_secs(30), || {
-        std::fs::read_to_string(&log).is_ok_and(|l| l.contains("Using ZID"))
+        std::fs::read_to_string(&log).is_ok_and(|l| l.contains("opening the Zenoh session"))
     });
     let pid = nix::unistd::Pid::from_raw(stack.child("bridge").id() as i32);
     nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM).unwrap();

@@ -94,6 +94,11 @@ impl ZenohArgs {
     /// As [`ZenohArgs::open`], and no peer answering within `timeout`.
     pub fn connect(&self, timeout: Duration) -> Result<Option<Session>> {
         shutdown::install();
+        tracing::info!(
+            listen = ?self.listen,
+            connect = ?self.connect,
+            "opening the Zenoh session"
+        );
         let started = Instant::now();
         let (sender, receiver) = mpsc::channel();
         let abandoned = Arc::new(AtomicBool::new(false));
