@@ -258,17 +258,6 @@ fn test_python_publisher_with(
     (command.output().expect("starting the launcher"), junit)
 }
 
-/// The stack prefix `test` announced on its stderr.
-fn announced_prefix(out: &Output) -> String {
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    stderr
-        .split("FASTSLAM_PREFIX=")
-        .nth(1)
-        .and_then(|rest| rest.split_whitespace().next())
-        .unwrap_or_else(|| panic!("no prefix announced: {stderr}"))
-        .to_string()
-}
-
 #[test]
 fn the_test_command_passes_the_python_publisher_on_sensible_expectations() {
     let dir = folder(&prefix("test_pass"));

@@ -54,17 +54,6 @@ fn said(out: &Output) -> String {
     )
 }
 
-/// The stack prefix `test` announced on its stderr.
-fn announced_prefix(out: &Output) -> String {
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    stderr
-        .split("FASTSLAM_PREFIX=")
-        .nth(1)
-        .and_then(|rest| rest.split_whitespace().next())
-        .unwrap_or_else(|| panic!("no prefix announced: {stderr}"))
-        .to_string()
-}
-
 #[test]
 fn odometry_well_within_the_input_queue_loses_nothing_and_passes() {
     let dir = folder(&prefix("ahead_within"));

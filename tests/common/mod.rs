@@ -46,6 +46,17 @@ pub fn run_stack(prefix: &str, out: &Path, extra: &[&str]) -> Output {
         .expect("starting the launcher")
 }
 
+/// The stack prefix the launcher's `test` announced on its stderr.
+pub fn announced_prefix(out: &Output) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    stderr
+        .split("FASTSLAM_PREFIX=")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next())
+        .unwrap_or_else(|| panic!("no prefix announced: {stderr}"))
+        .to_string()
+}
+
 /// The run folder's metrics.
 pub fn metrics(out: &Path) -> serde_json::Value {
     let path = out.join("metrics.json");
