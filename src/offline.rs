@@ -21,6 +21,7 @@ use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::moves::{MoveCorrection, MoveStats};
 use fastslam_estimation::optimise::OptimiserKind;
 use fastslam_estimation::stats::Summary;
+use fastslam_protocol::message::Message as Wire;
 use fastslam_protocol::status::RejectionKind;
 use fastslam_protocol::validate;
 use fastslam_protocol::{Header, StreamId};
@@ -370,16 +371,23 @@ pub fn run_in_process(
                 admission.odometry(&m).map(|()| Input::Odometry(m))
             }
             Message::Observations(header, items) => {
-                if validate::observations(&header, &items).is_ok() {
+                let valid = validate::observations(&header, &items).is_ok();
+                let wire = Wire::Observations(&header, &items);
+                recording.lidar.note(wire, valid);
+                if valid {
                     recording.add_observations(&header, &items);
                 }
                 (admission.observations(&header, &items))
                     .map(|()| Input::Scan(Scan { header, items }))
             }
-            Message::RawScan(header, mut items) => admission.raw_scan(&header, &items).map(|()| {
-                items.truncate(header.ranges as usize);
-                Input::RawScan(RawScan { header, items })
-            }),
+            Message::RawScan(header, mut items) => {
+                let valid = validate::laser_scan(&header, &items).is_ok();
+                recording.lidar.note(Wire::Scan(&header, &items), valid);
+                admission.raw_scan(&header, &items).map(|()| {
+                    items.truncate(header.ranges as usize);
+                    Input::RawScan(RawScan { header, items })
+                })
+            }
         };
         match admitted {
             Ok(input) => match queue(&mut sequencer, input) {
