@@ -1,6 +1,7 @@
 //! Small summaries of samples: mean, standard deviation and nearest-rank percentiles, used
 //! for latencies, step times, filter health and the comparison table.
 
+pub use fastslam_estimation::stats::percentile;
 use serde::{Deserialize, Serialize};
 
 /// Arithmetic mean; NaN for no samples.
@@ -27,18 +28,6 @@ pub fn std_dev(xs: &[f64]) -> f64 {
 /// Root mean square; NaN for no samples.
 pub fn rms(xs: &[f64]) -> f64 {
     mean(&xs.iter().map(|x| x * x).collect::<Vec<_>>()).sqrt()
-}
-
-/// The `p`-th percentile (0 < p ≤ 100) of `sorted` (ascending) by the nearest-rank
-/// method: the smallest sample with at least `p` % of the samples at or below it. It is
-/// always an observed value (no interpolation), the usual convention for latencies.
-/// NaN for no samples.
-pub fn percentile(sorted: &[f64], p: f64) -> f64 {
-    if sorted.is_empty() {
-        return f64::NAN;
-    }
-    let rank = (p / 100.0 * sorted.len() as f64).ceil() as usize;
-    sorted[rank.clamp(1, sorted.len()) - 1]
 }
 
 /// Median, 99th and 99.9th percentiles and maximum of a set of durations or sizes, in the unit the

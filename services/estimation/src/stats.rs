@@ -1,7 +1,19 @@
 //! Summaries of repeated runs (Monte Carlo tables): mean, standard deviation and the 95 %
-//! confidence interval of the mean.
+//! confidence interval of the mean; and nearest-rank percentiles.
 
 use serde::Serialize;
+
+/// The `p`-th percentile (0 < p ≤ 100) of `sorted` (ascending) by the nearest-rank
+/// method: the smallest sample with at least `p` % of the samples at or below it. It is
+/// always an observed value (no interpolation), the usual convention for latencies.
+/// NaN for no samples.
+pub fn percentile(sorted: &[f64], p: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let rank = (p / 100.0 * sorted.len() as f64).ceil() as usize;
+    sorted[rank.clamp(1, sorted.len()) - 1]
+}
 
 /// Mean, spread and 95 % confidence interval of the mean of a set of per-run values.
 ///

@@ -13,6 +13,7 @@
 //! and a resumed service rebuilds the same graph by feeding it again.
 
 use fastslam_estimation::graph::{Feed, NoiseModel, Smoother, SmootherConfig, Solution};
+use fastslam_estimation::stats::percentile;
 use std::collections::VecDeque;
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::thread::JoinHandle;
@@ -252,12 +253,12 @@ impl ScanTimes {
             return;
         }
         self.times.sort_by(f64::total_cmp);
-        let at = |q: f64| self.times[((self.times.len() - 1) as f64 * q).round() as usize];
+        let ms = |p: f64| percentile(&self.times, p) * 1e3;
         tracing::info!(
             scans = self.times.len(),
-            median_ms = at(0.5) * 1e3,
-            p99_ms = at(0.99) * 1e3,
-            max_ms = at(1.0) * 1e3,
+            median_ms = ms(50.0),
+            p99_ms = ms(99.0),
+            max_ms = ms(100.0),
             total_s = self.times.iter().sum::<f64>(),
             "smoother time per scan"
         );
