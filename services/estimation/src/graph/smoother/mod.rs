@@ -254,6 +254,8 @@ pub struct Smoother {
     solved_at: usize,
     whole_at: usize,
     loop_pending: bool,
+    /// Whether the last solve was a whole solve.
+    last_whole: bool,
     solves: u32,
     fused: usize,
     /// Pairs of keys whose fusion the solution refused.
@@ -289,6 +291,7 @@ impl Smoother {
             last_seen_ns: Vec::new(),
             solved_at: 0,
             whole_at: 0,
+            last_whole: false,
             loop_pending: false,
             solves: 0,
             fused: 0,
@@ -388,7 +391,7 @@ impl Smoother {
 
     /// True when the graph changed since its last whole solve.
     pub fn has_news(&self) -> bool {
-        self.graph.poses.len() > self.whole_at || self.solved_at > self.whole_at
+        self.graph.poses.len() > self.whole_at || !self.last_whole
     }
 
     /// The solve that is due: a window solve, or a whole solve when the graph has grown
@@ -449,6 +452,7 @@ impl Smoother {
     /// Counts a solve and returns its solution.
     fn solution(&mut self, report: SolveReport, chi2_per_dof: f64, whole: bool) -> Solution {
         self.solved_at = self.graph.poses.len();
+        self.last_whole = whole;
         self.loop_pending = false;
         self.solves += 1;
         Solution {

@@ -267,6 +267,7 @@ fn a_window_solve_at_the_whole_solution_moves_nothing() {
         let whole = smoother.solve_whole().unwrap();
         let window = smoother.solve().unwrap();
         assert!(!window.whole);
+        assert!(smoother.has_news(), "a window solve since the whole one");
         assert!(
             apart(&whole, &window) < 1e-6,
             "seed {seed}: {}",
