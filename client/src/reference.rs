@@ -103,7 +103,7 @@ pub fn solve(rec: &Recording, model: &NoiseModel) -> Option<Reference> {
         chi2_per_dof: solution.chi2_per_dof,
         solve_s: started.elapsed().as_secs_f64(),
         landmarks: solution.landmarks.len(),
-        graph: graph.graph().clone(),
+        graph: graph.into_graph(),
     })
 }
 

@@ -389,6 +389,11 @@ impl Smoother {
         &self.graph
     }
 
+    /// The graph at its current estimates, the smoother given up.
+    pub fn into_graph(self) -> Graph {
+        self.graph
+    }
+
     /// True when the graph changed since its last whole solve.
     pub fn has_news(&self) -> bool {
         self.graph.poses.len() > self.whole_at || !self.last_whole
