@@ -410,6 +410,7 @@ pub fn run_in_process(
         recording.set_smoothed(&smoothed.trajectory.0, &smoothed.trajectory.1);
         recording.smoothed_map = smoothed.map.1;
     }
+    recording.torn_solves = slam.torn_solves().count;
     let grid = grid_score(source, &mut slam);
     let (align, score_at) = source.scoring();
     let alignment = fit_alignment(&scored_at(&recording, score_at), align);

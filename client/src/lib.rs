@@ -30,6 +30,7 @@ pub mod scoring;
 pub mod stats;
 pub mod timeline;
 pub mod viewer;
+pub mod warnings;
 
 pub use metrics::Metrics;
 pub use recording::Recording;

@@ -163,6 +163,9 @@ pub struct FilterHealth {
     /// Where the noise check points when it failed: `odometry` (the pose term dominates
     /// the innovations), `sensor`, or empty when it never failed.
     pub nis_suspect: String,
+    /// Solves of the smoothing back-end withheld as torn (docs/ALGORITHMS.md §8.3).
+    #[serde(default)]
+    pub smoother_torn_solves: u32,
 }
 
 /// Time and memory the run took.
@@ -429,6 +432,7 @@ pub fn filter_health(rec: &Recording) -> FilterHealth {
             pose if 2 * pose >= high.len() => "odometry".into(),
             _ => "sensor".into(),
         },
+        smoother_torn_solves: rec.torn_solves,
     }
 }
 

@@ -2,7 +2,8 @@
 //! what the run did not measure — the truth-based errors of each trajectory,
 //! `consistency` and `map` in a run without ground truth, `reference` and `smoothed`
 //! when there is none, and `relations` without a relations file. A run with ground
-//! truth writes the same keys, in the same order, as [`Metrics`]' fields.
+//! truth writes the same keys, in the same order, as [`Metrics`]' fields, then the
+//! run's [`Warnings`] (derived from the rest, so not read back).
 
 use crate::metrics::{
     Consistency, Cost, FilterHealth, InputAccount, MapMetrics, Metrics, SmoothedMetrics,
@@ -11,6 +12,7 @@ use crate::reference::ReferenceMetrics;
 use crate::relations::RelationErrors;
 use crate::rpe::Rpe;
 use crate::scoring::{Alignment, ScoreAt, TrajectoryMetrics};
+use crate::warnings::Warnings;
 use serde::{Deserialize, Serialize};
 
 /// `metrics.json` as written.
@@ -36,6 +38,9 @@ struct MetricsFile {
     #[serde(default)]
     inputs: InputAccount,
     cost: Cost,
+    /// Written for the reader and `--expect`; derived from the rest when read back.
+    #[serde(default)]
+    warnings: Warnings,
 }
 
 /// The value of `ground_truth` in a file without the key.
@@ -176,6 +181,7 @@ impl From<SmoothedFile> for SmoothedMetrics {
 impl From<Metrics> for MetricsFile {
     fn from(m: Metrics) -> Self {
         let truth = m.ground_truth;
+        let warnings = Warnings::of(&m);
         Self {
             complete: m.complete,
             ground_truth: truth,
@@ -190,6 +196,7 @@ impl From<Metrics> for MetricsFile {
             filter: m.filter,
             inputs: m.inputs,
             cost: m.cost,
+            warnings,
         }
     }
 }
@@ -384,7 +391,8 @@ mod tests {
                 "map",
                 "filter",
                 "inputs",
-                "cost"
+                "cost",
+                "warnings"
             ]
         );
         let trajectory = [

@@ -11,6 +11,7 @@ use crate::progress::{LiveAte, Progress};
 use crate::reference::NoiseModel;
 use crate::relations::{Relation, read_relations};
 use crate::resources::ProcessMonitor;
+use crate::warnings::Warnings;
 use crate::{Metrics, Recording, report};
 use fastslam_estimation::graph::g2o::G2o;
 use fastslam_protocol::ipc::{Ended, Flow, Ipc};
@@ -126,7 +127,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     })?;
     let (rec, mcap) = recorder.finish(&ipc);
     let (rec, metrics) = score(&args, &rec, ended == Ended::Done, relations, noise);
-    for line in metrics.inputs.warnings() {
+    for line in Warnings::of(&metrics).lines {
         tracing::warn!("{line}");
     }
     report::write(&args.out, &rec, &metrics)?;

@@ -78,6 +78,8 @@ pub struct Recording {
     pub smoothed_fit: Option<(f64, u32)>,
     /// The smoothing back-end's newest map.
     pub smoothed_map: Vec<MapLandmark>,
+    /// The back-end's solves withheld as torn, as of the service's newest status.
+    pub torn_solves: u32,
     /// The service's estimates.
     pub estimates: Vec<Estimate>,
     /// The newest landmark map from the service.
@@ -237,6 +239,7 @@ impl Recording {
         for (count, &now) in self.rejections.iter_mut().zip(&m.rejections) {
             *count = (*count).max(now);
         }
+        self.torn_solves = self.torn_solves.max(m.torn_solves);
         if m.flags & status::flags::FINAL != 0 {
             tracing::info!(
                 steps = m.steps,

@@ -100,7 +100,7 @@ pub fn solve(rec: &Recording, model: &NoiseModel) -> Option<Reference> {
                 theta: p.theta,
             })
             .collect(),
-        chi2_per_dof: solution.chi2_per_dof,
+        chi2_per_dof: solution.fit.chi2_per_dof,
         solve_s: started.elapsed().as_secs_f64(),
         landmarks: solution.landmarks.len(),
         graph: graph.into_graph(),

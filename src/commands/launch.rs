@@ -8,6 +8,7 @@ use crate::supervisor::Outcome;
 use anyhow::{Context, bail};
 use fastslam_client::Metrics;
 use fastslam_client::expect::{Expectations, JudgeArgs};
+use fastslam_client::warnings::Warnings;
 use fastslam_protocol::cli::PaceArgs;
 use fastslam_protocol::ipc::{self, StackConfig};
 use std::fs::{File, OpenOptions, TryLockError};
@@ -337,15 +338,7 @@ pub(crate) fn print_summary(out: &Path, wall: Duration) -> anyhow::Result<()> {
         );
     }
     println!("  wall time      {:8.2} s", wall.as_secs_f64());
-    // A window above the band now and then is chance; a tenth of the run is the model.
-    if !h.nis_suspect.is_empty() && h.nis_high_fraction >= 0.1 {
-        let suspect = fastslam_estimation::fastslam::noise_suspect(h.nis_suspect == "odometry");
-        println!(
-            "  warning: innovations larger than the noise model explains at {:.0} % of steps: {suspect} (docs/REPLAYS.md, fitting the noise)",
-            100.0 * h.nis_high_fraction
-        );
-    }
-    for line in m.inputs.warnings() {
+    for line in Warnings::of(&m).lines {
         println!("  warning: {line}");
     }
     Ok(())

@@ -5,6 +5,7 @@
 //! estimators asks which one runs.
 
 use crate::config::ServiceConfig;
+use crate::smoothing::TornSolves;
 use fastslam_estimation::fastslam::{self, FilterState, StepReport};
 use fastslam_estimation::graph::{Feed, Solution};
 use fastslam_estimation::grid::OccupancyGrid;
@@ -85,6 +86,11 @@ pub trait Estimator: std::fmt::Debug + Send {
     /// Ends the back-end's input and waits for its last solve: the newest solution not
     /// yet taken.
     fn finish_back_end(&mut self) -> Option<Solution>;
+
+    /// The back-end's solves withheld as torn (none without a back-end that gates them).
+    fn torn_solves(&self) -> TornSolves {
+        TornSolves::default()
+    }
 
     /// What the back-end was fed so far, for a checkpoint (empty without one).
     fn back_end_feed(&self) -> Vec<Feed> {

@@ -94,6 +94,7 @@ impl Health {
             nis: self.nis.per_dof(),
             ..ServiceStatus::default()
         };
+        self.set_torn(slam);
         self.now(seq)
     }
 
@@ -118,9 +119,22 @@ impl Health {
         flags::NIS_HIGH | if pose { flags::NIS_POSE } else { 0 }
     }
 
+    /// Notes in the status the back-end's solves withheld as torn, as far as it reported
+    /// them.
+    fn set_torn(&mut self, slam: &Slam) {
+        let torn = slam.torn_solves();
+        self.last.torn_solves = torn.count;
+        self.last.flags &= !flags::SMOOTHED_TORN;
+        if torn.newest {
+            self.last.flags |= flags::SMOOTHED_TORN;
+        }
+    }
+
     /// The status sent at shutdown: [`Health::now`], flagged [`flags::FINAL`] (not a step)
-    /// and with the landmark count as it is now.
-    pub fn final_status(&self, slam: &Slam, seq: &Sequencer) -> ServiceStatus {
+    /// and with the landmark count and torn solves as they are now (the back-end's last
+    /// solve included).
+    pub fn final_status(&mut self, slam: &Slam, seq: &Sequencer) -> ServiceStatus {
+        self.set_torn(slam);
         let now = self.now(seq);
         ServiceStatus {
             particles: slam.particles() as u32,

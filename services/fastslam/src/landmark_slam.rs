@@ -5,7 +5,7 @@
 
 use crate::config::ServiceConfig;
 use crate::estimator::{Estimator, PoseSink, Step, message, particle};
-use crate::smoothing::Backend;
+use crate::smoothing::{Backend, TornSolves};
 use fastslam_estimation::Pose2;
 use fastslam_estimation::fastslam::association::AssociationMode;
 use fastslam_estimation::fastslam::{
@@ -262,6 +262,10 @@ impl Estimator for LandmarkSlam {
 
     fn finish_back_end(&mut self) -> Option<Solution> {
         self.backend.as_mut().and_then(Backend::finish)
+    }
+
+    fn torn_solves(&self) -> TornSolves {
+        self.backend.as_ref().map(Backend::torn).unwrap_or_default()
     }
 
     fn back_end_feed(&self) -> Vec<Feed> {

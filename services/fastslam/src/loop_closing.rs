@@ -15,7 +15,7 @@
 //! pose moved by the front end's motion since that keyframe.
 
 use fastslam_estimation::Pose2;
-use fastslam_estimation::graph::{Solution, SolveReport};
+use fastslam_estimation::graph::{Fit, Solution, SolveReport};
 use fastslam_estimation::grid::{GridConfig, OccupancyGrid};
 use fastslam_estimation::loop_closure::{self, Keyframe, LoopClosureConfig, PoseGraphMapper};
 use std::collections::VecDeque;
@@ -291,7 +291,13 @@ impl LoopClosing {
         Solution {
             poses,
             landmarks: Vec::new(),
-            chi2_per_dof: solved.chi2_per_dof,
+            // The loop closures enter χ² with their final weights: it is already robust;
+            // the pose graph has no sightings to count as outliers.
+            fit: Fit {
+                chi2_per_dof: solved.chi2_per_dof,
+                robust_per_dof: solved.chi2_per_dof,
+                outlier_share: 0.0,
+            },
             report: SolveReport {
                 iterations: solved.iterations,
                 initial_cost: f64::NAN,

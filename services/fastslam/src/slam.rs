@@ -11,6 +11,7 @@ pub use crate::estimator::{PoseSink, Step};
 use crate::grid_slam::GridSlam;
 use crate::landmark_slam::LandmarkSlam;
 use crate::sequencer::Input;
+use crate::smoothing::TornSolves;
 use fastslam_estimation::Pose2;
 use fastslam_estimation::fastslam::{self, FastSlam, FilterState};
 use fastslam_estimation::graph::{Feed, Solution};
@@ -76,7 +77,7 @@ impl Smoothed {
                     header,
                     count: u32::try_from(poses.len()).unwrap_or(u32::MAX),
                     solves: solution.solves,
-                    chi2_per_dof: solution.chi2_per_dof,
+                    chi2_per_dof: solution.fit.chi2_per_dof,
                 },
                 poses,
             ),
@@ -191,6 +192,11 @@ impl Slam {
     /// yet taken.
     pub fn finish_smoothing(&mut self) -> Option<Solution> {
         self.estimator.finish_back_end()
+    }
+
+    /// The back-end's solves withheld as torn so far.
+    pub fn torn_solves(&self) -> TornSolves {
+        self.estimator.torn_solves()
     }
 
     /// What the back-end was fed so far, for a checkpoint (empty without one).

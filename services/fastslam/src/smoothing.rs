@@ -11,19 +11,36 @@
 //!
 //! Every input it was given is also kept (the feed), so that a checkpoint can carry it
 //! and a resumed service rebuilds the same graph by feeding it again.
+//!
+//! A torn solution (its fit beyond [`SmootherConfig::torn_gate`], docs/ALGORITHMS.md
+//! §8.3) is withheld: not published and not used for re-anchoring, so the previous good
+//! solution (or the filter) stands; it is logged and counted ([`TornSolves`]).
 
-use fastslam_estimation::graph::{Feed, NoiseModel, Smoother, SmootherConfig, Solution};
+use fastslam_estimation::graph::{Feed, NoiseModel, Smoother, SmootherConfig, Solution, TornGate};
 use fastslam_estimation::stats::percentile;
 use std::collections::VecDeque;
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::thread::JoinHandle;
 use std::time::Instant;
 
-/// What the back-end reports after each scan it was fed (numbered from 1).
+/// What the back-end reports after each scan it was fed (numbered from 1): the
+/// solution when that scan asked for a solve and the solve was good, and whether a solve
+/// was made and withheld as torn.
 #[derive(Debug)]
 struct Report {
     scan: u64,
     solution: Option<Solution>,
+    torn: bool,
+}
+
+/// The solves withheld as torn.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct TornSolves {
+    /// Solves withheld so far.
+    pub count: u32,
+    /// Whether the newest solve was withheld (the published solution is an older one,
+    /// or there is none).
+    pub newest: bool,
 }
 
 /// The back-end thread, the two channels to it and what it reported.
@@ -43,6 +60,8 @@ pub struct Backend {
     unpublished: Option<Solution>,
     /// Solutions kept for re-anchoring, with the scan that triggered them.
     pending: Option<VecDeque<(u64, Solution)>>,
+    /// The solves withheld as torn.
+    torn: TornSolves,
 }
 
 impl Backend {
@@ -58,6 +77,7 @@ impl Backend {
     ) -> anyhow::Result<Self> {
         let reanchor = config.reanchor;
         let graph_out = config.graph_out.clone();
+        let gate = config.torn_gate();
         let mut smoother = Smoother::new(config, noise)?;
         let (to_worker, inbox) = channel::<Vec<Feed>>();
         let (outbox, from_worker) = channel::<Report>();
@@ -70,14 +90,21 @@ impl Backend {
                     let due = smoother.feed(&feed);
                     if matches!(feed, Feed::Scan { .. }) {
                         scan += 1;
-                        let solution = if due {
-                            solve(smoother.solve(), &busy)
+                        let (solution, torn) = if due {
+                            judge(smoother.solve(), &busy, &gate)
                         } else {
-                            None
+                            (None, false)
                         };
                         busy.add(spent + started.elapsed().as_secs_f64());
                         spent = 0.0;
-                        if outbox.send(Report { scan, solution }).is_err() {
+                        if outbox
+                            .send(Report {
+                                scan,
+                                solution,
+                                torn,
+                            })
+                            .is_err()
+                        {
                             return;
                         }
                     } else {
@@ -86,8 +113,12 @@ impl Backend {
                 }
                 // The filter's side hung up: the stream ended. A last solve over everything.
                 if smoother.has_news() {
-                    let solution = solve(smoother.solve_whole(), &busy);
-                    let _ = outbox.send(Report { scan, solution });
+                    let (solution, torn) = judge(smoother.solve_whole(), &busy, &gate);
+                    let _ = outbox.send(Report {
+                        scan,
+                        solution,
+                        torn,
+                    });
                 }
                 busy.log();
                 if let Some(path) = graph_out {
@@ -104,6 +135,7 @@ impl Backend {
             scans_reported: 0,
             unpublished: None,
             pending: reanchor.then(VecDeque::new),
+            torn: TornSolves::default(),
         };
         for f in feed {
             backend.send(f);
@@ -137,7 +169,12 @@ impl Backend {
     /// Takes one report in.
     fn take(&mut self, report: Report) {
         self.scans_reported = self.scans_reported.max(report.scan);
+        if report.torn {
+            self.torn.count += 1;
+            self.torn.newest = true;
+        }
         if let Some(solution) = report.solution {
+            self.torn.newest = false;
             if let Some(pending) = &mut self.pending {
                 pending.push_back((report.scan, solution.clone()));
             }
@@ -180,6 +217,11 @@ impl Backend {
         }
     }
 
+    /// The solves withheld as torn, as far as the back-end has reported.
+    pub fn torn(&self) -> TornSolves {
+        self.torn
+    }
+
     /// Everything fed so far, for a checkpoint.
     pub fn feed(&self) -> &[Feed] {
         &self.feed
@@ -199,11 +241,17 @@ impl Backend {
     }
 }
 
-/// A solve's outcome, logged.
-fn solve(outcome: fastslam_estimation::Result<Solution>, busy: &ScanTimes) -> Option<Solution> {
+/// A solve's outcome, logged: the solution if it passes `gate`, and whether it was
+/// withheld as torn.
+fn judge(
+    outcome: fastslam_estimation::Result<Solution>,
+    busy: &ScanTimes,
+    gate: &TornGate,
+) -> (Option<Solution>, bool) {
     match outcome {
         Ok(solution) => {
             let r = &solution.report;
+            let fit = &solution.fit;
             tracing::info!(
                 solve = solution.solves,
                 over = if solution.whole { "whole" } else { "window" },
@@ -213,15 +261,27 @@ fn solve(outcome: fastslam_estimation::Result<Solution>, busy: &ScanTimes) -> Op
                 fused = solution.fused,
                 iterations = r.iterations,
                 converged = r.converged,
-                chi2_per_dof = solution.chi2_per_dof,
+                chi2_per_dof = fit.chi2_per_dof,
+                robust_per_dof = fit.robust_per_dof,
+                outlier_share = fit.outlier_share,
                 seconds = r.seconds,
                 "smoother solved"
             );
-            Some(solution)
+            match gate.verdict(fit) {
+                None => (Some(solution), false),
+                Some(why) => {
+                    tracing::warn!(
+                        solve = solution.solves,
+                        "smoother: solution torn ({why}): not published, the previous one \
+                         stands; the noise model or the associations do not fit this data"
+                    );
+                    (None, true)
+                }
+            }
         }
         Err(e) => {
             tracing::warn!("smoother: {e}");
-            None
+            (None, false)
         }
     }
 }

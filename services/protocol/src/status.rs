@@ -99,6 +99,9 @@ pub mod flags {
     /// odometry noise (`sigma_v`, `sigma_omega`) is the likelier culprit; without it, the
     /// sensor's (`sigma_range`, `sigma_bearing`).
     pub const NIS_POSE: u32 = 64;
+    /// The smoothing back-end's newest solve was torn and withheld: `smoothed/*` holds an
+    /// older solution, or none ([`super::ServiceStatus::torn_solves`]).
+    pub const SMOOTHED_TORN: u32 = 128;
 }
 
 /// Most input streams a [`ServiceStatus`] or a [`Checkpointed`] lists.
@@ -158,8 +161,9 @@ pub struct ServiceStatus {
     pub nis: f64,
     /// Entries of `streams` in use.
     pub stream_count: u32,
-    /// Reserved, 0.
-    pub reserved: u32,
+    /// Solves of the smoothing back-end withheld as torn so far (docs/ALGORITHMS.md
+    /// §8.3); 0 without a back-end.
+    pub torn_solves: u32,
     /// The service's input streams, in the order it registered them (odometry first):
     /// the first `stream_count` entries ([`ServiceStatus::streams`]).
     pub streams: [StreamStatus; MAX_INPUT_STREAMS],

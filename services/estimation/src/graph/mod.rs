@@ -25,6 +25,7 @@
 //!   factors with the SE(2) logarithm residual ([`PoseResidual::Logmap`]) and their
 //!   landmark edges [`Offset`] factors.
 
+mod consistency;
 mod duplicates;
 pub mod g2o;
 mod integrate;
@@ -33,6 +34,7 @@ mod solve;
 mod system;
 mod window;
 
+pub use consistency::{Fit, TornGate};
 pub use duplicates::duplicates;
 pub use integrate::OdometryIntegrator;
 pub use smoother::{Feed, KernelKind, NoiseModel, Smoother, SmootherConfig, Solution};

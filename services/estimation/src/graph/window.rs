@@ -13,6 +13,7 @@
 //! solve's cost at the window's size; a whole-graph solve moves the held poses, so it
 //! starts the sums again ([`Window::restart`]).
 
+use super::consistency::Fit;
 use super::solve::{Kernel, SolveOptions, SolveReport};
 use super::{Between, Graph, LandmarkPrior, Linearised, Prior};
 use crate::Result;
@@ -37,8 +38,8 @@ pub(super) struct WindowReport {
     pub report: SolveReport,
     /// The window's landmarks (graph indices) and their covariances given the held poses.
     pub covariances: Vec<(usize, Matrix2<f64>)>,
-    /// χ² (no kernel) per degree of freedom of the window problem, its priors included.
-    pub chi2_per_dof: f64,
+    /// The window problem's fit to its noise model, its priors included.
+    pub fit: Fit,
 }
 
 impl Window {
@@ -58,6 +59,7 @@ impl Window {
         graph: &mut Graph,
         start: usize,
         options: &SolveOptions,
+        scale: f64,
     ) -> Result<WindowReport> {
         self.sum_held(graph, start, options.kernel);
         let held = start - 1;
@@ -108,11 +110,10 @@ impl Window {
         for (&global, at) in landmarks.iter().zip(&local.landmarks) {
             graph.landmarks[global] = *at;
         }
-        let dof = (local.residuals().saturating_sub(local.unknowns())).max(1) as f64;
         Ok(WindowReport {
+            fit: local.fit(report.final_cost, scale),
             report,
             covariances: landmarks.into_iter().zip(marginals).collect(),
-            chi2_per_dof: local.chi2() / dof,
         })
     }
 

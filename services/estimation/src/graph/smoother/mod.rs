@@ -21,6 +21,7 @@
 //! the same numbers. Each solve starts from the last one's solution (new poses chained on
 //! by their odometry, new landmarks placed from their first sighting).
 
+use super::consistency::{Fit, TornGate};
 use super::duplicates::duplicates;
 use super::window::Window;
 use super::{Graph, Kernel, OdometryIntegrator, Prior, SolveOptions, SolveReport};
@@ -40,6 +41,15 @@ const FUSE_ROUNDS: usize = 10;
 /// Variance (m²) published for a landmark no solve has placed and whose sightings do not
 /// fix it (never in practice: a sighting fixes a landmark given its pose).
 const UNSEEN_VARIANCE: f64 = 1e6;
+
+/// Default [`SmootherConfig::torn_chi2_per_dof`]: residuals five standard deviations on
+/// average. A noise model that is merely conservative or somewhat tight stays far below.
+const TORN_CHI2_PER_DOF: f64 = 25.0;
+
+/// Default [`SmootherConfig::torn_outlier_share`]: half the sightings set aside by the
+/// kernel, so the solution no longer answers to the data (a right noise model gives about
+/// 1 % at a scale of 3; an odometry noise 4× too tight, about 19 %).
+const TORN_OUTLIER_SHARE: f64 = 0.5;
 
 /// The noise the graph assumes: the filter's own models.
 #[derive(Debug, Clone, PartialEq)]
@@ -121,6 +131,11 @@ pub struct SmootherConfig {
     /// end of the data (a path relative to the service's working directory; gzipped when
     /// it ends in `.gz`).
     pub graph_out: Option<PathBuf>,
+    /// A solution with a larger χ²/dof (no kernel) is torn: not published, and not used
+    /// for re-anchoring (docs/ALGORITHMS.md §8.3).
+    pub torn_chi2_per_dof: f64,
+    /// A solution with a larger share of its sightings beyond the kernel's scale is torn.
+    pub torn_outlier_share: f64,
 }
 
 impl Default for SmootherConfig {
@@ -139,6 +154,8 @@ impl Default for SmootherConfig {
             window_poses: 300,
             whole_growth: 1.5,
             graph_out: None,
+            torn_chi2_per_dof: TORN_CHI2_PER_DOF,
+            torn_outlier_share: TORN_OUTLIER_SHARE,
         }
     }
 }
@@ -173,10 +190,30 @@ impl SmootherConfig {
         {
             return bad("smoother.graph_out", "its folder does not exist");
         }
+        if self.torn_chi2_per_dof.is_nan() || self.torn_chi2_per_dof <= 0.0 {
+            return bad(
+                "smoother.torn_chi2_per_dof",
+                "must be > 0 (inf: never torn)",
+            );
+        }
+        if !(0.0..=1.0).contains(&self.torn_outlier_share) {
+            return bad(
+                "smoother.torn_outlier_share",
+                "must be in 0..=1 (1: never torn)",
+            );
+        }
         if !(1..=10_000).contains(&self.max_iterations) {
             return bad("smoother.max_iterations", "must be in 1..=10000");
         }
         Ok(())
+    }
+
+    /// The limits beyond which a solution is torn.
+    pub fn torn_gate(&self) -> TornGate {
+        TornGate {
+            chi2_per_dof: self.torn_chi2_per_dof,
+            outlier_share: self.torn_outlier_share,
+        }
     }
 
     /// The solver settings this configuration asks for.
@@ -223,9 +260,9 @@ pub struct Solution {
     pub poses: Vec<(u64, Pose2)>,
     /// The landmarks: key, position and marginal covariance.
     pub landmarks: Vec<(u64, Vector2<f64>, Matrix2<f64>)>,
-    /// χ² (no kernel) per degree of freedom at the solution: about 1 when the noise
-    /// model and the associations are right.
-    pub chi2_per_dof: f64,
+    /// The solution's fit to its noise model (χ²/dof about 1 when the noise model and
+    /// the associations are right).
+    pub fit: Fit,
     /// What the solver did.
     pub report: SolveReport,
     /// Solves so far, this one included.
@@ -416,7 +453,8 @@ impl Smoother {
             return self.solve_whole();
         }
         let options = self.config.solve_options();
-        let solved = self.window.solve(&mut self.graph, start, &options)?;
+        let solved =
+            (self.window).solve(&mut self.graph, start, &options, self.config.kernel_scale)?;
         // A landmark mapped since the last solve and out of the window already: what the
         // held poses' sightings say about it.
         for k in self.covariances.len()..self.graph.landmarks.len() {
@@ -427,7 +465,7 @@ impl Smoother {
         for (k, covariance) in solved.covariances {
             self.covariances[k] = covariance;
         }
-        Ok(self.solution(solved.report, solved.chi2_per_dof, false))
+        Ok(self.solution(solved.report, solved.fit, false))
     }
 
     /// Solves the whole graph from the last solution (fusing duplicates when configured)
@@ -450,12 +488,12 @@ impl Smoother {
         self.covariances = self.graph.landmark_covariances(options.kernel)?;
         self.window.restart();
         self.whole_at = self.graph.poses.len();
-        let dof = (self.graph.residuals().saturating_sub(self.graph.unknowns())).max(1) as f64;
-        Ok(self.solution(report, self.graph.chi2() / dof, true))
+        let fit = self.graph.fit(report.final_cost, self.config.kernel_scale);
+        Ok(self.solution(report, fit, true))
     }
 
     /// Counts a solve and returns its solution.
-    fn solution(&mut self, report: SolveReport, chi2_per_dof: f64, whole: bool) -> Solution {
+    fn solution(&mut self, report: SolveReport, fit: Fit, whole: bool) -> Solution {
         self.solved_at = self.graph.poses.len();
         self.last_whole = whole;
         self.loop_pending = false;
@@ -468,7 +506,7 @@ impl Smoother {
                 .zip(&self.covariances)
                 .map(|((&key, &at), &cov)| (key, at, cov))
                 .collect(),
-            chi2_per_dof,
+            fit,
             report,
             solves: self.solves,
             whole,

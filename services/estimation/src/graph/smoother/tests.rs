@@ -173,7 +173,7 @@ fn a_loop_asks_for_one_solve_and_exact_data_is_solved_exactly() {
         .map(|((_, p), t)| (p.x - t.x).hypot(p.y - t.y))
         .fold(0.0, f64::max);
     assert!(worst < 1e-6, "exact data: {worst} m");
-    assert!(solution.chi2_per_dof < 1e-9);
+    assert!(solution.fit.chi2_per_dof < 1e-9);
 }
 
 #[test]
@@ -253,7 +253,7 @@ fn window_solves_on_the_way_end_where_one_whole_solve_does() {
             "seed {seed}: {} m",
             apart(&last, &once)
         );
-        assert!((last.chi2_per_dof - once.chi2_per_dof).abs() < 1e-6);
+        assert!((last.fit.chi2_per_dof - once.fit.chi2_per_dof).abs() < 1e-6);
     }
 }
 
