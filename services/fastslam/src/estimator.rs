@@ -4,8 +4,9 @@
 //! odometry into controls and hands every input to the estimator; nothing outside the
 //! estimators asks which one runs.
 
+use crate::checkpoint::EstimatorState;
 use crate::config::ServiceConfig;
-use fastslam_estimation::fastslam::{self, FilterState, StepReport};
+use fastslam_estimation::fastslam::{self, StepReport};
 use fastslam_estimation::graph::{Feed, Solution};
 use fastslam_estimation::grid::OccupancyGrid;
 use fastslam_estimation::motion::Control;
@@ -91,8 +92,8 @@ pub trait Estimator: std::fmt::Debug + Send {
         Vec::new()
     }
 
-    /// The filter's state for a checkpoint; `None` when this estimator cannot resume.
-    fn state(&self) -> Option<FilterState>;
+    /// The filter's state for a checkpoint.
+    fn state(&self) -> EstimatorState;
 
     /// Localisation only from now on: the map stays as it is.
     ///

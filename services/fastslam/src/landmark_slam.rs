@@ -3,14 +3,13 @@
 //! from the best particle's keyframes, and the smoothing back-end with re-anchoring
 //! (docs/ALGORITHMS.md §8.1).
 
+use crate::checkpoint::EstimatorState;
 use crate::config::ServiceConfig;
 use crate::estimator::{Estimator, PoseSink, Step, message, particle};
 use crate::smoothing::Backend;
 use fastslam_estimation::Pose2;
 use fastslam_estimation::fastslam::association::AssociationMode;
-use fastslam_estimation::fastslam::{
-    FastSlam, FilterState, OptimiserRefiner, PoseRefiner, Proposal,
-};
+use fastslam_estimation::fastslam::{FastSlam, OptimiserRefiner, PoseRefiner, Proposal};
 use fastslam_estimation::features::{ExtractorConfig, extract};
 use fastslam_estimation::graph::{Feed, NoiseModel, SmootherConfig, Solution};
 use fastslam_estimation::grid::{GridMapper, OccupancyGrid};
@@ -271,8 +270,8 @@ impl Estimator for LandmarkSlam {
             .unwrap_or_default()
     }
 
-    fn state(&self) -> Option<FilterState> {
-        Some(self.filter.state())
+    fn state(&self) -> EstimatorState {
+        EstimatorState::Landmarks(self.filter.state())
     }
 
     fn fix_map(&mut self) -> anyhow::Result<()> {
