@@ -15,10 +15,9 @@
 //! checkpoint intact. A file that is not a checkpoint, of another version, truncated or
 //! corrupt is refused with a [`CheckpointError`] that says which.
 
-use crate::grid_slam::GridState;
 use crate::per_stream::PerStream;
+pub use crate::state::EstimatorState;
 use fastslam_estimation::Pose2;
-use fastslam_estimation::fastslam::FilterState;
 use fastslam_estimation::fastslam::NisWindow;
 use fastslam_estimation::graph::Feed;
 use fastslam_protocol::status::REJECTION_KINDS;
@@ -111,26 +110,6 @@ pub struct Checkpoint {
     pub noise_check: (NisWindow, bool),
     /// Inputs rejected so far, by [`fastslam_protocol::status::RejectionKind`].
     pub rejections: [u64; REJECTION_KINDS],
-}
-
-/// The estimator's state: the landmark filter's, or grid FastSLAM's with what its
-/// loop-closing back-end was handed.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum EstimatorState {
-    /// `[map] kind = "landmarks"`.
-    Landmarks(FilterState),
-    /// `[map] kind = "grid"`.
-    Grid(Box<GridState>),
-}
-
-impl EstimatorState {
-    /// The landmark filter's state (`None` for grid FastSLAM's).
-    pub fn landmarks(&self) -> Option<&FilterState> {
-        match self {
-            Self::Landmarks(state) => Some(state),
-            Self::Grid(_) => None,
-        }
-    }
 }
 
 /// FNV-1a, 64 bits: a cheap hash that catches flipped or lost bytes.

@@ -4,8 +4,8 @@
 //! odometry into controls and hands every input to the estimator; nothing outside the
 //! estimators asks which one runs.
 
-use crate::checkpoint::EstimatorState;
 use crate::config::ServiceConfig;
+use crate::state::EstimatorState;
 use fastslam_estimation::fastslam::{self, StepReport};
 use fastslam_estimation::graph::{Feed, Solution};
 use fastslam_estimation::grid::OccupancyGrid;

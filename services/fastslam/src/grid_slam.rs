@@ -7,15 +7,15 @@
 //! ([`GridState`]); a resumed run restores the one and hands the other to a fresh
 //! back-end again.
 
-use crate::checkpoint::EstimatorState;
 use crate::config::ServiceConfig;
 use crate::estimator::{Estimator, PoseSink, Step, message, particle};
 use crate::loop_closing::{BackEndState, LoopClosing};
+use crate::state::{EstimatorState, GridState};
 use anyhow::bail;
 use fastslam_estimation::fastslam::{PoseEstimate, StepReport};
 use fastslam_estimation::graph::{Feed, Solution};
 use fastslam_estimation::grid::{GridConfig, OccupancyGrid};
-use fastslam_estimation::gridslam::{GridFastSlam, GridFilterState, GridStep};
+use fastslam_estimation::gridslam::{GridFastSlam, GridStep};
 use fastslam_estimation::loop_closure::Keyframe;
 use fastslam_estimation::motion::Control;
 use fastslam_estimation::moves::MoveStats;
@@ -23,16 +23,6 @@ use fastslam_estimation::scan::{Beam, RangeScan};
 use fastslam_estimation::{Error, Pose2};
 use fastslam_protocol::{LaserScanHeader, MapLandmark, ObservationsHeader, Particle};
 use nalgebra::Matrix3;
-use serde::{Deserialize, Serialize};
-
-/// Grid FastSLAM's part of a checkpoint.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct GridState {
-    /// The filter: particles, weights, grids (tiles once), the keyframe counter.
-    pub filter: GridFilterState,
-    /// What the loop-closing back-end was handed (`None` without one).
-    pub back_end: Option<BackEndState>,
-}
 
 /// The grid filter, and its loop-closing back-end when one runs.
 #[derive(Debug)]

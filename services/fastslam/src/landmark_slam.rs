@@ -3,10 +3,10 @@
 //! from the best particle's keyframes, and the smoothing back-end with re-anchoring
 //! (docs/ALGORITHMS.md §8.1).
 
-use crate::checkpoint::EstimatorState;
 use crate::config::ServiceConfig;
 use crate::estimator::{Estimator, PoseSink, Step, message, particle};
 use crate::smoothing::Backend;
+use crate::state::EstimatorState;
 use fastslam_estimation::Pose2;
 use fastslam_estimation::fastslam::association::AssociationMode;
 use fastslam_estimation::fastslam::{FastSlam, OptimiserRefiner, PoseRefiner, Proposal};

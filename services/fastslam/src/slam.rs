@@ -5,13 +5,13 @@
 //! ([`LandmarkSlam`]) or grid FastSLAM ([`GridSlam`]). No IPC here, so it is testable on
 //! its own.
 
-use crate::checkpoint::EstimatorState;
 use crate::config::{MapKind, ServiceConfig};
 use crate::estimator::Estimator;
 pub use crate::estimator::{PoseSink, Step};
 use crate::grid_slam::GridSlam;
 use crate::landmark_slam::LandmarkSlam;
 use crate::sequencer::Input;
+use crate::state::EstimatorState;
 use fastslam_estimation::Pose2;
 use fastslam_estimation::fastslam::{self, FastSlam};
 use fastslam_estimation::graph::{Feed, Solution};
