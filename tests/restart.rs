@@ -1,6 +1,7 @@
 //! Restarts and saved maps through the real processes: the service stopped by SIGTERM
 //! leaves a checkpoint and a map that load; a service SIGKILLed again and again and
-//! resumed each time gives the metrics of the run it interrupted; a saved map drives a
+//! resumed each time gives the metrics of the run it interrupted, with landmarks and with
+//! grid FastSLAM and its loop-closing back-end; a saved map drives a
 //! localisation-only run that leaves it unchanged; bad checkpoint files and unknown flags
 //! fail in one line.
 
@@ -9,7 +10,7 @@ mod common;
 use common::*;
 use fastslam_protocol::ipc::{Ipc, StackConfig};
 use fastslam_protocol::{ServiceStatus, StreamId, topics};
-use fastslam_service::checkpoint::Checkpoint;
+use fastslam_service::checkpoint::{Checkpoint, EstimatorState};
 use fastslam_service::map_file;
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -68,7 +69,11 @@ fn sigterm_stops_the_service_cleanly_with_its_checkpoint_and_map() {
         .map_or(0, |&(_, stamp)| stamp);
     assert!(lidar_ns > 0, "{:?}", checkpoint.processed_ns);
     let saved = map_file::load(&map).expect("the map loads");
-    let best = &checkpoint.filter.maps[checkpoint.filter.particles[0].map as usize];
+    let filter = checkpoint
+        .filter
+        .landmarks()
+        .expect("a landmark filter's checkpoint");
+    let best = &filter.maps[filter.particles[0].map as usize];
     assert!(!saved.is_empty() && saved.len() <= best.landmarks.len() + 30);
     assert_no_leftovers_and_remove(&prefix, &dir);
 }
@@ -149,6 +154,28 @@ fn bad_checkpoints_and_unknown_flags_fail_with_one_line() {
     assert!(line.contains("--load-map"), "{line}");
     let line = service_fails(&prefix, &["--no-such-flag"]);
     assert!(line.contains("--no-such-flag"), "{line}");
+    assert_no_leftovers_and_remove(&prefix, &dir);
+}
+
+#[test]
+fn a_particle_count_whose_memory_exceeds_any_machine_is_refused_with_one_line() {
+    let prefix = prefix("toomany");
+    let dir = folder(&prefix);
+    // A million particles, each with the first scan's grid out to 1 km: petabytes.
+    let config = dir.join("huge.toml");
+    std::fs::write(
+        &config,
+        "[map]\nkind = \"grid\"\n[grid]\nmax_range = 1000.0\n",
+    )
+    .unwrap();
+    let config = config.display().to_string();
+    let line = service_fails(&prefix, &["--particles", "1000000", "--config", &config]);
+    assert!(
+        line.contains("1000000 particles of a grid map need an estimated")
+            && line.contains("PiB")
+            && line.contains("available (MemAvailable)"),
+        "{line}"
+    );
     assert_no_leftovers_and_remove(&prefix, &dir);
 }
 
@@ -247,14 +274,37 @@ fn seeded_steps(n: usize, seed: u64, lo: u64, hi: u64) -> Vec<u64> {
     steps.into_iter().collect()
 }
 
-/// Runs `bailey-short` through processes started one by one into the run folder
+/// What a killed run drives: the sensors' scenario, and the service's flags besides its
+/// seed, pace and checkpoints.
+struct Drive {
+    scenario: String,
+    service: Vec<String>,
+}
+
+impl Drive {
+    /// [`SCENARIO`] with the service's default settings.
+    fn bailey() -> Self {
+        Self {
+            scenario: SCENARIO.into(),
+            service: Vec::new(),
+        }
+    }
+}
+
+/// Runs `drive` through processes started one by one into the run folder
 /// `<dir>/<name>`, SIGKILLing the service as soon as its status reports each of `kill_at`
 /// steps and resuming it from its checkpoint; the run's reproducible metrics and how many
 /// services ran. The service runs as fast as possible (its result does not depend on
 /// timing); ground truth is paced at ten times real time, so that the route is still
 /// being driven when the test's kill lands, even on a loaded machine.
-fn killed_at(prefix: &str, dir: &Path, name: &str, kill_at: &[u64]) -> (serde_json::Value, u64) {
-    let m = killed_with_history(prefix, dir, name, kill_at, None);
+fn killed_at(
+    prefix: &str,
+    dir: &Path,
+    name: &str,
+    drive: &Drive,
+    kill_at: &[u64],
+) -> (serde_json::Value, u64) {
+    let m = killed_with_history(prefix, dir, name, drive, kill_at, None);
     assert_eq!(num(&m, "/inputs/rejected_total"), 0.0, "{m}");
     (reproducible(&dir.join(name)), kill_at.len() as u64 + 1)
 }
@@ -265,12 +315,13 @@ fn killed_with_history(
     prefix: &str,
     dir: &Path,
     name: &str,
+    drive: &Drive,
     kill_at: &[u64],
     history_kib: Option<&str>,
 ) -> serde_json::Value {
     let run = dir.join(name);
     let ckpt = dir.join(format!("{name}.ckpt")).display().to_string();
-    let service = [
+    let mut service: Vec<&str> = vec![
         "--seed",
         "1",
         "--wait-subscribers",
@@ -281,10 +332,11 @@ fn killed_with_history(
         "--checkpoint-every",
         "10",
     ];
+    service.extend(drive.service.iter().map(String::as_str));
     let sim = |subscribers: &'static str| {
         [
             "--scenario",
-            SCENARIO,
+            &drive.scenario,
             "--seed",
             "1",
             "--wait-subscribers",
@@ -316,7 +368,7 @@ fn killed_with_history(
     let mut truth = sim("3").to_vec();
     truth.extend(["--realtime", "--rate", "10"]);
     stack.start("truth-sim", &truth);
-    let mut resumed = service.to_vec();
+    let mut resumed = service.clone();
     resumed.extend(["--resume", &ckpt]);
     for &step in kill_at {
         let mut steps = 0;
@@ -344,9 +396,9 @@ fn killed_with_history(
 fn a_service_sigkilled_at_ten_random_steps_and_resumed_gives_the_uninterrupted_metrics() {
     let prefix = prefix("resume10");
     let dir = folder(&prefix);
-    let (whole, _) = killed_at(&prefix, &dir, "whole", &[]);
+    let (whole, _) = killed_at(&prefix, &dir, "whole", &Drive::bailey(), &[]);
     let kill_at = seeded_steps(10, 2024, 15, 280);
-    let (resumed, services) = killed_at(&prefix, &dir, "killed", &kill_at);
+    let (resumed, services) = killed_at(&prefix, &dir, "killed", &Drive::bailey(), &kill_at);
     eprintln!(
         "killed at steps {kill_at:?}: {services} services, ATE {} m",
         num(&resumed, "/estimate/ate_rmse_m")
@@ -359,11 +411,84 @@ fn a_service_sigkilled_at_ten_random_steps_and_resumed_gives_the_uninterrupted_m
 }
 
 #[test]
+fn a_grid_service_with_loop_closing_sigkilled_twice_and_resumed_gives_the_same_metrics() {
+    let prefix = prefix("gridresume");
+    let dir = folder(&prefix);
+    // The office floor's first corridor (30 m, about 300 scans and 60 keyframes).
+    let scenario = dir.join("office.toml");
+    let text = rerouted("office-corridors", "office-corridor", "[[30.0, 0.0]]");
+    std::fs::write(&scenario, text).unwrap();
+    let office = fastslam_sensors_sim::Scenario::load(&scenario.display().to_string()).unwrap();
+    // The scenario's service settings (grid FastSLAM, the hill climber), with the
+    // loop-closing back-end solving every 10 keyframes, so that its solves and
+    // correction are part of what is resumed.
+    let table = office
+        .service
+        .expect("the office floor has [service] settings");
+    let config = dir.join("service.toml");
+    let loop_closing =
+        "[loop_closure]\nenabled = true\nkeyframes_per_submap = 10\nsolve_every = 10\n";
+    std::fs::write(&config, toml::to_string(&table).unwrap() + loop_closing).unwrap();
+    let drive = Drive {
+        scenario: scenario.display().to_string(),
+        service: vec!["--config".into(), config.display().to_string()],
+    };
+    let (whole, _) = killed_at(&prefix, &dir, "whole", &drive, &[]);
+    let (resumed, services) = killed_at(&prefix, &dir, "killed", &drive, &[95, 210]);
+    let ckpt = Checkpoint::read(&dir.join("killed.ckpt")).expect("the checkpoint loads");
+    let grid = match &ckpt.filter {
+        EstimatorState::Grid(grid) => grid,
+        EstimatorState::Landmarks(_) => panic!("a landmark checkpoint of a grid run"),
+    };
+    let back_end = grid.back_end.as_ref().expect("the back-end's keyframes");
+    let indexed: usize = (grid.filter.particles.iter())
+        .map(|p| p.grid.tiles.iter().filter(|&&t| t > 0).count())
+        .sum();
+    eprintln!(
+        "{services} services, ATE {} m; last checkpoint: {} keyframes, {} distinct tiles \
+         of {indexed} indexed",
+        num(&resumed, "/estimate/ate_rmse_m"),
+        back_end.keyframes.len(),
+        grid.filter.tiles.len()
+    );
+    assert!(
+        back_end.keyframes.len() > 40,
+        "{}",
+        back_end.keyframes.len()
+    );
+    // The last service resumed mid-run: it applied part of the scans, not all of them.
+    let logs = dir.join("killed-logs");
+    let published = scans_published(&logs.join("lidar-sim.0.log"));
+    let (applied, _) = scans_from_shared_memory(&logs.join("service.2.log"));
+    assert!(
+        applied > 0 && applied + 95 <= published,
+        "the last service applied {applied} of {published} scans"
+    );
+    assert!(
+        grid.filter.tiles.len() * 3 < indexed,
+        "shared tiles are written once: {} of {indexed}",
+        grid.filter.tiles.len()
+    );
+    assert_eq!(
+        resumed, whole,
+        "the resumed grid run's metrics differ from the uninterrupted run's"
+    );
+    assert_no_leftovers_and_remove(&prefix, &dir);
+}
+
+#[test]
 fn what_sensors_no_longer_keep_for_a_resumed_service_is_counted_as_lost() {
     let prefix = prefix("lost");
     let dir = folder(&prefix);
     // 1 KiB holds some 18 odometry messages; ten steps between checkpoints send about 80.
-    let m = killed_with_history(&prefix, &dir, "small", &[105, 207], Some("1"));
+    let m = killed_with_history(
+        &prefix,
+        &dir,
+        "small",
+        &Drive::bailey(),
+        &[105, 207],
+        Some("1"),
+    );
     let logged: u64 = ["odometry-sim", "lidar-sim"]
         .iter()
         .map(|sensor| {

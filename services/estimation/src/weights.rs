@@ -82,6 +82,30 @@ impl Weights {
         Ok(())
     }
 
+    /// The weights whose [`log_weights`](Self::log_weights) and
+    /// [`log_normaliser`](Self::log_normaliser) were `log_normalised` and `log_normaliser`
+    /// (a filter's saved state): the same numbers, bit for bit, where normalising again
+    /// with [`from_log`](Self::from_log) could differ in the last bits.
+    ///
+    /// # Errors
+    /// As [`from_log`](Self::from_log) for the log-weights, and
+    /// [`Error::DegenerateWeights`] when the normaliser is not finite.
+    pub fn restore(log_normalised: &[f64], log_normaliser: f64) -> Result<Self> {
+        let mut weights = Self::from_log(log_normalised)?;
+        if !log_normaliser.is_finite() {
+            return Err(Error::DegenerateWeights {
+                reason: format!("log-normaliser {log_normaliser}"),
+            });
+        }
+        weights.log_normalised.clear();
+        weights.log_normalised.extend_from_slice(log_normalised);
+        weights.normalised.clear();
+        (weights.normalised).extend(log_normalised.iter().map(|l| l.exp()));
+        weights.log_normaliser = log_normaliser;
+        weights.ess = 1.0 / weights.normalised.iter().map(|w| w * w).sum::<f64>();
+        Ok(weights)
+    }
+
     /// The normalised weights, in particle order; they sum to 1.
     pub fn as_slice(&self) -> &[f64] {
         &self.normalised
@@ -133,6 +157,15 @@ mod tests {
         let w = Weights::from_log(&[f64::NEG_INFINITY, 0.0, f64::NEG_INFINITY]).unwrap();
         assert_eq!(w.ess(), 1.0);
         assert_eq!(w.argmax(), 1);
+    }
+
+    #[test]
+    fn restored_weights_are_the_saved_ones_bit_for_bit() {
+        let w = Weights::from_log(&[0.3, -1.7, 2.9, f64::NEG_INFINITY]).unwrap();
+        let r = Weights::restore(w.log_weights(), w.log_normaliser()).unwrap();
+        assert_eq!(r, w);
+        assert!(Weights::restore(w.log_weights(), f64::NAN).is_err());
+        assert!(Weights::restore(&[f64::NAN], 0.0).is_err());
     }
 
     #[test]

@@ -6,7 +6,8 @@
 
 use crate::config::ServiceConfig;
 use crate::smoothing::TornSolves;
-use fastslam_estimation::fastslam::{self, FilterState, StepReport};
+use crate::state::EstimatorState;
+use fastslam_estimation::fastslam::{self, StepReport};
 use fastslam_estimation::graph::{Feed, Solution};
 use fastslam_estimation::grid::OccupancyGrid;
 use fastslam_estimation::motion::Control;
@@ -97,8 +98,8 @@ pub trait Estimator: std::fmt::Debug + Send {
         Vec::new()
     }
 
-    /// The filter's state for a checkpoint; `None` when this estimator cannot resume.
-    fn state(&self) -> Option<FilterState>;
+    /// The filter's state for a checkpoint.
+    fn state(&self) -> EstimatorState;
 
     /// Localisation only from now on: the map stays as it is.
     ///

@@ -2,11 +2,17 @@
 //! end, and, with `[loop_closure] enabled`, the loop-closing back-end behind it
 //! ([`LoopClosing`]), whose correction moves what is published — the pose, the cloud —
 //! into the map frame, and whose keyframes make the published grid.
+//!
+//! A checkpoint holds the filter's state and what the back-end was handed
+//! ([`GridState`]); a resumed run restores the one and hands the other to a fresh
+//! back-end again.
 
 use crate::config::ServiceConfig;
 use crate::estimator::{Estimator, PoseSink, Step, message, particle};
-use crate::loop_closing::LoopClosing;
-use fastslam_estimation::fastslam::{FilterState, PoseEstimate, StepReport};
+use crate::loop_closing::{BackEndState, LoopClosing};
+use crate::state::{EstimatorState, GridState};
+use anyhow::bail;
+use fastslam_estimation::fastslam::{PoseEstimate, StepReport};
 use fastslam_estimation::graph::{Feed, Solution};
 use fastslam_estimation::grid::{GridConfig, OccupancyGrid};
 use fastslam_estimation::gridslam::{GridFastSlam, GridStep};
@@ -31,6 +37,9 @@ pub struct GridSlam {
     /// Scan points farther than this from the base are not handed to the back-end (m).
     points_range: f64,
     back_end: Option<LoopClosing>,
+    /// Resumed from a checkpoint: what its back-end was handed, for
+    /// [`Estimator::start_back_end`] to hand over again.
+    resumed: Option<Option<BackEndState>>,
 }
 
 impl GridSlam {
@@ -58,7 +67,20 @@ impl GridSlam {
             mount,
             points_range: config.loop_closure.max_range,
             back_end: None,
+            resumed: None,
         })
+    }
+
+    /// The filter `config` sets up, continuing from `state` (a checkpoint's); its
+    /// back-end is handed what it was when it starts.
+    ///
+    /// # Errors
+    /// As [`new`](Self::new), and when the state does not fit the configuration.
+    pub fn resume(config: &ServiceConfig, state: &GridState) -> fastslam_estimation::Result<Self> {
+        let mut slam = Self::new(config)?;
+        slam.filter.restore(&state.filter)?;
+        slam.resumed = Some(state.back_end.clone());
+        Ok(slam)
     }
 
     /// One scan stamped `stamp_ns` through the filter (matched and mapped when it is a
@@ -162,8 +184,8 @@ impl Estimator for GridSlam {
         })
     }
 
-    /// The loop-closing back-end, when `[loop_closure] enabled`; the smoothing back-end
-    /// needs landmarks and stays off.
+    /// The loop-closing back-end, when `[loop_closure] enabled`, handed again what it
+    /// was in a resumed run; the smoothing back-end needs landmarks and stays off.
     fn start_back_end(&mut self, config: &ServiceConfig, _feed: Vec<Feed>) -> anyhow::Result<()> {
         if config.smoother.enabled {
             tracing::warn!(
@@ -171,8 +193,22 @@ impl Estimator for GridSlam {
                  [loop_closure] is the back-end"
             );
         }
-        if config.loop_closure.enabled {
-            self.back_end = Some(LoopClosing::start(config.loop_closure.clone())?);
+        let enabled = config.loop_closure.enabled;
+        let replay = match self.resumed.take() {
+            Some(back_end) if back_end.is_some() != enabled => bail!(
+                "the checkpoint was written {} a loop-closing back-end, this run has \
+                 [loop_closure] enabled = {enabled}",
+                if enabled { "without" } else { "with" }
+            ),
+            Some(back_end) => back_end,
+            None => None,
+        };
+        if enabled {
+            let mut back_end = LoopClosing::start(config.loop_closure.clone())?;
+            if let Some(state) = &replay {
+                back_end.replay(state)?;
+            }
+            self.back_end = Some(back_end);
         }
         Ok(())
     }
@@ -187,9 +223,11 @@ impl Estimator for GridSlam {
         self.back_end.as_mut().and_then(LoopClosing::finish)
     }
 
-    /// `None`: the particles' grids are not saved.
-    fn state(&self) -> Option<FilterState> {
-        None
+    fn state(&self) -> EstimatorState {
+        EstimatorState::Grid(Box::new(GridState {
+            filter: self.filter.state(),
+            back_end: self.back_end.as_ref().map(LoopClosing::state),
+        }))
     }
 
     fn fix_map(&mut self) -> anyhow::Result<()> {

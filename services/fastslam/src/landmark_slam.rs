@@ -6,11 +6,10 @@
 use crate::config::ServiceConfig;
 use crate::estimator::{Estimator, PoseSink, Step, message, particle};
 use crate::smoothing::{Backend, TornSolves};
+use crate::state::EstimatorState;
 use fastslam_estimation::Pose2;
 use fastslam_estimation::fastslam::association::AssociationMode;
-use fastslam_estimation::fastslam::{
-    FastSlam, FilterState, OptimiserRefiner, PoseRefiner, Proposal,
-};
+use fastslam_estimation::fastslam::{FastSlam, OptimiserRefiner, PoseRefiner, Proposal};
 use fastslam_estimation::features::{ExtractorConfig, extract};
 use fastslam_estimation::graph::{Feed, NoiseModel, SmootherConfig, Solution};
 use fastslam_estimation::grid::{GridMapper, OccupancyGrid};
@@ -275,8 +274,8 @@ impl Estimator for LandmarkSlam {
             .unwrap_or_default()
     }
 
-    fn state(&self) -> Option<FilterState> {
-        Some(self.filter.state())
+    fn state(&self) -> EstimatorState {
+        EstimatorState::Landmarks(self.filter.state())
     }
 
     fn fix_map(&mut self) -> anyhow::Result<()> {

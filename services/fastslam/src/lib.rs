@@ -9,7 +9,8 @@
 //! (the publishers). Around them: [`per_stream`] (a value per input stream), [`admit`]
 //! (input checks with their per-stream state), [`health`] (rejection counters, their
 //! rate-limited log, the status) and [`deadline`] (sensors that went quiet); [`persist`]
-//! with [`checkpoint`] and [`map_file`] keep the state across runs.
+//! with [`checkpoint`] ([`state`]: the estimator's part) and [`map_file`] keep the state
+//! across runs; [`memory`] checks the filter's estimated memory before it is built.
 
 pub mod admit;
 pub mod checkpoint;
@@ -22,6 +23,7 @@ mod inputs;
 pub mod landmark_slam;
 pub mod loop_closing;
 pub mod map_file;
+pub mod memory;
 mod outputs;
 pub mod per_stream;
 pub mod persist;
@@ -30,3 +32,4 @@ pub mod sequencer;
 mod service;
 pub mod slam;
 pub mod smoothing;
+pub mod state;

@@ -13,11 +13,19 @@
 //!
 //! The smoothed trajectory has a pose for every scan: the scan's keyframe's optimised
 //! pose moved by the front end's motion since that keyframe.
+//!
+//! A checkpoint holds what the back-end was handed ([`BackEndState`]: every scan's stamp
+//! and front-end pose, every keyframe); a resumed service hands it all to a fresh worker
+//! again ([`LoopClosing::replay`]), which rebuilds the same submaps, graph and solves,
+//! since they depend on the keyframes only.
 
+use anyhow::bail;
 use fastslam_estimation::Pose2;
 use fastslam_estimation::graph::{Fit, Solution, SolveReport};
-use fastslam_estimation::grid::{GridConfig, OccupancyGrid};
+use fastslam_estimation::grid::{GridConfig, KeptBeam, OccupancyGrid};
 use fastslam_estimation::loop_closure::{self, Keyframe, LoopClosureConfig, PoseGraphMapper};
+use nalgebra::Matrix3;
+use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::thread::JoinHandle;
@@ -80,8 +88,9 @@ pub struct LoopClosing {
     waiting: VecDeque<(usize, Option<Solved>)>,
     /// Keyframe reports received.
     reported: usize,
-    /// The front end's pose at each keyframe.
-    keyframe_poses: Vec<Pose2>,
+    /// Every keyframe handed over (the front end's pose at it, for the trajectory; all of
+    /// it, for a checkpoint).
+    keyframes: Vec<Keyframe>,
     /// Every scan since the first keyframe: stamp, the front end's pose, its keyframe.
     scans: Vec<(u64, Pose2, usize)>,
     /// The correction in force: map → front-end map.
@@ -141,7 +150,7 @@ impl LoopClosing {
             delay,
             waiting: VecDeque::new(),
             reported: 0,
-            keyframe_poses: Vec::new(),
+            keyframes: Vec::new(),
             scans: Vec::new(),
             correction: Pose2::default(),
             unpublished: None,
@@ -154,14 +163,14 @@ impl LoopClosing {
     /// correction of keyframe `k − delay` applied at keyframe `k`.
     pub fn scan(&mut self, stamp_ns: u64, estimate: Pose2, keyframe: Option<Keyframe>) -> Pose2 {
         if let Some(keyframe) = keyframe {
-            let index = self.keyframe_poses.len();
-            self.keyframe_poses.push(keyframe.pose);
+            let index = self.keyframes.len();
+            self.keyframes.push(keyframe.clone());
             self.send(Request::Keyframe(Box::new(keyframe)));
             if let Some(due) = index.checked_sub(self.delay) {
                 self.apply_until(due);
             }
         }
-        if let Some(k) = self.keyframe_poses.len().checked_sub(1) {
+        if let Some(k) = self.keyframes.len().checked_sub(1) {
             self.scans.push((stamp_ns, estimate, k));
         }
         self.correction.compose(&estimate)
@@ -221,6 +230,49 @@ impl LoopClosing {
         Some(self.trajectory(&solved))
     }
 
+    /// What the back-end was handed so far, for a checkpoint.
+    pub fn state(&self) -> BackEndState {
+        BackEndState {
+            scans: self.scans.clone(),
+            keyframes: self.keyframes.iter().map(KeyframeState::from).collect(),
+            unpublished: self.unpublished.is_some(),
+        }
+    }
+
+    /// Hands this fresh back-end what `state` says the one of the checkpointed run was
+    /// handed, scan by scan, as that run did: the same keyframes, solves and correction
+    /// follow, and a solve that run had published is not published again.
+    ///
+    /// # Errors
+    /// When the scans refer to a keyframe out of order or one the state does not hold.
+    pub fn replay(&mut self, state: &BackEndState) -> anyhow::Result<()> {
+        let mut next = 0;
+        for &(stamp_ns, estimate, k) in &state.scans {
+            let keyframe = if k == next {
+                let Some(keyframe) = state.keyframes.get(k) else {
+                    bail!("the loop-closure state's scans name keyframe {k} it does not hold");
+                };
+                Some(Keyframe::from(keyframe))
+            } else if k + 1 == next {
+                None
+            } else {
+                bail!("the loop-closure state's scans name keyframe {k} after {next}");
+            };
+            next += usize::from(keyframe.is_some());
+            self.scan(stamp_ns, estimate, keyframe);
+        }
+        if next != state.keyframes.len() {
+            bail!(
+                "the loop-closure state holds {} keyframes, its scans name {next}",
+                state.keyframes.len()
+            );
+        }
+        if !state.unpublished {
+            self.unpublished = None;
+        }
+        Ok(())
+    }
+
     /// Hands `request` to the worker; a worker that is gone is reported once.
     fn send(&mut self, request: Request) {
         if let Some(to) = &self.to_worker
@@ -243,7 +295,7 @@ impl LoopClosing {
     /// Applies, in order, every keyframe report up to keyframe `due`, waiting for the
     /// worker until it has reported `due` (or all it was given, at the end).
     fn apply_until(&mut self, due: usize) {
-        let wanted = due.saturating_add(1).min(self.keyframe_poses.len());
+        let wanted = due.saturating_add(1).min(self.keyframes.len());
         while self.reported < wanted {
             match self.receive() {
                 Some(Reply::Added { index, solved }) => self.waiting.push_back((index, solved)),
@@ -280,7 +332,7 @@ impl LoopClosing {
             .map(|&(stamp, estimate, k)| {
                 let pose = match solved.poses.get(k) {
                     Some(optimised) => {
-                        let since = self.keyframe_poses[k].inverse().compose(&estimate);
+                        let since = self.keyframes[k].pose.inverse().compose(&estimate);
                         optimised.compose(&since)
                     }
                     None => solved.correction.compose(&estimate),
@@ -317,6 +369,65 @@ impl Drop for LoopClosing {
         self.to_worker = None;
         if let Some(worker) = self.worker.take() {
             let _ = worker.join();
+        }
+    }
+}
+
+/// What the loop-closing back-end was handed, as plain data (a checkpoint's part).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BackEndState {
+    /// Every scan since the first keyframe: stamp (ns), the front end's pose, its
+    /// keyframe.
+    pub scans: Vec<(u64, Pose2, usize)>,
+    /// Every keyframe handed over, in order.
+    pub keyframes: Vec<KeyframeState>,
+    /// The newest solve applied had not been published yet.
+    pub unpublished: bool,
+}
+
+/// A [`Keyframe`] as plain data.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct KeyframeState {
+    /// Time of the scan (ns).
+    pub stamp_ns: u64,
+    /// The front end's estimate of the base pose at the scan.
+    pub pose: Pose2,
+    /// The covariance of the motion since the previous keyframe, row-major.
+    pub covariance: [f64; 9],
+    /// The scan's end points, base frame (m).
+    pub points: Vec<[f64; 2]>,
+    /// The scan's beams: angle (rad), length (m), ended on an obstacle.
+    pub beams: Vec<(f32, f32, bool)>,
+    /// The sensor's pose in the base frame.
+    pub sensor: Pose2,
+}
+
+impl From<&Keyframe> for KeyframeState {
+    fn from(k: &Keyframe) -> Self {
+        Self {
+            stamp_ns: k.stamp_ns,
+            pose: k.pose,
+            covariance: std::array::from_fn(|i| k.covariance[(i / 3, i % 3)]),
+            points: k.points.clone(),
+            beams: (k.beams.iter())
+                .map(|b| (b.angle, b.length, b.hit))
+                .collect(),
+            sensor: k.sensor,
+        }
+    }
+}
+
+impl From<&KeyframeState> for Keyframe {
+    fn from(k: &KeyframeState) -> Self {
+        Self {
+            stamp_ns: k.stamp_ns,
+            pose: k.pose,
+            covariance: Matrix3::from_row_slice(&k.covariance),
+            points: k.points.clone(),
+            beams: (k.beams.iter())
+                .map(|&(angle, length, hit)| KeptBeam { angle, length, hit })
+                .collect(),
+            sensor: k.sensor,
         }
     }
 }

@@ -47,11 +47,10 @@ impl PersistArgs {
         if self.localise_only && self.load_map.is_none() && self.resume.is_none() {
             bail!("--localise-only needs a map: give --load-map or --resume");
         }
-        let saved = self.checkpoint.is_some() || self.resume.is_some() || self.load_map.is_some();
-        if config.map.kind == MapKind::Grid && (saved || self.localise_only) {
+        if config.map.kind == MapKind::Grid && (self.load_map.is_some() || self.localise_only) {
             bail!(
-                "[map] kind = \"grid\" keeps a grid per particle that is not saved: \
-                 --checkpoint, --resume, --load-map and --localise-only need kind = \"landmarks\""
+                "[map] kind = \"grid\" has no map file to load or hold fixed: --load-map and \
+                 --localise-only need kind = \"landmarks\""
             );
         }
         let (mut slam, checkpoint) = if let Some(path) = &self.resume {
@@ -93,20 +92,13 @@ impl PersistArgs {
         self.checkpoint.is_some() && steps.is_multiple_of(self.checkpoint_every)
     }
 
-    /// Writes the checkpoint `make` builds, if checkpoints are configured (and the
-    /// estimator can make one: [`start`](Self::start) refuses checkpoints for one that
-    /// cannot).
+    /// Writes the checkpoint `make` builds, if checkpoints are configured.
     ///
     /// # Errors
     /// When the file cannot be written (the previous checkpoint is then intact).
-    pub fn write_checkpoint(
-        &self,
-        make: impl FnOnce() -> Option<Checkpoint>,
-    ) -> anyhow::Result<()> {
-        if let Some(path) = &self.checkpoint
-            && let Some(checkpoint) = make()
-        {
-            checkpoint.write(path)?;
+    pub fn write_checkpoint(&self, make: impl FnOnce() -> Checkpoint) -> anyhow::Result<()> {
+        if let Some(path) = &self.checkpoint {
+            make().write(path)?;
             tracing::debug!(path = %path.display(), "checkpoint written");
         }
         Ok(())

@@ -93,6 +93,7 @@ impl Args {
 /// Configuration or IPC errors, with their reason.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let config = args.config()?;
+    crate::memory::check(&config, crate::memory::available())?;
     let (slam, resumed) = args.persist.start(&config)?;
     let timeout = Duration::from_secs_f64(args.wait_timeout_s.max(0.0));
     if resumed.is_some() {

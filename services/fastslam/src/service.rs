@@ -464,11 +464,11 @@ impl Core {
         }
     }
 
-    /// The checkpoint of the state now (`None` for an estimator that cannot resume).
-    fn checkpoint(&self) -> Option<Checkpoint> {
-        Some(Checkpoint {
+    /// The checkpoint of the state now.
+    fn checkpoint(&self) -> Checkpoint {
+        Checkpoint {
             seed: self.config.filter.seed,
-            filter: self.slam.state()?,
+            filter: self.slam.state(),
             last_odometry_ns: self.slam.last_odometry_ns(),
             last_odometry_pose: self.slam.last_odometry_pose(),
             processed_ns: self
@@ -483,7 +483,7 @@ impl Core {
             smoother_feed: self.slam.smoother_feed(),
             noise_check: self.health.noise_check(),
             rejections: self.health.log.counts(),
-        })
+        }
     }
 
     /// Applies every input the sequencer can release now, in stamp order.

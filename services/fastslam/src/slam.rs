@@ -12,8 +12,9 @@ use crate::grid_slam::GridSlam;
 use crate::landmark_slam::LandmarkSlam;
 use crate::sequencer::Input;
 use crate::smoothing::TornSolves;
+use crate::state::EstimatorState;
 use fastslam_estimation::Pose2;
-use fastslam_estimation::fastslam::{self, FastSlam, FilterState};
+use fastslam_estimation::fastslam::{self, FastSlam};
 use fastslam_estimation::graph::{Feed, Solution};
 use fastslam_estimation::motion::Control;
 use fastslam_estimation::moves::MoveStats;
@@ -100,14 +101,18 @@ impl Slam {
     /// # Errors
     /// When the filter, optimiser or move configuration is invalid.
     pub fn new(config: &ServiceConfig) -> fastslam_estimation::Result<Self> {
-        Self::around(
-            config,
-            FastSlam::new(config.filter_config(), Pose2::default())?,
-        )
+        let estimator: Box<dyn Estimator> = match config.map.kind {
+            MapKind::Landmarks => {
+                let filter = FastSlam::new(config.filter_config(), Pose2::default())?;
+                Box::new(LandmarkSlam::new(config, filter)?)
+            }
+            MapKind::Grid => Box::new(GridSlam::new(config)?),
+        };
+        Ok(Self::around(config, estimator))
     }
 
-    /// Like [`new`](Self::new), every particle starting with `map` (a saved map, in the
-    /// frame of the run that made it: the start pose is its origin).
+    /// The landmark filter, every particle starting with `map` (a saved map, in the frame
+    /// of the run that made it: the start pose is its origin).
     ///
     /// # Errors
     /// As [`new`](Self::new), and when a landmark is not finite, has a covariance that is
@@ -126,40 +131,60 @@ impl Slam {
             })
             .collect();
         let filter = FastSlam::with_prior_map(config.filter_config(), Pose2::default(), &prior)?;
-        Self::around(config, filter)
+        Ok(Self::around(
+            config,
+            Box::new(LandmarkSlam::new(config, filter)?),
+        ))
     }
 
     /// The filter continuing from `state`, the last odometry being at `last_odometry_ns`
     /// with pose `last_odometry_pose` (a checkpoint's contents).
     ///
     /// # Errors
-    /// As [`new`](Self::new), and when the state does not fit the configuration.
+    /// As [`new`](Self::new), and when the state does not fit the configuration (another
+    /// map kind, particle count or grid resolution).
     pub fn resume(
         config: &ServiceConfig,
-        state: &FilterState,
+        state: &EstimatorState,
         last_odometry_ns: Option<u64>,
         last_odometry_pose: Option<Pose2>,
     ) -> fastslam_estimation::Result<Self> {
-        let mut slam = Self::around(config, FastSlam::from_state(config.filter_config(), state)?)?;
+        let estimator: Box<dyn Estimator> = match (state, config.map.kind) {
+            (EstimatorState::Landmarks(state), MapKind::Landmarks) => {
+                let filter = FastSlam::from_state(config.filter_config(), state)?;
+                Box::new(LandmarkSlam::new(config, filter)?)
+            }
+            (EstimatorState::Grid(state), MapKind::Grid) => {
+                Box::new(GridSlam::resume(config, state)?)
+            }
+            (_, kind) => {
+                let kind = if kind == MapKind::Grid {
+                    "grid"
+                } else {
+                    "landmarks"
+                };
+                return Err(fastslam_estimation::Error::InvalidInput {
+                    what: "checkpoint",
+                    reason: format!("written for another [map] kind than this run's \"{kind}\""),
+                });
+            }
+        };
+        let mut slam = Self::around(config, estimator);
         slam.last_odometry_ns = last_odometry_ns;
         slam.last_odometry_pose = last_odometry_pose;
         Ok(slam)
     }
 
-    /// The landmark estimator around `filter`, or grid FastSLAM for a grid map.
-    fn around(config: &ServiceConfig, filter: FastSlam) -> fastslam_estimation::Result<Self> {
-        let estimator: Box<dyn Estimator> = match config.map.kind {
-            MapKind::Landmarks => Box::new(LandmarkSlam::new(config, filter)?),
-            MapKind::Grid => Box::new(GridSlam::new(config)?),
-        };
-        Ok(Self {
+    /// The service's bookkeeping around `estimator`.
+    fn around(config: &ServiceConfig, estimator: Box<dyn Estimator>) -> Self {
+        Self {
             estimator,
             increments: config.filter.motion.uses_increments(),
             last_odometry_ns: None,
             last_odometry_pose: None,
             last_control: None,
             coasting: false,
-        })
+        }
     }
 
     /// Starts the estimator's back-end the configuration asks for — the smoothing
@@ -212,8 +237,8 @@ impl Slam {
         self.estimator.fix_map()
     }
 
-    /// The filter's state, for a checkpoint; `None` for an estimator that cannot resume.
-    pub fn state(&self) -> Option<FilterState> {
+    /// The filter's state, for a checkpoint.
+    pub fn state(&self) -> EstimatorState {
         self.estimator.state()
     }
 
@@ -595,7 +620,7 @@ mod tests {
         let mut first = Slam::new(&config).unwrap();
         first.start_smoother(&config, Vec::new()).unwrap();
         drive(&mut first, 0..400);
-        let (state, feed) = (first.state().unwrap(), first.smoother_feed());
+        let (state, feed) = (first.state(), first.smoother_feed());
         assert!(!feed.is_empty());
         let mut resumed = Slam::resume(
             &config,
@@ -619,7 +644,7 @@ mod tests {
     }
 
     #[test]
-    fn a_grid_map_refuses_landmarks_a_fixed_map_and_a_checkpoint() {
+    fn a_grid_map_refuses_landmarks_and_a_fixed_map_and_checkpoints_as_a_grid() {
         let mut config = ServiceConfig::default();
         config.filter.particles = 5;
         config.map.kind = MapKind::Grid;
@@ -636,7 +661,10 @@ mod tests {
             ),
             "{refused:?}"
         );
-        assert!(slam.state().is_none());
+        assert!(matches!(slam.state(), EstimatorState::Grid(_)));
+        let landmarks = Slam::new(&ServiceConfig::default()).unwrap().state();
+        let refused = Slam::resume(&config, &landmarks, None, None).unwrap_err();
+        assert!(refused.to_string().contains("[map] kind"), "{refused}");
         assert!(slam.fix_map().is_err());
         assert_eq!(slam.map(Header::default()).1, []);
         assert_eq!(slam.cloud(Header::default()).1.len(), 5);

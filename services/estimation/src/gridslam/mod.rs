@@ -25,10 +25,12 @@
 //! particles run in parallel with the same numbers on any number of threads.
 
 mod likelihood;
+mod snapshot;
 mod tiles;
 
 pub use likelihood::{ScanMatchConfig, ScanTarget};
-pub use tiles::{TILE, TILE_BYTES, TiledGrid};
+pub use snapshot::{GridFilterState, GridParticleState};
+pub use tiles::{GridIndexState, SharedTiles, TILE, TILE_BYTES, TileState, TileTable, TiledGrid};
 
 use crate::fastslam::{FastSlamConfig, PoseEstimate};
 use crate::grid::{GridConfig, OccupancyGrid};

@@ -5,9 +5,16 @@
 //! resampled copy of a particle) clones only the index, and a tile is copied the first time
 //! one of the copies changes it (`Arc::make_mut`). Tiles nobody touched since two particles
 //! parted stay shared, so N particles cost one map plus what each changed since they parted.
+//!
+//! As plain data (a filter's checkpoint), the tiles of many grids go into one table, each
+//! shared tile once ([`TileTable`]), and each grid keeps its index as places in that
+//! table ([`GridIndexState`]); restoring shares the tiles again as they were shared.
 
 use crate::grid::{GridConfig, KeptBeam, OccupancyGrid, cell_of, trace_scan};
 use crate::pose::Pose2;
+use crate::{Error, Result};
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
 use std::sync::Arc;
 
 /// Cells along a tile's side.
@@ -227,6 +234,148 @@ impl TiledGrid {
     }
 }
 
+/// One tile as plain data: [`TILE`]² log-odds and scan numbers, row by row.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TileState {
+    /// Log-odds per cell.
+    pub log_odds: Vec<f32>,
+    /// Per cell, the number of the last scan that changed it (0 for never).
+    pub stamp: Vec<u16>,
+}
+
+/// A grid's index as plain data: its tiles as places in a [`TileTable`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GridIndexState {
+    /// Side of a cell (m).
+    pub resolution: f64,
+    /// Tile coordinates of the index's first entry.
+    pub corner: (i64, i64),
+    /// Tiles along x and y the index spans.
+    pub span: (u32, u32),
+    /// Scans integrated so far (mod 2¹⁶, skipping 0).
+    pub scans: u16,
+    /// Per entry, row by row: 0 for a tile never written, else its place in the table + 1.
+    pub tiles: Vec<u32>,
+}
+
+/// The tiles of many grids, each shared tile once (found by pointer identity).
+#[derive(Debug, Default)]
+pub struct TileTable {
+    places: HashMap<usize, u32>,
+    tiles: Vec<TileState>,
+}
+
+impl TileTable {
+    /// `grid`'s index, its tiles added to the table unless they are in it already.
+    pub fn add(&mut self, grid: &TiledGrid) -> GridIndexState {
+        let tiles = (grid.tiles.iter())
+            .map(|tile| {
+                tile.as_ref().map_or(0, |tile| {
+                    let next = self.tiles.len() as u32;
+                    let place = *self
+                        .places
+                        .entry(Arc::as_ptr(tile) as usize)
+                        .or_insert(next);
+                    if place == next {
+                        self.tiles.push(TileState {
+                            log_odds: tile.log_odds.to_vec(),
+                            stamp: tile.stamp.to_vec(),
+                        });
+                    }
+                    place + 1
+                })
+            })
+            .collect();
+        GridIndexState {
+            resolution: grid.resolution,
+            corner: grid.corner,
+            span: (grid.span.0 as u32, grid.span.1 as u32),
+            scans: grid.scans,
+            tiles,
+        }
+    }
+
+    /// The distinct tiles, in the order the indices refer to them.
+    pub fn into_tiles(self) -> Vec<TileState> {
+        self.tiles
+    }
+}
+
+/// The tiles of a [`TileTable`] in memory again, ready to be shared by the grids restored
+/// from it.
+#[derive(Debug)]
+pub struct SharedTiles(Vec<Arc<Tile>>);
+
+fn invalid(reason: String) -> Error {
+    Error::InvalidInput {
+        what: "grid state",
+        reason,
+    }
+}
+
+impl SharedTiles {
+    /// The tiles of `table`.
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] for a tile of another size or a log-odds that is not finite.
+    pub fn restore(table: &[TileState]) -> Result<Self> {
+        let tiles = (table.iter().enumerate())
+            .map(|(k, t)| {
+                let log_odds: [f32; CELLS] = (t.log_odds.as_slice().try_into())
+                    .map_err(|_| invalid(format!("tile {k}: {} cells", t.log_odds.len())))?;
+                let stamp: [u16; CELLS] = (t.stamp.as_slice().try_into())
+                    .map_err(|_| invalid(format!("tile {k}: {} scan numbers", t.stamp.len())))?;
+                if !log_odds.iter().all(|l| l.is_finite()) {
+                    return Err(invalid(format!("tile {k}: a log-odds is not finite")));
+                }
+                Ok(Arc::new(Tile { log_odds, stamp }))
+            })
+            .collect::<Result<_>>()?;
+        Ok(Self(tiles))
+    }
+}
+
+impl TiledGrid {
+    /// The grid `state` describes, sharing `tiles` (restored from the table its index
+    /// refers to).
+    ///
+    /// # Errors
+    /// [`Error::InvalidInput`] when the index does not fit its span, refers to a tile the
+    /// table does not hold, or the resolution is not positive.
+    pub fn restore(state: &GridIndexState, tiles: &SharedTiles) -> Result<Self> {
+        let span = (state.span.0 as usize, state.span.1 as usize);
+        if span.0.checked_mul(span.1) != Some(state.tiles.len()) {
+            return Err(invalid(format!(
+                "an index of {} tiles spans {} × {}",
+                state.tiles.len(),
+                span.0,
+                span.1
+            )));
+        }
+        if !(state.resolution.is_finite() && state.resolution > 0.0) {
+            return Err(invalid(format!("resolution {}", state.resolution)));
+        }
+        // Sized exactly, as the index it restores.
+        let mut index = Vec::with_capacity(state.tiles.len());
+        for &place in &state.tiles {
+            index.push(match place.checked_sub(1) {
+                None => None,
+                Some(k) => Some(
+                    (tiles.0.get(k as usize).cloned())
+                        .ok_or_else(|| invalid(format!("tile {k} of {}", tiles.0.len())))?,
+                ),
+            });
+        }
+        Ok(Self {
+            resolution: state.resolution,
+            corner: state.corner,
+            span,
+            tiles: index,
+            scans: state.scans,
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -305,6 +454,39 @@ mod tests {
             }
         }
         assert!(compared > 1000, "{compared} known cells");
+    }
+
+    #[test]
+    fn grids_restored_from_a_tile_table_share_what_they_shared() {
+        let config = GridConfig::default();
+        let mut first = TiledGrid::new(config.resolution);
+        first.integrate(&Pose2::default(), &beams(), &config);
+        let mut second = first.clone();
+        second.integrate(&Pose2::new(3.0, 1.0, 0.5), &beams(), &config);
+        let mut table = TileTable::default();
+        let states = [table.add(&first), table.add(&second)];
+        let distinct: std::collections::HashSet<usize> = first
+            .tile_addresses()
+            .chain(second.tile_addresses())
+            .collect();
+        let tiles = table.into_tiles();
+        assert_eq!(tiles.len(), distinct.len(), "each shared tile once");
+        assert!(tiles.len() < first.tile_addresses().count() + second.tile_addresses().count());
+        let shared = SharedTiles::restore(&tiles).unwrap();
+        let restored: Vec<TiledGrid> = (states.iter())
+            .map(|s| TiledGrid::restore(s, &shared).unwrap())
+            .collect();
+        for (r, o) in restored.iter().zip([&first, &second]) {
+            assert_eq!(r.occupancy(), o.occupancy());
+            assert_eq!((r.corner, r.span, r.scans), (o.corner, o.span, o.scans));
+        }
+        let again: std::collections::HashSet<usize> = (restored.iter())
+            .flat_map(TiledGrid::tile_addresses)
+            .collect();
+        assert_eq!(again.len(), distinct.len(), "shared again as before");
+        let mut broken = states[0].clone();
+        broken.tiles[0] = tiles.len() as u32 + 1;
+        assert!(TiledGrid::restore(&broken, &shared).is_err());
     }
 
     #[test]
