@@ -206,6 +206,11 @@ impl Slam {
         self.estimator.fix_map()
     }
 
+    /// The noise profile beside the fitted noise (`None` for an estimator without a fit).
+    pub fn noise(&self) -> Option<fastslam::NoiseReport> {
+        self.estimator.noise()
+    }
+
     /// The filter's state, for a checkpoint; `None` for an estimator that cannot resume.
     pub fn state(&self) -> Option<FilterState> {
         self.estimator.state()
