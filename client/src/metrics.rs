@@ -163,6 +163,15 @@ pub struct FilterHealth {
     /// Where the noise check points when it failed: `odometry` (the pose term dominates
     /// the innovations), `sensor`, or empty when it never failed.
     pub nis_suspect: String,
+    /// The configured noise as standard deviations at the last step: the motion model's
+    /// two (`sigma_v` and `sigma_omega` or `sigma_steering`), `sigma_range`,
+    /// `sigma_bearing` (zeros without a noise fit).
+    #[serde(default)]
+    pub noise_profile: [f64; 4],
+    /// The same four as the noise fit had them at the last step (docs/ALGORITHMS.md §1,
+    /// "Noise fit").
+    #[serde(default)]
+    pub noise_fitted: [f64; 4],
 }
 
 /// Time and memory the run took.
@@ -429,6 +438,8 @@ pub fn filter_health(rec: &Recording) -> FilterHealth {
             pose if 2 * pose >= high.len() => "odometry".into(),
             _ => "sensor".into(),
         },
+        noise_profile: s.last().map_or([0.0; 4], |x| x.noise_profile),
+        noise_fitted: s.last().map_or([0.0; 4], |x| x.noise_fitted),
     }
 }
 
@@ -682,6 +693,8 @@ mod tests {
             nis: 1.0,
             nis_high: stamp_ns >= 2,
             nis_pose: stamp_ns != 3,
+            noise_profile: [0.0; 4],
+            noise_fitted: [0.0; 4],
         }
     }
 
