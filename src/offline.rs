@@ -1,6 +1,6 @@
 //! The stack in one process, without IPC: the simulators' messages ([`OfflineRun`]) or
 //! a recorded data set's (in the replay player's order), the service's own glue
-//! ([`Admission`], [`Sequencer`] and [`Slam`]) and the client's scoring ([`Metrics::compute`], with the
+//! ([`Admission`], [`Sequencer`], [`Slam`] and the status [`Health`] reports) and the client's scoring ([`Metrics::compute`], with the
 //! alignment a replay profile asks for, and the relation errors when a replay has a
 //! relations file) — the same code the processes run, message for message, so an
 //! in-process run and a run through the processes with the same seed give identical
@@ -33,6 +33,7 @@ use fastslam_sensors_sim::Scenario;
 use fastslam_sensors_sim::offline::{Message, OfflineRun};
 use fastslam_service::admit::Admission;
 use fastslam_service::config::{MapKind, Overrides, ServiceConfig};
+use fastslam_service::health::Health;
 use fastslam_service::sequencer::{Input, Pushed, RawScan, Scan, Sequencer};
 use fastslam_service::slam::{Slam, Smoothed};
 use std::time::{Duration, Instant};
@@ -336,15 +337,18 @@ pub fn run_in_process(
     };
     let mut filter_time = Duration::ZERO;
     let mut last_pose: Option<Header> = None;
+    let mut health = Health::new(Duration::from_secs(5));
     let mut apply = |sequencer: &mut Sequencer, recording: &mut Recording| {
         while let Some(input) = sequencer.release() {
             let started = Instant::now();
             let step = slam.apply(&input, &mut |_| {});
-            filter_time += started.elapsed();
+            let took = started.elapsed();
+            filter_time += took;
             sequencer.recycle(input);
             match step {
                 Ok(Some(step)) => {
                     recording.add_estimate(&step.pose);
+                    recording.add_status(&health.step(&step, took, &slam, sequencer));
                     last_pose = Some(step.pose.header);
                 }
                 Ok(None) => {}

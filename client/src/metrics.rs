@@ -166,6 +166,15 @@ pub struct FilterHealth {
     /// Solves of the smoothing back-end withheld as torn (docs/ALGORITHMS.md §8.3).
     #[serde(default)]
     pub smoother_torn_solves: u32,
+    /// The configured noise as standard deviations at the last step: the motion model's
+    /// two (`sigma_v` and `sigma_omega` or `sigma_steering`), `sigma_range`,
+    /// `sigma_bearing` (zeros without a noise fit).
+    #[serde(default)]
+    pub noise_profile: [f64; 4],
+    /// The same four as the noise fit had them at the last step (docs/ALGORITHMS.md §1,
+    /// "Noise fit").
+    #[serde(default)]
+    pub noise_fitted: [f64; 4],
 }
 
 /// Time and memory the run took.
@@ -433,6 +442,8 @@ pub fn filter_health(rec: &Recording) -> FilterHealth {
             _ => "sensor".into(),
         },
         smoother_torn_solves: rec.torn_solves,
+        noise_profile: s.last().map_or([0.0; 4], |x| x.noise_profile),
+        noise_fitted: s.last().map_or([0.0; 4], |x| x.noise_fitted),
     }
 }
 
@@ -686,6 +697,8 @@ mod tests {
             nis: 1.0,
             nis_high: stamp_ns >= 2,
             nis_pose: stamp_ns != 3,
+            noise_profile: [0.0; 4],
+            noise_fitted: [0.0; 4],
         }
     }
 

@@ -125,8 +125,12 @@ pub struct StatusSample {
     pub nis: f64,
     /// The noise check failed at this step ([`status::flags::NIS_HIGH`]).
     pub nis_high: bool,
-    /// ... with the pose term dominating ([`status::flags::NIS_POSE`]).
+    /// ... with the odometry suspected ([`status::flags::NIS_POSE`]).
     pub nis_pose: bool,
+    /// The configured noise as standard deviations ([`ServiceStatus::noise_profile`]).
+    pub noise_profile: [f64; 4],
+    /// The noise fitted from the innovations ([`ServiceStatus::noise_fitted`]).
+    pub noise_fitted: [f64; 4],
 }
 
 impl Recording {
@@ -261,6 +265,8 @@ impl Recording {
             nis: m.nis,
             nis_high: m.flags & status::flags::NIS_HIGH != 0,
             nis_pose: m.flags & status::flags::NIS_POSE != 0,
+            noise_profile: m.noise_profile,
+            noise_fitted: m.noise_fitted,
         });
     }
 }

@@ -235,6 +235,38 @@ impl MotionModel {
         }
     }
 
+    /// The same model with every noise variance multiplied by `k` (σ's by `√k`).
+    pub fn scaled(&self, k: f64) -> Self {
+        let s = k.sqrt();
+        match self {
+            Self::Unicycle(u) => Self::Unicycle(Unicycle {
+                sigma_v: u.sigma_v * s,
+                sigma_omega: u.sigma_omega * s,
+            }),
+            Self::Bicycle(b) => Self::Bicycle(Bicycle {
+                sigma_v: b.sigma_v * s,
+                sigma_steering: b.sigma_steering * s,
+                ..b.clone()
+            }),
+            Self::Increment(i) => Self::Increment(Increment {
+                translation_per_m: i.translation_per_m * s,
+                translation_per_rad: i.translation_per_rad * s,
+                rotation_per_m: i.rotation_per_m * s,
+                rotation_per_rad: i.rotation_per_rad * s,
+            }),
+        }
+    }
+
+    /// Two standard deviations that stand for the model's noise in reports: `σ_v` and
+    /// `σ_ω` or `σ_steering` of a velocity model, `translation_per_m` and
+    /// `rotation_per_rad` of the increment model.
+    pub fn noise_sigmas(&self) -> [f64; 2] {
+        match self {
+            Self::Increment(i) => [i.translation_per_m, i.rotation_per_rad],
+            velocity => velocity.sigmas(),
+        }
+    }
+
     /// True for a model driven by the odometry's pose increments rather than velocities.
     pub fn uses_increments(&self) -> bool {
         matches!(self, Self::Increment(_))

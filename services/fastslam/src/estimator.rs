@@ -125,6 +125,12 @@ pub trait Estimator: std::fmt::Debug + Send {
     /// Number of particles.
     fn particles(&self) -> usize;
 
+    /// The noise profile beside the noise fitted from the innovations (`None` for an
+    /// estimator without a noise fit).
+    fn noise(&self) -> Option<fastslam::NoiseReport> {
+        None
+    }
+
     /// Bytes the particles' grids hold (`None` for an estimator without them).
     fn grid_bytes(&self) -> Option<usize> {
         None

@@ -74,7 +74,8 @@ impl Health {
     ) -> ServiceStatus {
         self.steps += 1;
         self.resamplings += u64::from(step.report.resampled);
-        let noise_flags = self.check_noise(step);
+        let noise = slam.noise();
+        let noise_flags = self.check_noise(step, noise.and_then(|n| n.blames_odometry));
         self.last = ServiceStatus {
             header: step.pose.header,
             steps: self.steps,
@@ -92,6 +93,8 @@ impl Health {
                 },
             nis_dof: self.nis.dof().min(u64::from(u32::MAX)) as u32,
             nis: self.nis.per_dof(),
+            noise_profile: noise.map_or([0.0; 4], |n| n.profile),
+            noise_fitted: noise.map_or([0.0; 4], |n| n.fitted),
             ..ServiceStatus::default()
         };
         self.set_torn(slam);
@@ -100,13 +103,15 @@ impl Health {
 
     /// The noise check (docs/ALGORITHMS.md §1, "Noise check"): adds the step's
     /// innovations to the window, returns the status flags it sets, and logs one warning
-    /// the first time the innovations stay above their band for a whole window.
-    fn check_noise(&mut self, step: &Step) -> u32 {
+    /// the first time the innovations stay above their band for a whole window. The
+    /// suspect is the noise fit's (`blames_odometry`) once it has one, else the source
+    /// whose term dominates the innovations.
+    fn check_noise(&mut self, step: &Step, blames_odometry: Option<bool>) -> u32 {
         self.nis.push(step.report.innovations);
         if !self.nis.sustained_high() {
             return 0;
         }
-        let pose = self.nis.motion_share() > 0.5;
+        let pose = blames_odometry.unwrap_or(self.nis.motion_share() > 0.5);
         if !self.warned {
             self.warned = true;
             let suspect = noise_suspect(pose);

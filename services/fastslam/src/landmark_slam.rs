@@ -322,4 +322,8 @@ impl Estimator for LandmarkSlam {
     fn particles(&self) -> usize {
         self.filter.particles().len()
     }
+
+    fn noise(&self) -> Option<fastslam_estimation::fastslam::NoiseReport> {
+        Some(self.filter.noise_report())
+    }
 }

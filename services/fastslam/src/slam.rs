@@ -237,6 +237,11 @@ impl Slam {
         self.estimator.fix_map()
     }
 
+    /// The noise profile beside the fitted noise (`None` for an estimator without a fit).
+    pub fn noise(&self) -> Option<fastslam::NoiseReport> {
+        self.estimator.noise()
+    }
+
     /// The filter's state, for a checkpoint.
     pub fn state(&self) -> EstimatorState {
         self.estimator.state()

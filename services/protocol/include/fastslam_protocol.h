@@ -269,15 +269,17 @@ typedef struct fastslam_ServiceStatus {
     uint32_t distinct_particles; /* —: distinct particles after the last step */
     uint64_t landmarks; /* —: landmarks in the best particle's map */
     uint64_t step_time_ns; /* ns: wall-clock time of the last filter update, sending its pose included (the pose goes out before the maps are updated, so it is seen earlier than this) */
-    uint32_t flags; /* —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline: which one, `streams[k].quiet`); bit 4: final status, sent at shutdown (not a step); bit 5: noise check failed (NIS above its χ² band for a whole window); bit 6: with bit 5, the pose term dominates (odometry noise suspected; else the sensor's); bit 7: the smoothing back-end's newest solve was torn and withheld (the smoothed topics hold an older solution, or none); bits 2 and 3 unused */
+    uint32_t flags; /* —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline: which one, `streams[k].quiet`); bit 4: final status, sent at shutdown (not a step); bit 5: noise check failed (NIS above its χ² band for a whole window); bit 6: with bit 5, the odometry noise is suspected, else the sensor's (the noise fit's verdict once warmed up, before it whether the pose term dominates the innovations); bit 7: the smoothing back-end's newest solve was torn and withheld (the smoothed topics hold an older solution, or none); bits 2 and 3 unused */
     uint32_t nis_dof; /* —: degrees of freedom in the noise check's window (2 per matched observation) */
     uint64_t rejections[16]; /* —: rejected inputs by reason: 0 non-finite, 1 out of range, 2 bad count, 3 stamp backwards, 4 refused by the filter, 5 duplicate seq, 6 stamp jump, 7 teleporting odometry, 8 queue overflow (oldest dropped), 9 late (after a quiet stream), 10 lost (sent while the service was down, no longer kept by its sensor for the resumed service), 11 covered (skipped by a resumed service: its checkpoint already holds it; the input that begins a resend is not counted) */
     double nis; /* —: noise check: NIS per degree of freedom over the last 50 scans, predicted from the motion prior (1 when the noise model fits; NaN before any match; docs/ALGORITHMS.md) */
     uint32_t stream_count; /* —: entries of `streams` in use */
     uint32_t torn_solves; /* —: solves of the smoothing back-end withheld as torn so far (docs/ALGORITHMS.md); 0 without a back-end */
     fastslam_StreamStatus streams[4]; /* —: the service's input streams (odometry first, then the lidar), the first `stream_count` entries */
+    double noise_profile[4]; /* m/s or m/√m, rad/s or rad or rad/√rad, m, rad: the configured noise as standard deviations: the motion model's two (`sigma_v` and `sigma_omega` or `sigma_steering`; increment: `translation_per_m`, `rotation_per_rad`), `sigma_range`, `sigma_bearing` (0 without a noise fit) */
+    double noise_fitted[4]; /* as `noise_profile: the same four fitted from the innovations (docs/ALGORITHMS.md §1, "Noise fit"; the profile's until the fit has warmed up; 0 without a noise fit) */
 } fastslam_ServiceStatus;
-_Static_assert(sizeof(fastslam_ServiceStatus) == 312, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(sizeof(fastslam_ServiceStatus) == 376, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(_Alignof(fastslam_ServiceStatus) == 8, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, header.stamp_ns) == 0, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, header.seq) == 8, "fastslam_ServiceStatus must match the Rust layout");
@@ -295,6 +297,8 @@ _Static_assert(offsetof(fastslam_ServiceStatus, nis) == 200, "fastslam_ServiceSt
 _Static_assert(offsetof(fastslam_ServiceStatus, stream_count) == 208, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, torn_solves) == 212, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, streams) == 216, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, noise_profile) == 312, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, noise_fitted) == 344, "fastslam_ServiceStatus must match the Rust layout");
 
 /* fastslam::StreamCovered: what a checkpoint holds of one input stream */
 #define FASTSLAM_STREAM_COVERED_TYPE_NAME "fastslam::StreamCovered"

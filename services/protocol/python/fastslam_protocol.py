@@ -240,7 +240,7 @@ class StreamStatus(ctypes.Structure):
 
 
 class ServiceStatus(ctypes.Structure):
-    """`fastslam::ServiceStatus` (312 bytes, alignment 8): the service's filter health and input bookkeeping."""
+    """`fastslam::ServiceStatus` (376 bytes, alignment 8): the service's filter health and input bookkeeping."""
 
     _fields_ = [
         ("header", Header),
@@ -251,13 +251,15 @@ class ServiceStatus(ctypes.Structure):
         ("distinct_particles", ctypes.c_uint32),  # —: distinct particles after the last step
         ("landmarks", ctypes.c_uint64),  # —: landmarks in the best particle's map
         ("step_time_ns", ctypes.c_uint64),  # ns: wall-clock time of the last filter update, sending its pose included (the pose goes out before the maps are updated, so it is seen earlier than this)
-        ("flags", ctypes.c_uint32),  # —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline: which one, `streams[k].quiet`); bit 4: final status, sent at shutdown (not a step); bit 5: noise check failed (NIS above its χ² band for a whole window); bit 6: with bit 5, the pose term dominates (odometry noise suspected; else the sensor's); bit 7: the smoothing back-end's newest solve was torn and withheld (the smoothed topics hold an older solution, or none); bits 2 and 3 unused
+        ("flags", ctypes.c_uint32),  # —: bit 0: the last step resampled; bit 1: degraded (an input is quiet beyond its deadline: which one, `streams[k].quiet`); bit 4: final status, sent at shutdown (not a step); bit 5: noise check failed (NIS above its χ² band for a whole window); bit 6: with bit 5, the odometry noise is suspected, else the sensor's (the noise fit's verdict once warmed up, before it whether the pose term dominates the innovations); bit 7: the smoothing back-end's newest solve was torn and withheld (the smoothed topics hold an older solution, or none); bits 2 and 3 unused
         ("nis_dof", ctypes.c_uint32),  # —: degrees of freedom in the noise check's window (2 per matched observation)
         ("rejections", ctypes.c_uint64 * 16),  # —: rejected inputs by reason: 0 non-finite, 1 out of range, 2 bad count, 3 stamp backwards, 4 refused by the filter, 5 duplicate seq, 6 stamp jump, 7 teleporting odometry, 8 queue overflow (oldest dropped), 9 late (after a quiet stream), 10 lost (sent while the service was down, no longer kept by its sensor for the resumed service), 11 covered (skipped by a resumed service: its checkpoint already holds it; the input that begins a resend is not counted)
         ("nis", ctypes.c_double),  # —: noise check: NIS per degree of freedom over the last 50 scans, predicted from the motion prior (1 when the noise model fits; NaN before any match; docs/ALGORITHMS.md)
         ("stream_count", ctypes.c_uint32),  # —: entries of `streams` in use
         ("torn_solves", ctypes.c_uint32),  # —: solves of the smoothing back-end withheld as torn so far (docs/ALGORITHMS.md); 0 without a back-end
         ("streams", StreamStatus * 4),  # —: the service's input streams (odometry first, then the lidar), the first `stream_count` entries
+        ("noise_profile", ctypes.c_double * 4),  # m/s or m/√m, rad/s or rad or rad/√rad, m, rad: the configured noise as standard deviations: the motion model's two (`sigma_v` and `sigma_omega` or `sigma_steering`; increment: `translation_per_m`, `rotation_per_rad`), `sigma_range`, `sigma_bearing` (0 without a noise fit)
+        ("noise_fitted", ctypes.c_double * 4),  # as `noise_profile: the same four fitted from the innovations (docs/ALGORITHMS.md §1, "Noise fit"; the profile's until the fit has warmed up; 0 without a noise fit)
     ]
 
     @staticmethod
@@ -436,7 +438,7 @@ LAYOUTS = {
     MapLandmark: (56, 8, {"id": 0, "x": 8, "y": 16, "cov_xx": 24, "cov_xy": 32, "cov_yy": 40, "observations": 48}),
     MapRequest: (8, 8, {"reserved": 0}),
     StreamStatus: (24, 8, {"stream": 0, "queued": 4, "last_input_ns": 8, "quiet": 16, "reserved": 20}),
-    ServiceStatus: (312, 8, {"header": 0, "steps": 16, "resamplings": 24, "n_eff": 32, "particles": 40, "distinct_particles": 44, "landmarks": 48, "step_time_ns": 56, "flags": 64, "nis_dof": 68, "rejections": 72, "nis": 200, "stream_count": 208, "torn_solves": 212, "streams": 216}),
+    ServiceStatus: (376, 8, {"header": 0, "steps": 16, "resamplings": 24, "n_eff": 32, "particles": 40, "distinct_particles": 44, "landmarks": 48, "step_time_ns": 56, "flags": 64, "nis_dof": 68, "rejections": 72, "nis": 200, "stream_count": 208, "torn_solves": 212, "streams": 216, "noise_profile": 312, "noise_fitted": 344}),
     StreamCovered: (16, 8, {"stream": 0, "reserved": 4, "covered_ns": 8}),
     Checkpointed: (88, 8, {"header": 0, "stream_count": 16, "resume": 20, "covered": 24}),
     EndOfStream: (24, 8, {"header": 0, "stream": 16, "reserved": 20}),

@@ -95,9 +95,10 @@ pub mod flags {
     /// The noise check: the innovations' NIS has been above its χ² band for a whole
     /// window of scans — the noise model is too small for this data.
     pub const NIS_HIGH: u32 = 32;
-    /// With [`NIS_HIGH`]: the pose term dominates the innovation covariance, so the
-    /// odometry noise (`sigma_v`, `sigma_omega`) is the likelier culprit; without it, the
-    /// sensor's (`sigma_range`, `sigma_bearing`).
+    /// With [`NIS_HIGH`]: the odometry noise (`sigma_v`, `sigma_omega`) is the likelier
+    /// culprit; without it, the sensor's (`sigma_range`, `sigma_bearing`). The noise fit
+    /// decides once it has warmed up; before, whether the pose term dominates the
+    /// innovation covariance.
     pub const NIS_POSE: u32 = 64;
     /// The smoothing back-end's newest solve was torn and withheld: `smoothed/*` holds an
     /// older solution, or none ([`super::ServiceStatus::torn_solves`]).
@@ -167,6 +168,14 @@ pub struct ServiceStatus {
     /// The service's input streams, in the order it registered them (odometry first):
     /// the first `stream_count` entries ([`ServiceStatus::streams`]).
     pub streams: [StreamStatus; MAX_INPUT_STREAMS],
+    /// The configured noise profile as standard deviations: the motion model's two
+    /// (`sigma_v` and `sigma_omega` or `sigma_steering`; the increment model's
+    /// `translation_per_m` and `rotation_per_rad`), `sigma_range`, `sigma_bearing`
+    /// (0 for an estimator without a noise fit).
+    pub noise_profile: [f64; 4],
+    /// The same four fitted from the innovations (the profile's until the fit has
+    /// warmed up; 0 without a noise fit).
+    pub noise_fitted: [f64; 4],
 }
 
 impl ServiceStatus {

@@ -4,6 +4,7 @@
 
 use super::association::{AssociationConfig, AssociationMode};
 use super::evidence::NegativeEvidence;
+use super::noise_fit::NoiseConfig;
 use super::proposal::Proposal;
 use crate::Result;
 use crate::check::{positive, require};
@@ -48,6 +49,8 @@ pub struct FastSlamConfig {
     pub resampling: ResamplingConfig,
     /// The smallest spread of a particle's motion prior.
     pub prior_floor: PriorFloor,
+    /// Whether the filter runs on the noise it fits (`[noise] adapt`).
+    pub noise: NoiseConfig,
 }
 
 /// Standard deviations the motion prior of a pose never goes below: added (in quadrature)
@@ -104,6 +107,7 @@ impl Default for FastSlamConfig {
             negative_evidence: NegativeEvidence::default(),
             resampling: ResamplingConfig::default(),
             prior_floor: PriorFloor::default(),
+            noise: NoiseConfig::default(),
         }
     }
 }

@@ -14,6 +14,7 @@
 
 use super::association::{Decision, Scan, ScanAssociation};
 use super::landmarks::LandmarkMap;
+use super::noise_fit::NoiseFit;
 use super::particle::MotionPrior;
 use crate::observation::predict;
 use serde::{Deserialize, Serialize};
@@ -32,7 +33,7 @@ pub struct Innovations {
 
 impl Innovations {
     /// The innovations of `scan` against `map` at the motion prior `prior`
-    /// (`association` is a reused buffer).
+    /// (`association` is a reused buffer), each matched observation also added to `fit`.
     ///
     /// # Performance
     /// One association plus O(matched) 2 × 2 and 2 × 3 products.
@@ -41,11 +42,13 @@ impl Innovations {
         map: &LandmarkMap,
         prior: &MotionPrior,
         association: &mut ScanAssociation,
+        fit: &mut NoiseFit,
     ) -> Self {
         scan.associate_around(map, &prior.mean, Some(&prior.covariance), association);
         let noise = scan.sensor().noise();
         let mut out = Self::default();
         let mut share = 0.0;
+        fit.start_scan();
         for (obs, decision) in scan.observations().iter().zip(&association.decisions) {
             let Decision::Update { slot, .. } = decision else {
                 continue;
@@ -58,15 +61,18 @@ impl Innovations {
             };
             let pose_term = p.wrt_pose * prior.covariance * p.wrt_pose.transpose();
             let h = p.wrt_landmark;
-            let s = pose_term + h * landmark.covariance * h.transpose() + noise;
+            let map_term = h * landmark.covariance * h.transpose();
+            let s = pose_term + map_term + noise;
             let Some(s_inv) = s.try_inverse() else {
                 continue;
             };
             let nu = crate::observation::innovation(&obs.z(), &p.z);
+            fit.add(&nu, &pose_term, &map_term, &noise);
             out.nis += (nu.transpose() * s_inv * nu)[0];
             out.dof += 2;
             share += pose_term.trace() / s.trace();
         }
+        fit.end_scan();
         if out.dof > 0 {
             out.motion_share = share / f64::from(out.dof / 2);
         }

@@ -47,6 +47,7 @@ pub mod evidence;
 pub mod innovations;
 pub mod landmarks;
 mod merge;
+pub mod noise_fit;
 mod particle;
 pub mod proposal;
 mod published;
@@ -65,13 +66,14 @@ pub use estimate::{MapLandmark, PoseEstimate};
 pub use evidence::NegativeEvidence;
 pub use innovations::{Innovations, NIS_WINDOW_SCANS, NisVerdict, NisWindow, noise_suspect};
 pub use landmarks::{Landmark, LandmarkMap, Slot};
+pub use noise_fit::{NoiseConfig, NoiseFit, NoiseReport};
 pub use particle::{MotionPrior, Particle};
 pub use proposal::Proposal;
 pub use refine::OptimiserRefiner;
 pub use snapshot::FilterState;
 pub use trail::Trail;
 
-use crate::motion::Control;
+use crate::motion::{Control, MotionModel};
 use crate::moves::gaussian::Gaussian;
 use crate::observation::{Observation, Sensor};
 use crate::parallel;
@@ -203,6 +205,11 @@ pub struct FastSlam {
     /// The noise check's motion prior: the best particle's pose at the last update,
     /// propagated by every control since (kept whether or not the particles keep theirs).
     check_prior: MotionPrior,
+    /// The noise fitted from the noise check's innovations ([`noise_fit`]).
+    noise: NoiseFit,
+    /// The configuration's motion model and sensor, before the fit scales their noise
+    /// (`config` holds the noise in use).
+    profile: (MotionModel, Sensor),
     /// Whether [`predict`](Self::predict) propagates every particle's [`MotionPrior`].
     motion_prior: bool,
     /// Whether poses are drawn at observations instead of control by control (see the
@@ -339,6 +346,8 @@ impl FastSlam {
         };
         Ok(Self {
             check_prior: particle.prior,
+            noise: NoiseFit::default(),
+            profile: (config.motion.clone(), config.sensor.clone()),
             particles: vec![particle; n],
             weights: Weights::from_log(&vec![log_weight; n])?,
             deferred: config.proposal == Proposal::FastSlam2,
@@ -404,9 +413,32 @@ impl FastSlam {
         self.map_fixed = true;
     }
 
-    /// The configuration the filter runs with.
+    /// The configuration the filter runs with, its noise the one in use (the profile's,
+    /// or the fitted one under `[noise] adapt`).
     pub fn config(&self) -> &FastSlamConfig {
         &self.config
+    }
+
+    /// The noise fit ([`noise_fit`]).
+    pub fn noise_fit(&self) -> &NoiseFit {
+        &self.noise
+    }
+
+    /// The profile's noise beside the fitted one, as standard deviations, and the source
+    /// the fit blames.
+    pub fn noise_report(&self) -> NoiseReport {
+        self.noise.report(&self.profile.0, &self.profile.1)
+    }
+
+    /// Under `[noise] adapt`, once the fit has warmed up: runs on the fitted noise (the
+    /// motion model's and the configured sensor's; a scan's own sensor keeps its noise).
+    fn adapt_noise(&mut self) {
+        if !(self.config.noise.adapt && self.noise.warmed_up()) {
+            return;
+        }
+        self.noise.adopt();
+        (self.config.motion, self.config.sensor) =
+            self.noise.apply(&self.profile.0, &self.profile.1);
     }
 
     /// Read access to the particles (metrics, optimisers).

@@ -8,6 +8,7 @@
 //! part of it: a restored filter starts new trails.
 
 use super::landmarks::{Landmark, LandmarkMap};
+use super::noise_fit::NoiseFit;
 use super::particle::{MotionPrior, Particle};
 use super::trail::Trail;
 use super::{FastSlam, FastSlamConfig};
@@ -30,6 +31,8 @@ pub struct FilterState {
     pub particles: Vec<ParticleState>,
     /// The noise check's motion prior: mean, and covariance row-major.
     pub check_prior: (Pose2, [f64; 9]),
+    /// The noise fit, with the noise scales the filter runs on.
+    pub noise: NoiseFit,
 }
 
 /// One landmark map.
@@ -141,10 +144,12 @@ impl FastSlam {
             best: self.best as u32,
             maps: stored,
             particles,
+            noise: self.noise.clone(),
         }
     }
 
-    /// A filter with `config` that continues from `state`.
+    /// A filter with `config` that continues from `state`, on the noise the state's fit
+    /// ran on (`config`'s noise is the profile).
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] for a bad config; [`Error::InvalidInput`] when the
@@ -207,7 +212,12 @@ impl FastSlam {
         if !state.check_prior.0.is_finite() {
             return Err(invalid("the noise check's prior is not finite".into()));
         }
+        let profile = (config.motion.clone(), config.sensor.clone());
+        let mut config = config;
+        (config.motion, config.sensor) = state.noise.apply(&profile.0, &profile.1);
         Ok(Self {
+            noise: state.noise.clone(),
+            profile,
             check_prior: MotionPrior {
                 mean: state.check_prior.0,
                 covariance: Matrix3::from_row_slice(&state.check_prior.1),

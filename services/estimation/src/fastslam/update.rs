@@ -98,6 +98,7 @@ impl FastSlam {
             &self.particles[self.best].map,
             &self.check_prior,
             &mut self.scratch.check,
+            &mut self.noise,
         );
         // FastSLAM 2.0: draw each pose from the proposal that uses this scan.
         if self.config.proposal == Proposal::FastSlam2 {
@@ -154,6 +155,7 @@ impl FastSlam {
         std::mem::swap(&mut self.weights, &mut weights);
         self.scratch.spare_weights = Some(weights);
         self.step = scan.step();
+        self.adapt_noise();
         let steps = &self.scratch.particles;
         let total =
             |f: fn(&MapChanges) -> usize| -> usize { steps.iter().map(|s| f(&s.changes)).sum() };
