@@ -4,8 +4,10 @@
 
 mod common;
 
-use common::stacks::SimStack;
+use common::stacks::{SimStack, launch};
 use common::*;
+use nix::sys::signal::{Signal, kill};
+use nix::unistd::Pid;
 use std::time::Duration;
 
 /// Bytes of `run.mcap` past its magic and header: a chunk has been written.
@@ -58,4 +60,35 @@ fn a_sigkilled_client_leaves_a_readable_recording_and_stops_no_sensor() {
     let prefix = stack.stack.prefix.clone();
     drop(stack);
     assert_no_leftovers(&prefix);
+}
+
+#[test]
+fn a_launchers_run_whose_client_is_sigkilled_ends_with_a_readable_recording() {
+    let prefix = prefix("launchclientkill");
+    let dir = folder(&prefix);
+    let out = dir.join("run");
+    let launcher = launch(&prefix, &out, &short_scenario(&dir));
+    let mcap = out.join("run.mcap");
+    wait_for(
+        "the client to write a chunk",
+        Duration::from_secs(60),
+        || std::fs::metadata(&mcap).is_ok_and(|m| m.len() > WRITTEN),
+    );
+    let client = (stack_processes(&prefix).into_iter())
+        .find_map(|(pid, subcommand)| (subcommand == "client").then_some(pid))
+        .expect("the client runs");
+    kill(Pid::from_raw(client), Signal::SIGKILL).unwrap();
+    let ended = launcher.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&ended.stderr);
+    assert_eq!(ended.status.code(), Some(1), "{stderr}");
+    assert_eq!(
+        stderr
+            .matches("left unfinished by a client that died: closed")
+            .count(),
+        1,
+        "{stderr}"
+    );
+    let read = read_mcap(&mcap);
+    assert!(read["counts"]["/truth"].as_u64() > Some(0), "{read}");
+    assert_no_leftovers_and_remove(&prefix, &dir);
 }
