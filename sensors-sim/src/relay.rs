@@ -250,8 +250,9 @@ struct Outbox<'a, M: Message> {
     newest: Option<Header>,
     /// Services (and bridges) seen dead, and requests of resumed services answered.
     /// While more died than asked, new messages wait: a service that died is replaced by
-    /// one that asks. The death and the request may be seen in either order (the resumed service
-    /// can ask before this sensor's next look finds its predecessor dead).
+    /// one that asks. The death and the request may be seen in either order (the
+    /// resumed service can ask before this sensor's next look finds its predecessor
+    /// dead).
     deaths: u64,
     resumes: u64,
     /// Subscribers the stream waited for before it started, less consumers that died
@@ -305,9 +306,8 @@ impl<'a, M: Message> Outbox<'a, M> {
     }
 
     /// Sends `m` and keeps it, forgetting the oldest but the first beyond the bound (the
-    /// first is the mark a resend starts with). After a
-    /// service died, first waits (up to the wait timeout) for the resumed service's
-    /// request.
+    /// first is the mark a resend starts with). After the service died, first waits (up
+    /// to the wait timeout) for the resumed service's request.
     fn send(&mut self, m: M) -> Result<(), IpcError> {
         if !self.paused() && self.out.subscribers() < self.wanted {
             // One of the subscribers waited for is gone: died, or left. Look now.
