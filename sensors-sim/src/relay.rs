@@ -248,13 +248,15 @@ struct Outbox<'a, M: Message> {
     bound: usize,
     /// The header of the newest message sent.
     newest: Option<Header>,
-    /// Subscribers seen dead, and requests of resumed services answered. While more
-    /// died than asked, new messages wait: a service that died is replaced by one that
-    /// asks. The death and the request may be seen in either order (the resumed service
-    /// can ask before this sensor's next look finds its predecessor dead).
+    /// Services (and bridges) seen dead, and requests of resumed services answered.
+    /// While more died than asked, new messages wait: a service that died is replaced by
+    /// one that asks. The death and the request may be seen in either order (the
+    /// resumed service can ask before this sensor's next look finds its predecessor
+    /// dead).
     deaths: u64,
     resumes: u64,
-    /// Subscribers the stream waited for before it started.
+    /// Subscribers the stream waited for before it started, less consumers that died
+    /// (more when more are alive).
     wanted: usize,
     /// Subscribers at the last look, and when that was.
     seen: Subscribers,
@@ -304,9 +306,8 @@ impl<'a, M: Message> Outbox<'a, M> {
     }
 
     /// Sends `m` and keeps it, forgetting the oldest but the first beyond the bound (the
-    /// first is the mark a resend starts with). After a
-    /// subscriber died, first waits (up to the wait timeout) for the resumed service's
-    /// request.
+    /// first is the mark a resend starts with). After the service died, first waits (up
+    /// to the wait timeout) for the resumed service's request.
     fn send(&mut self, m: M) -> Result<(), IpcError> {
         if !self.paused() && self.out.subscribers() < self.wanted {
             // One of the subscribers waited for is gone: died, or left. Look now.
@@ -349,8 +350,8 @@ impl<'a, M: Message> Outbox<'a, M> {
 
     /// Takes the checkpoint notices (forgetting what they cover; sending everything
     /// after it again when a resumed service asks), and at most every [`WATCH_EVERY`]
-    /// looks whether a subscriber died (then holds new messages back). Returns the
-    /// subscribers seen at the last look.
+    /// looks whether a subscriber died (a service: then holds new messages back).
+    /// Returns the subscribers seen at the last look.
     fn tend(&mut self) -> Result<Subscribers, IpcError> {
         let mut notices = Vec::new();
         self.checkpoints.drain(|c| notices.push(*c.payload()))?;
@@ -369,14 +370,24 @@ impl<'a, M: Message> Outbox<'a, M> {
         self.looked = Some(Instant::now());
         let seen = self.out.watch()?;
         self.seen = seen;
-        self.deaths += seen.died as u64;
-        if seen.died > 0 && self.paused() {
+        self.deaths += seen.died_resuming as u64;
+        // A consumer that does not resume (the client, a viewer) is not waited for: the
+        // stack carries on, and a restarted one counts again once it has subscribed.
+        let consumers = seen.died - seen.died_resuming;
+        self.wanted = self.wanted.saturating_sub(consumers).max(seen.alive);
+        if consumers > 0 {
+            tracing::info!(
+                consumers,
+                "a subscriber that does not resume died (the client, a viewer): carrying on"
+            );
+        }
+        if seen.died_resuming > 0 && self.paused() {
             tracing::warn!(
                 kept = self.kept.len(),
-                "a subscriber died: holding new messages until a resumed service asks for what it missed"
+                "the service died: holding new messages until a resumed service asks for what it missed"
             );
-        } else if seen.died > 0 {
-            tracing::info!("a subscriber died; a resumed service has already asked");
+        } else if seen.died_resuming > 0 {
+            tracing::info!("the service died; a resumed service has already asked");
         }
         Ok(self.seen)
     }

@@ -8,6 +8,7 @@ use crate::supervisor::Outcome;
 use anyhow::{Context, bail};
 use fastslam_client::Metrics;
 use fastslam_client::expect::{Expectations, JudgeArgs};
+use fastslam_client::mcap::Closed;
 use fastslam_client::warnings::Warnings;
 use fastslam_protocol::cli::PaceArgs;
 use fastslam_protocol::ipc::{self, StackConfig};
@@ -213,6 +214,20 @@ pub(crate) struct Ended<'a> {
     pub wall: Duration,
 }
 
+/// Closes the run folder's `run.mcap` when a client that was killed left it unfinished
+/// (whole records kept, see [`fastslam_client::mcap::close_unfinished`]), saying so.
+fn close_recording(out: &Path) {
+    let path = out.join(fastslam_client::report::files::MCAP);
+    match fastslam_client::mcap::close_unfinished(&path) {
+        Ok(Closed::Recovered { kept, dropped }) => eprintln!(
+            "warning: {} was left unfinished by a client that died: closed, {kept} bytes of whole records kept, {dropped} dropped",
+            path.display()
+        ),
+        Ok(Closed::Absent | Closed::Finished) => {}
+        Err(e) => eprintln!("warning: {} cannot be closed: {e}", path.display()),
+    }
+}
+
 /// Reports how a stack ended: the summary of its run folder when it finished (with the
 /// expectations' lines when it is judged), else what went wrong and where the logs are.
 /// Returns the launcher's exit code (0 finished, 1 failed or timed out, 130 interrupted).
@@ -233,6 +248,7 @@ pub(crate) fn conclude(
         logs,
         wall,
     } = ended;
+    close_recording(out);
     // The client fails a run without a pose itself; with its run folder written, that is
     // the run's one error line.
     let client_done = matches!(

@@ -152,7 +152,9 @@ pub const MCAP: &str = "mcap==1.6.0";
 /// What the Python `mcap` package (see [`python_venv`]) reads in the MCAP file `path`:
 /// per channel of its summary, the messages counted on it, its schema (`name/encoding`,
 /// empty for none) and its message encoding (`{"counts": {…}, "schemas": {…},
-/// "encodings": {…}}`), and the JSON message on `/metrics`, parsed (`"metrics"`).
+/// "encodings": {…}}`), and the JSON message on `/metrics`, parsed (`"metrics"`). A file
+/// without summary (closed after its writer was killed) is read from the start: its
+/// channels are those its messages name.
 pub fn read_mcap(path: &Path) -> serde_json::Value {
     const READER: &str = "import json, sys
 from mcap.reader import make_reader
@@ -160,12 +162,14 @@ counts, schemas, encodings, metrics = {}, {}, {}, None
 with open(sys.argv[1], 'rb') as f:
     reader = make_reader(f)
     summary = reader.get_summary()
-    for channel in summary.channels.values():
-        schema = summary.schemas.get(channel.schema_id)
-        counts[channel.topic] = 0
+    def see(schema, channel):
+        counts.setdefault(channel.topic, 0)
         schemas[channel.topic] = f'{schema.name}/{schema.encoding}' if schema else ''
         encodings[channel.topic] = channel.message_encoding
-    for _, channel, message in reader.iter_messages():
+    for channel in summary.channels.values() if summary else []:
+        see(summary.schemas.get(channel.schema_id), channel)
+    for schema, channel, message in reader.iter_messages():
+        see(schema, channel)
         counts[channel.topic] += 1
         if channel.topic == '/metrics':
             metrics = json.loads(message.data)

@@ -74,6 +74,9 @@ pub struct Pub<P: Wire + ?Sized, H: Debug + ZeroCopySend + 'static> {
     last_notified: Cell<Option<Instant>>,
     /// The subscribers' nodes, shared with the backpressure handler.
     watch: Arc<Mutex<Watch>>,
+    /// The subscriber count when their nodes were last learnt, and when that was
+    /// ([`Pub::learn_subscribers`]).
+    learnt: Cell<(usize, Option<Instant>)>,
     /// The stack's iceoryx2 configuration (to list its nodes).
     config: Config,
 }
@@ -101,6 +104,10 @@ pub struct Subscribers {
     /// Subscribers of the stack's own processes whose node was found dead since the last
     /// look (killed, crashed: a subscriber that leaves is gone, not dead).
     pub died: usize,
+    /// Of those, subscribers of a process that asks for what it missed when it is
+    /// started again ([`RESUMING_NODES`]: the service, a bridge); the others (the client,
+    /// a viewer) are consumers whose death the stack carries on through.
+    pub died_resuming: usize,
 }
 
 /// The iceoryx2 node names of the stack's own processes. A process of one's own that
@@ -118,6 +125,11 @@ pub const STACK_NODES: [&str; 9] = [
     "viewer",
     "bridge",
 ];
+
+/// The node names of the stack's processes that, started again after a crash, ask the
+/// sensors for what they missed (on the `checkpoint` topic): the service, and a bridge
+/// that forwards to one.
+pub const RESUMING_NODES: [&str; 2] = ["fastslam-service", "bridge"];
 
 /// True when `name` is the node name of one of the stack's own processes.
 pub fn is_stack_node(name: &str) -> bool {
@@ -139,6 +151,8 @@ struct Watch {
     dead: HashSet<u128>,
     /// Nodes that are not the stack's own processes.
     outside: HashSet<u128>,
+    /// Nodes of [`RESUMING_NODES`].
+    resuming: HashSet<u128>,
     /// Dead nodes [`Pub::watch`] has reported.
     reported: HashSet<u128>,
 }
@@ -170,11 +184,12 @@ impl Watch {
                 }
                 _ => return CallbackProgression::Continue,
             };
-            if details
-                .as_ref()
-                .is_some_and(|d| !is_stack_node(d.name().as_str()))
-            {
+            let name = details.as_ref().map(|d| d.name().as_str().to_owned());
+            if name.as_deref().is_some_and(|n| !is_stack_node(n)) {
                 self.outside.insert(id);
+            }
+            if name.is_some_and(|n| RESUMING_NODES.contains(&n.as_str())) {
+                self.resuming.insert(id);
             }
             CallbackProgression::Continue
         })
@@ -222,6 +237,7 @@ where
             max_deferred: (topic.buffer / 4).max(1),
             last_notified: Cell::new(None),
             watch,
+            learnt: Cell::new((0, None)),
             config,
         })
     }
@@ -273,6 +289,7 @@ where
             node_of,
             dead,
             outside,
+            resuming,
             reported,
         } = &mut *guard;
         let mut seen = Subscribers::default();
@@ -293,6 +310,7 @@ where
             .copied()
             .collect();
         seen.died = died.len();
+        seen.died_resuming = died.iter().filter(|&node| resuming.contains(node)).count();
         if report {
             reported.extend(died);
         }
@@ -369,6 +387,24 @@ where
         }
     }
 
+    /// Learns the nodes of subscribers that joined (when their count changed, else at
+    /// most every [`LEARN_EVERY`]), so that a send that finds a buffer full can tell
+    /// whether its subscriber's process died, also of a subscriber that joined late (a
+    /// restarted client) without this publisher ever watching. Reads shared memory only.
+    fn learn_subscribers(&self) {
+        let count = self.subscribers();
+        let (learnt, at) = self.learnt.get();
+        if count == learnt && at.is_some_and(|t| t.elapsed() < LEARN_EVERY) {
+            return;
+        }
+        self.learnt.set((count, Some(Instant::now())));
+        let mut guard = self.watch.lock().unwrap_or_else(PoisonError::into_inner);
+        self.service.dynamic_config().list_subscribers(|d| {
+            (guard.node_of).insert(d.subscriber_id.value(), d.node_id.value());
+            CallbackProgression::Continue
+        });
+    }
+
     /// Wakes the subscribers after a send, unless [coalescing](Pub::coalescing) defers
     /// it.
     fn notify(&self) -> Result<()> {
@@ -394,6 +430,9 @@ where
             .map_err(iox_err(format!("notify on {}", self.topic)))
     }
 }
+
+/// How often a publisher learns its subscribers' nodes when their count stays the same.
+const LEARN_EVERY: Duration = Duration::from_millis(100);
 
 /// Retries of a full subscriber buffer made at once, before [`BACKPRESSURE_NAP`]s.
 const QUICK_RETRIES: u64 = 16;
@@ -441,6 +480,7 @@ impl<T: Debug + ZeroCopySend + 'static> Pub<T, ()> {
     /// # Errors
     /// [`IpcError::Iceoryx`] when the sample cannot be loaned or sent.
     pub fn send(&self, value: T) -> Result<()> {
+        self.learn_subscribers();
         self.publisher
             .send_copy(value)
             .map_err(iox_err(format!("send on {}", self.topic)))?;
@@ -459,6 +499,7 @@ where
     /// # Errors
     /// [`IpcError::Iceoryx`] when the sample cannot be loaned or sent.
     pub fn send(&self, header: H, items: &[T]) -> Result<()> {
+        self.learn_subscribers();
         let mut sample = self
             .publisher
             .loan_slice_uninit(items.len())
