@@ -102,8 +102,10 @@ fn a_garbage_publisher_is_counted_and_the_run_still_finishes() {
         "the service's final count"
     );
     let summary = String::from_utf8_lossy(&output.stdout);
-    let warnings: Vec<&str> = summary.lines().filter(|l| l.contains("warning:")).collect();
-    assert_eq!(warnings.len(), 1, "one warning line: {summary}");
+    let warnings: Vec<&str> = (summary.lines())
+        .filter(|l| l.contains("warning:") && l.contains("rejected"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "one line for the rejections: {summary}");
     assert!(warnings[0].contains("non_finite"), "{summary}");
     assert!(
         num(&m, "/estimate/ate_rmse_m") < num(&m, "/dead_reckoning/ate_rmse_m").max(5.0),

@@ -78,7 +78,7 @@ fn a_stack_dies_with_its_sigkilled_launcher_and_the_next_run_leaves_nothing() {
     assert_eq!(metrics(&out)["complete"], true);
     let summary = String::from_utf8_lossy(&next.stdout);
     assert!(
-        !summary.contains("warning"),
+        !summary.contains("dropped or rejected"),
         "nothing was rejected: {summary}"
     );
     assert!(!fastslam_stack::stack_root(&prefix).exists(), "root left");
