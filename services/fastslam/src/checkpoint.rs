@@ -374,7 +374,7 @@ mod tests {
         slam.update(&[observation]).unwrap();
         Checkpoint {
             seed: 7,
-            filter: EstimatorState::Landmarks(slam.state()),
+            filter: EstimatorState::Landmarks(Box::new(slam.state())),
             last_odometry_ns: Some(900),
             last_odometry_pose: Some(Pose2::new(1.0, 2.0, 0.5)),
             processed_ns: vec![

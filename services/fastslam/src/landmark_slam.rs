@@ -275,7 +275,7 @@ impl Estimator for LandmarkSlam {
     }
 
     fn state(&self) -> EstimatorState {
-        EstimatorState::Landmarks(self.filter.state())
+        EstimatorState::Landmarks(Box::new(self.filter.state()))
     }
 
     fn fix_map(&mut self) -> anyhow::Result<()> {

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum EstimatorState {
     /// `[map] kind = "landmarks"`.
-    Landmarks(FilterState),
+    Landmarks(Box<FilterState>),
     /// `[map] kind = "grid"`.
     Grid(Box<GridState>),
 }
