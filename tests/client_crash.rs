@@ -16,15 +16,7 @@ const WRITTEN: u64 = 4096;
 #[test]
 fn a_sigkilled_client_leaves_a_readable_recording_and_stops_no_sensor() {
     let mut stack = SimStack::new("clientkill");
-    for name in [
-        "client",
-        "service",
-        "odometry-sim",
-        "lidar-sim",
-        "truth-sim",
-    ] {
-        stack.start(name);
-    }
+    stack.start_all();
     let mcap = stack.out().join("run.mcap");
     let size = || std::fs::metadata(&mcap).map_or(0, |m| m.len());
     wait_for(

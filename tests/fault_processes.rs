@@ -220,15 +220,7 @@ fn quiet(s: &ServiceStatus, sensor: &str) -> bool {
 /// steps go on and the run completes with an ATE under `max_ate_m`.
 fn survive_a_sensor_restart(sensor: &'static str, max_ate_m: f64) {
     let mut stack = SimStack::new(sensor);
-    for name in [
-        "client",
-        "service",
-        "odometry-sim",
-        "lidar-sim",
-        "truth-sim",
-    ] {
-        stack.start(name);
-    }
+    stack.start_all();
     let ipc = stack.ipc();
     let status = ipc.subscriber::<ServiceStatus>(&topics::STATUS).unwrap();
     let watch = std::cell::RefCell::new(StatusWatch::default());

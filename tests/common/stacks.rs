@@ -71,6 +71,19 @@ impl SimStack {
         }
     }
 
+    /// Starts every process in the launcher's order: the consumers, then the sensors.
+    pub fn start_all(&mut self) {
+        for name in [
+            "client",
+            "service",
+            "odometry-sim",
+            "lidar-sim",
+            "truth-sim",
+        ] {
+            self.start(name);
+        }
+    }
+
     /// Starts process `name` (a launcher subcommand) with the flags the launcher gives it.
     pub fn start(&mut self, name: &'static str) {
         let sim = |subscribers: &str| {
