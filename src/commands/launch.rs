@@ -393,10 +393,18 @@ fn print_truth_scores(m: &Metrics) {
         );
     }
     println!("  final error    {:8.3} m", m.estimate.final_error_m);
-    println!(
-        "  landmark RMSE  {:8.3} m   ({} of {} matched, {} spurious)",
-        m.map.rmse_m, m.map.matched, m.map.truth, m.map.spurious
-    );
+    if m.map.truth == 0 {
+        // Ground truth of the path only (GPS): nothing to score the map against.
+        println!(
+            "  landmarks      {:8}     (mapped; no true landmarks to score them against)",
+            m.map.estimated
+        );
+    } else {
+        println!(
+            "  landmark RMSE  {:8.3} m   ({} of {} matched, {} spurious)",
+            m.map.rmse_m, m.map.matched, m.map.truth, m.map.spurious
+        );
+    }
     let c = &m.consistency;
     println!(
         "  NEES mean      {:>8}     ({:.0} % of steps within the 95 % bound; 3 when consistent; \

@@ -233,6 +233,11 @@ impl Estimator for LandmarkSlam {
 
     fn start_back_end(&mut self, config: &ServiceConfig, feed: Vec<Feed>) -> anyhow::Result<()> {
         if !config.smoother.enabled {
+            tracing::info!(
+                "smoothing back-end off ([smoother] enabled = false, the library's default; \
+                 the profiles and scenarios turn it on where it measured better than the \
+                 filter, docs/RESULTS.md): nothing is published on smoothed/*"
+            );
             return Ok(());
         }
         let filter = config.filter_config();
