@@ -3,7 +3,6 @@
 //! published.
 
 use super::{Graph, Linearised};
-use serde::{Deserialize, Serialize};
 
 /// A solution's fit to its noise model.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -24,12 +23,17 @@ impl Graph {
     /// The fit at the current estimates, `robust_cost` being the solver's final cost and
     /// `scale` the kernel's scale (standard deviations).
     pub(super) fn fit(&self, robust_cost: f64, scale: f64) -> Fit {
-        let dof = (self.residuals().saturating_sub(self.unknowns())).max(1) as f64;
+        let dof = self.dof();
         Fit {
             chi2_per_dof: self.chi2() / dof,
             robust_per_dof: robust_cost / dof,
             outlier_share: self.outlier_share(scale),
         }
+    }
+
+    /// Degrees of freedom: residuals minus unknowns, at least 1.
+    pub(crate) fn dof(&self) -> f64 {
+        (self.residuals().saturating_sub(self.unknowns())).max(1) as f64
     }
 
     /// Share of the sightings whose normalised residual exceeds `scale²` (0 without
@@ -50,7 +54,7 @@ impl Graph {
 
 /// The limits beyond which a solution is torn (the `[smoother]` section's
 /// `torn_chi2_per_dof` and `torn_outlier_share`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TornGate {
     /// Largest plain χ²/dof of a solution that is published.
     pub chi2_per_dof: f64,

@@ -368,8 +368,7 @@ impl PoseGraphMapper {
             correction: self.correction,
             closures: self.loops.len(),
             accepted: report.accepted,
-            chi2_per_dof: self.graph.chi2()
-                / (self.graph.residuals().saturating_sub(self.graph.unknowns())).max(1) as f64,
+            chi2_per_dof: self.graph.chi2() / self.graph.dof(),
             rounds: report.rounds,
             iterations: report.iterations,
             seconds: started.elapsed().as_secs_f64(),

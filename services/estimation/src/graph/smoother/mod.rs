@@ -577,7 +577,7 @@ impl Smoother {
             self.keys.clone(),
             self.last_seen_ns.clone(),
         );
-        let dof = (self.graph.residuals().saturating_sub(self.graph.unknowns())).max(1) as f64;
+        let dof = self.graph.dof();
         let chi2 = self.graph.chi2();
         let fused: usize = groups.iter().map(|g| g.len() - 1).sum();
         let indices: Vec<Vec<usize>> = (groups.iter())
