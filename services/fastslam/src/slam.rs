@@ -158,14 +158,12 @@ impl Slam {
                 Box::new(GridSlam::resume(config, state)?)
             }
             (_, kind) => {
-                let kind = if kind == MapKind::Grid {
-                    "grid"
-                } else {
-                    "landmarks"
-                };
                 return Err(fastslam_estimation::Error::InvalidInput {
                     what: "checkpoint",
-                    reason: format!("written for another [map] kind than this run's \"{kind}\""),
+                    reason: format!(
+                        "written for another [map] kind than this run's \"{}\"",
+                        kind.name()
+                    ),
                 });
             }
         };
