@@ -23,14 +23,22 @@ use std::sync::mpsc::{Receiver, Sender, channel};
 use std::thread::JoinHandle;
 use std::time::Instant;
 
-/// What the back-end reports after each scan it was fed (numbered from 1): the
-/// solution when that scan asked for a solve and the solve was good, and whether a solve
-/// was made and withheld as torn.
+/// What the back-end reports after each scan it was fed (numbered from 1).
 #[derive(Debug)]
 struct Report {
     scan: u64,
-    solution: Option<Solution>,
-    torn: bool,
+    solve: Solve,
+}
+
+/// What became of the solve a scan asked for.
+#[derive(Debug)]
+enum Solve {
+    /// No solve: none was due, or it failed (logged).
+    None,
+    /// A solution that passed the gate.
+    Good(Solution),
+    /// A solution withheld as torn (logged).
+    Torn,
 }
 
 /// The solves withheld as torn.
@@ -90,21 +98,14 @@ impl Backend {
                     let due = smoother.feed(&feed);
                     if matches!(feed, Feed::Scan { .. }) {
                         scan += 1;
-                        let (solution, torn) = if due {
+                        let solve = if due {
                             judge(smoother.solve(), &busy, &gate)
                         } else {
-                            (None, false)
+                            Solve::None
                         };
                         busy.add(spent + started.elapsed().as_secs_f64());
                         spent = 0.0;
-                        if outbox
-                            .send(Report {
-                                scan,
-                                solution,
-                                torn,
-                            })
-                            .is_err()
-                        {
+                        if outbox.send(Report { scan, solve }).is_err() {
                             return;
                         }
                     } else {
@@ -113,12 +114,8 @@ impl Backend {
                 }
                 // The filter's side hung up: the stream ended. A last solve over everything.
                 if smoother.has_news() {
-                    let (solution, torn) = judge(smoother.solve_whole(), &busy, &gate);
-                    let _ = outbox.send(Report {
-                        scan,
-                        solution,
-                        torn,
-                    });
+                    let solve = judge(smoother.solve_whole(), &busy, &gate);
+                    let _ = outbox.send(Report { scan, solve });
                 }
                 busy.log();
                 if let Some(path) = graph_out {
@@ -169,16 +166,19 @@ impl Backend {
     /// Takes one report in.
     fn take(&mut self, report: Report) {
         self.scans_reported = self.scans_reported.max(report.scan);
-        if report.torn {
-            self.torn.count += 1;
-            self.torn.newest = true;
-        }
-        if let Some(solution) = report.solution {
-            self.torn.newest = false;
-            if let Some(pending) = &mut self.pending {
-                pending.push_back((report.scan, solution.clone()));
+        match report.solve {
+            Solve::None => {}
+            Solve::Torn => {
+                self.torn.count += 1;
+                self.torn.newest = true;
             }
-            self.unpublished = Some(solution);
+            Solve::Good(solution) => {
+                self.torn.newest = false;
+                if let Some(pending) = &mut self.pending {
+                    pending.push_back((report.scan, solution.clone()));
+                }
+                self.unpublished = Some(solution);
+            }
         }
     }
 
@@ -241,13 +241,12 @@ impl Backend {
     }
 }
 
-/// A solve's outcome, logged: the solution if it passes `gate`, and whether it was
-/// withheld as torn.
+/// A solve's outcome, logged and judged by `gate`.
 fn judge(
     outcome: fastslam_estimation::Result<Solution>,
     busy: &ScanTimes,
     gate: &TornGate,
-) -> (Option<Solution>, bool) {
+) -> Solve {
     match outcome {
         Ok(solution) => {
             let r = &solution.report;
@@ -268,20 +267,20 @@ fn judge(
                 "smoother solved"
             );
             match gate.verdict(fit) {
-                None => (Some(solution), false),
+                None => Solve::Good(solution),
                 Some(why) => {
                     tracing::warn!(
                         solve = solution.solves,
                         "smoother: solution torn ({why}): not published, the previous one \
                          stands; the noise model or the associations do not fit this data"
                     );
-                    (None, true)
+                    Solve::Torn
                 }
             }
         }
         Err(e) => {
             tracing::warn!("smoother: {e}");
-            (None, false)
+            Solve::None
         }
     }
 }
