@@ -414,7 +414,9 @@ pub fn run_in_process(
         recording.set_smoothed(&smoothed.trajectory.0, &smoothed.trajectory.1);
         recording.smoothed_map = smoothed.map.1;
     }
-    recording.torn_solves = slam.torn_solves().count;
+    // The service's last status, as the client records it (the back-end's last solve
+    // judged).
+    recording.add_status(&health.final_status(&slam, &sequencer));
     let grid = grid_score(source, &mut slam);
     let (align, score_at) = source.scoring();
     let alignment = fit_alignment(&scored_at(&recording, score_at), align);
