@@ -162,9 +162,8 @@ pub fn close_unfinished(path: &Path) -> io::Result<Closed> {
     if let Some(at) = footer_at.filter(|&at| at >= MAGIC.len() as u64) {
         let (op, length) = record_head(&mut file, at)?;
         let mut end = [0; 8];
-        file.read_exact(&mut end)
-            .and_then(|()| file.seek(SeekFrom::End(-8)).map(|_| ()))
-            .and_then(|()| file.read_exact(&mut end))?;
+        file.seek(SeekFrom::End(-8))?;
+        file.read_exact(&mut end)?;
         if (op, length, end) == (OP_FOOTER, FOOTER_LEN, MAGIC) {
             return Ok(Closed::Finished);
         }

@@ -288,20 +288,11 @@ mod tests {
 
     #[test]
     fn the_fit_finds_the_source_whose_noise_is_too_small() {
-        let odometry = fit_to(16.0, 1.0, 600);
-        assert!(
-            within_30_percent(&odometry, [16.0, 1.0]),
-            "{:?}",
-            odometry.fitted()
-        );
-        assert_eq!(odometry.blames_odometry(), Some(true));
-        let sensor = fit_to(1.0, 16.0, 600);
-        assert!(
-            within_30_percent(&sensor, [1.0, 16.0]),
-            "{:?}",
-            sensor.fitted()
-        );
-        assert_eq!(sensor.blames_odometry(), Some(false));
+        for (truth, blames_odometry) in [([16.0, 1.0], true), ([1.0, 16.0], false)] {
+            let fit = fit_to(truth[0], truth[1], 600);
+            assert!(within_30_percent(&fit, truth), "{:?}", fit.fitted());
+            assert_eq!(fit.blames_odometry(), Some(blames_odometry));
+        }
     }
 
     #[test]
