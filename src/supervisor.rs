@@ -13,8 +13,8 @@ use fastslam_stack::children::{self, Stopping, dying_with_this_process};
 use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
 use std::fs::{File, OpenOptions};
-use std::os::unix::process::CommandExt;
-use std::path::Path;
+use std::os::unix::process::{CommandExt, ExitStatusExt};
+use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdout, Command, ExitStatus, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -30,7 +30,23 @@ pub struct Process {
     pub name: &'static str,
     child: Child,
     status: Option<ExitStatus>,
+    /// How to start it again when a signal kills it ([`Supervisor::restart_when_killed`]).
+    again: Option<Again>,
 }
+
+/// How a process killed by a signal is started again: its command line with a flag
+/// added, its output appended to its log, at most [`MOST_RESTARTS`] times.
+#[derive(Debug)]
+struct Again {
+    exe: PathBuf,
+    args: Vec<String>,
+    log: PathBuf,
+    flag: &'static str,
+    restarts: u32,
+}
+
+/// The most times a process is started again after a signal killed it.
+pub const MOST_RESTARTS: u32 = 10;
 
 /// How the stack ended.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -94,6 +110,71 @@ impl Supervisor {
             .ok_or_else(|| std::io::Error::other("the child's stdout pipe is missing"))
     }
 
+    /// Starts process `name` again, with `flag` added to its command line, whenever a
+    /// signal kills it (SIGKILL, a crash), at most [`MOST_RESTARTS`] times; its output
+    /// then goes to `log`, appended. A process that exits, whatever its status, is not
+    /// started again.
+    pub fn restart_when_killed(
+        &mut self,
+        name: &'static str,
+        exe: &Path,
+        args: &[String],
+        log: &Path,
+        flag: &'static str,
+    ) {
+        if let Some(p) = self.processes.iter_mut().find(|p| p.name == name) {
+            p.again = Some(Again {
+                exe: exe.to_path_buf(),
+                args: args.to_vec(),
+                log: log.to_path_buf(),
+                flag,
+                restarts: 0,
+            });
+        }
+    }
+
+    /// Starts again the processes that a signal killed and that may be (see
+    /// [`Supervisor::restart_when_killed`]), saying so on stderr.
+    fn restart_killed(&mut self) {
+        for p in &mut self.processes {
+            let (Some(status), Some(again)) = (p.status, &mut p.again) else {
+                continue;
+            };
+            let Some(signal) = status.signal() else {
+                continue;
+            };
+            if again.restarts >= MOST_RESTARTS {
+                continue;
+            }
+            again.restarts += 1;
+            let started = OpenOptions::new()
+                .append(true)
+                .open(&again.log)
+                .and_then(|log| {
+                    let mut command = Command::new(&again.exe);
+                    command
+                        .args(&again.args)
+                        .arg(again.flag)
+                        .stdin(Stdio::null())
+                        .stdout(log.try_clone()?)
+                        .stderr(log)
+                        .process_group(0);
+                    dying_with_this_process(&mut command).spawn()
+                });
+            match started {
+                Ok(child) => {
+                    eprintln!(
+                        "the {} was killed (signal {signal}): started again with {} ({} of at most {MOST_RESTARTS})",
+                        p.name, again.flag, again.restarts
+                    );
+                    p.child = child;
+                    p.status = None;
+                }
+                Err(e) => eprintln!("the {} cannot be started again: {e}", p.name),
+            }
+        }
+    }
+
     fn start(
         &mut self,
         name: &'static str,
@@ -115,6 +196,7 @@ impl Supervisor {
             name,
             child,
             status: None,
+            again: None,
         });
         let last = self.processes.len() - 1;
         Ok(&mut self.processes[last].child)
@@ -129,6 +211,8 @@ impl Supervisor {
         let mut suspended = Duration::ZERO;
         let ctrl_z = CtrlZ::watch();
         let outcome = loop {
+            let _ = self.poll();
+            self.restart_killed();
             if let Some(failed) = self.poll().find(|p| p.status.is_some_and(|s| !s.success())) {
                 break Outcome::Failed {
                     name: failed.name,

@@ -256,7 +256,7 @@ fn taken(sent: bool) -> Taken {
     if sent { Taken::Done } else { Taken::Hold }
 }
 
-impl<T: Pod + Debug + ZeroCopySend> Incoming for Pub<T, ()> {
+impl<T: FixedMessage> Incoming for Pub<T, ()> {
     fn publish(&self, body: &[u8]) -> Result<()> {
         Ok(self.send(bytemuck::pod_read_unaligned(body))?)
     }
@@ -272,7 +272,7 @@ impl<T: Pod + Debug + ZeroCopySend> Incoming for Pub<T, ()> {
 
 impl<H, T> Incoming for Pub<[T], H>
 where
-    H: Pod + Debug + ZeroCopySend + Default,
+    H: SliceMessage<Item = T>,
     T: Pod + Debug + ZeroCopySend,
 {
     fn publish(&self, body: &[u8]) -> Result<()> {

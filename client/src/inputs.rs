@@ -3,6 +3,7 @@
 //! lidar's output whichever form it takes, ground truth when the run has it
 //! ([`TruthWait`]), and when every stream has ended ([`Ends`]).
 
+use crate::journal::Start;
 use fastslam_protocol::ipc::{Ipc, Sub, WakeSource};
 use fastslam_protocol::message::{
     Fixed, FixedMessage, Message, PayloadVisitor, Slice, SliceMessage,
@@ -41,10 +42,28 @@ pub struct Inputs {
     truth: bool,
 }
 
-/// The subscriber to one topic.
+/// The subscriber to one topic, and to its resend service when the consumer records.
 struct Input {
     row: &'static TopicRow,
     port: Box<dyn Port>,
+    resend: Option<Box<dyn Port>>,
+}
+
+/// How a consumer opens its subscriptions.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Opening {
+    /// Waiting for each topic's publisher, choosing the lidar's topic and whether to take
+    /// ground truth as `TruthWait` says; `resend`: also subscribing to each topic's
+    /// resend service (the client: see [`crate::journal`]).
+    Wait {
+        /// Whether to take ground truth.
+        truth: TruthWait,
+        /// Whether to subscribe to the resend services too.
+        resend: bool,
+    },
+    /// As a client started again on a run it recorded: the topics it chose, each opened
+    /// at once (some publishers may have finished), with their resend services.
+    Resume(Start),
 }
 
 impl Inputs {
@@ -53,24 +72,29 @@ impl Inputs {
     ///
     /// # Errors
     /// IPC failures, or a timeout when a topic gets no publisher.
-    pub fn open(ipc: &Ipc, truth: TruthWait) -> anyhow::Result<Self> {
+    pub fn open(ipc: &Ipc, opening: Opening) -> anyhow::Result<Self> {
         let mut rows: Vec<(usize, &'static TopicRow)> = (topics::TABLE.iter().enumerate())
             .filter(|(_, row)| row.topic != topics::CHECKPOINT)
             .collect();
         rows.sort_by_key(|(_, row)| opening_rank(row));
-        let mut choice = Choice {
-            wait: truth,
-            lidar: None,
-            truth: None,
+        let (mut choice, resend, wait) = match opening {
+            Opening::Wait { truth, resend } => (Choice::new(truth), resend, true),
+            Opening::Resume(start) => (Choice::of(start), true, false),
         };
         let mut inputs = Vec::new();
         for (i, row) in rows {
             if choice.takes(ipc, row)? {
-                let port = row.payload.visit(Open {
-                    ipc,
-                    topic: &row.topic,
-                })?;
-                inputs.push((i, Input { row, port }));
+                let open = |topic| Open { ipc, topic, wait };
+                let port = row.payload.visit(open(row.topic))?;
+                let resend = (resend.then(|| {
+                    let topic = topics::resend(&row.topic);
+                    row.payload.visit(Open {
+                        wait: false,
+                        ..open(topic)
+                    })
+                }))
+                .transpose()?;
+                inputs.push((i, Input { row, port, resend }));
             }
         }
         inputs.sort_by_key(|(i, _)| *i);
@@ -84,10 +108,18 @@ impl Inputs {
 
     /// Every subscriber, to wake on.
     pub fn sources(&self) -> Vec<&dyn WakeSource> {
-        self.inputs
-            .iter()
-            .map(|input| input.port.source())
+        (self.inputs.iter())
+            .flat_map(|input| std::iter::once(&input.port).chain(&input.resend))
+            .map(|port| port.source())
             .collect()
+    }
+
+    /// What a client started again on this run must take: the topics chosen.
+    pub fn start(&self) -> Start {
+        Start {
+            lidar: self.lidar,
+            truth: self.truth,
+        }
     }
 
     /// True when the run has ground truth (its topic is subscribed to).
@@ -120,9 +152,9 @@ impl Inputs {
         mut each: impl FnMut(&'static TopicRow, Message<'_>, Result<(), Rejection>),
     ) -> anyhow::Result<()> {
         for input in &self.inputs {
-            input
-                .port
-                .drain(&mut |message, checked| each(input.row, message, checked))?;
+            for port in std::iter::once(&input.port).chain(&input.resend) {
+                port.drain(&mut |message, checked| each(input.row, message, checked))?;
+            }
         }
         Ok(())
     }
@@ -158,6 +190,25 @@ struct Choice {
 }
 
 impl Choice {
+    /// Nothing chosen yet; ground truth as `wait` says.
+    fn new(wait: TruthWait) -> Self {
+        Self {
+            wait,
+            lidar: None,
+            truth: None,
+        }
+    }
+
+    /// What `start` chose.
+    fn of(start: Start) -> Self {
+        let lidar = (topics::TABLE.iter()).find(|row| row.stream == Some(start.lidar));
+        Self {
+            wait: TruthWait::Off,
+            lidar,
+            truth: Some(start.truth),
+        }
+    }
+
     /// Whether to subscribe to `row`'s topic.
     ///
     /// # Errors
@@ -275,22 +326,33 @@ impl<H: SliceMessage> Port for SlicePort<H> {
     }
 }
 
-/// Opens the subscriber of a topic whose payload type is named at run time.
+/// Opens the subscriber of a topic whose payload type is named at run time, waiting for
+/// a publisher or not.
 struct Open<'a> {
     ipc: &'a Ipc,
-    topic: &'a Topic,
+    topic: Topic,
+    wait: bool,
 }
 
 impl PayloadVisitor for Open<'_> {
     type Output = anyhow::Result<Box<dyn Port>>;
 
     fn fixed<T: FixedMessage>(self, payload: &'static Fixed<T>) -> Self::Output {
-        let sub = self.ipc.subscriber::<T>(self.topic)?;
+        let sub = if self.wait {
+            self.ipc.subscriber::<T>(&self.topic)?
+        } else {
+            self.ipc.optional_subscriber::<T>(&self.topic)?
+        };
         Ok(Box::new(FixedPort { sub, payload }))
     }
 
     fn slice<H: SliceMessage>(self, payload: &'static Slice<H>) -> Self::Output {
-        let sub = self.ipc.slice_subscriber::<H, H::Item>(self.topic)?;
+        let sub = if self.wait {
+            self.ipc.slice_subscriber::<H, H::Item>(&self.topic)?
+        } else {
+            self.ipc
+                .optional_slice_subscriber::<H, H::Item>(&self.topic)?
+        };
         Ok(Box::new(SlicePort { sub, payload }))
     }
 }

@@ -10,6 +10,7 @@ pub mod align;
 pub mod expect;
 pub mod foxglove_log;
 pub mod inputs;
+pub mod journal;
 pub mod json_number;
 pub mod latency;
 pub mod lidar_count;

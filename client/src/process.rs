@@ -3,7 +3,8 @@
 //! line on stdout a few times a second (see [`crate::progress`]).
 
 use crate::expect::{Expectations, JudgeArgs};
-use crate::inputs::{Ends, Inputs, TRUTH_WAIT_S, TruthWait};
+use crate::inputs::{Ends, Inputs, Opening, TRUTH_WAIT_S, TruthWait};
+use crate::journal::{self, Journal, Start};
 use crate::latency::LatencyMatcher;
 use crate::mcap::RunMcap;
 use crate::metrics::{AlignMode, ScoreAt, fit_alignment, interpolate, scored_at};
@@ -21,6 +22,7 @@ use fastslam_protocol::topics::{Publisher, Topic, TopicRow};
 use fastslam_protocol::{Header, cli, validate};
 use fastslam_service::config::{InputConfig, ServiceConfig};
 use fastslam_service::health::RejectionLog;
+use std::collections::HashSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -89,6 +91,11 @@ pub struct Args {
     /// Expectations on the metrics and a JUnit report.
     #[command(flatten)]
     pub judge: JudgeArgs,
+    /// Go on recording the run of a client that died: take what its journal in `--out`
+    /// holds, and ask the stack's publishers for what they kept since (the launcher
+    /// starts a client that died again with this flag).
+    #[arg(long)]
+    pub resume: bool,
 }
 
 /// Records until every stream has ended (or a signal arrives), then writes the run folder.
@@ -117,21 +124,41 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         TruthWait::Within(Duration::from_secs_f64(args.truth_wait_s.max(0.0)))
     };
-    let inputs = Inputs::open(&ipc, truth_wait)?;
+    std::fs::create_dir_all(&args.out)?;
+    let (inputs, mut recorder) = if args.resume {
+        let start = journal::start_of(&args.out)?;
+        let inputs = Inputs::open(&ipc, Opening::Resume(start))?;
+        let mut recorder = Recorder::new(&ipc, &inputs, &args.out)?;
+        recorder.resume(&ipc, &args.out)?;
+        (inputs, recorder)
+    } else {
+        // The first notice goes out before the producers start: they keep from then on.
+        let (journal, _) = Journal::open(&ipc, &args.out, false, |_, _, _| {})?;
+        let opening = Opening::Wait {
+            truth: truth_wait,
+            resend: true,
+        };
+        let inputs = Inputs::open(&ipc, opening)?;
+        let mut recorder = Recorder::new(&ipc, &inputs, &args.out)?;
+        recorder.journal = Some(journal);
+        recorder.journal_start(inputs.start());
+        (inputs, recorder)
+    };
     tracing::info!(lidar = ?inputs.lidar(), ground_truth = inputs.ground_truth(), "recording");
 
-    std::fs::create_dir_all(&args.out)?;
-    let mut recorder = Recorder::new(&ipc, &inputs, &args.out.join(report::files::MCAP))?;
     let ended = ipc.wake_loop::<anyhow::Error>(&inputs.sources(), Some(SAMPLE_EVERY), || {
         recorder.wake(&ipc, &inputs)
     })?;
-    let (rec, mcap) = recorder.finish(&ipc);
+    let (rec, mcap, journal) = recorder.finish(&ipc);
     let (rec, metrics) = score(&args, &rec, ended == Ended::Done, relations, noise);
     for line in Warnings::of(&metrics).lines {
         tracing::warn!("{line}");
     }
     report::write(&args.out, &rec, &metrics)?;
     mcap.finish(&metrics)?;
+    if let Some(journal) = journal {
+        journal.finish()?;
+    }
     tracing::info!(
         folder = %args.out.display(), complete = metrics.complete,
         ground_truth = metrics.ground_truth, ate_m = metrics.estimate.ate_rmse_m,
@@ -160,6 +187,11 @@ struct Recorder {
     monitor: ProcessMonitor,
     live_ate: LiveAte,
     last_sample: Instant,
+    /// The journal, written as messages are taken.
+    journal: Option<Journal>,
+    /// Set when recording the run of a client that died: messages then come out of
+    /// order (the journal's, those sent again, new ones), each taken once.
+    resumed: Option<HashSet<(u32, u64, u64)>>,
 }
 
 impl Recorder {
@@ -168,7 +200,8 @@ impl Recorder {
     ///
     /// # Errors
     /// When the file cannot be created.
-    fn new(ipc: &Ipc, inputs: &Inputs, mcap: &Path) -> anyhow::Result<Self> {
+    fn new(ipc: &Ipc, inputs: &Inputs, out: &Path) -> anyhow::Result<Self> {
+        let mcap = &out.join(report::files::MCAP);
         let mut recorder = Self::recording(inputs.ends(), !inputs.ground_truth(), mcap)?;
         recorder.monitor.sample(ipc);
         Ok(recorder)
@@ -194,7 +227,39 @@ impl Recorder {
             monitor: ProcessMonitor::new(),
             live_ate: LiveAte::default(),
             last_sample: Instant::now(),
+            journal: None,
+            resumed: None,
         })
+    }
+
+    /// Records the topics chosen, in the journal.
+    fn journal_start(&mut self, start: Start) {
+        if let Some(journal) = &mut self.journal {
+            journal.started(start);
+        }
+    }
+
+    /// Takes again what the journal of the client that died in `out` holds, and goes on
+    /// journaling there; its first notice asks the publishers for what they kept.
+    ///
+    /// # Errors
+    /// The journal cannot be read or written.
+    fn resume(&mut self, ipc: &Ipc, out: &Path) -> anyhow::Result<()> {
+        self.resumed = Some(HashSet::new());
+        let (journal, start) = Journal::open(ipc, out, true, |row, message, checked| {
+            self.take_message(row, message, checked, false);
+        })?;
+        self.journal = Some(journal);
+        if let Some(start) = start {
+            self.journal_start(start);
+        }
+        tracing::info!(
+            poses = self.rec.estimates.len(),
+            truth = self.rec.truth.len(),
+            "resumed the recording of a client that died: its journal is taken; the \
+             publishers send again what they kept"
+        );
+        Ok(())
     }
 
     /// One wake-up: takes every pending message, samples the processes and prints the
@@ -205,6 +270,9 @@ impl Recorder {
     fn wake(&mut self, ipc: &Ipc, inputs: &Inputs) -> anyhow::Result<Flow> {
         let mut announced = false;
         inputs.drain(|row, message, checked| announced |= self.take(row, message, checked))?;
+        if let Some(journal) = &mut self.journal {
+            journal.tend()?;
+        }
         self.rejected.flush(Instant::now());
         // A publisher that announced its end has done its work: sample its CPU time now,
         // before it exits (see `resources`).
@@ -225,15 +293,32 @@ impl Recorder {
     /// it announced the end of one of the streams.
     fn take(
         &mut self,
-        row: &TopicRow,
+        row: &'static TopicRow,
         message: Message<'_>,
         checked: Result<(), validate::Rejection>,
+    ) -> bool {
+        self.take_message(row, message, checked, true)
+    }
+
+    /// As [`Recorder::take`]; `live` when it just arrived (else it comes from the
+    /// journal: neither journaled again nor timed).
+    fn take_message(
+        &mut self,
+        row: &'static TopicRow,
+        message: Message<'_>,
+        checked: Result<(), validate::Rejection>,
+        live: bool,
     ) -> bool {
         if self.repeat(row, message.header()) {
             return false;
         }
+        if live {
+            if let Some(journal) = &mut self.journal {
+                journal.add(row, message);
+            }
+            self.time(message);
+        }
         let announced = self.ends.note(row, message);
-        self.time(message);
         let unusable = self.rec.lidar.note(message, checked.is_ok());
         if unusable && self.rec.lidar.unusable == 1 && matches!(message, Message::Scan(..)) {
             tracing::warn!(
@@ -259,8 +344,11 @@ impl Recorder {
     /// service send again what a resumed service or a restarted bridge may lack (see
     /// [`Repeats`]); the truth is never sent again.
     fn repeat(&mut self, row: &TopicRow, header: Header) -> bool {
-        match row.stream {
-            Some(id) if row.publisher != Publisher::Truth => !self.seen.fresh(id, header),
+        match (row.stream, &mut self.resumed) {
+            // Of a stream where the newest counts, an older one is moot.
+            (Some(id), _) if journal::snapshot(id) => !self.seen.fresh(id, header),
+            (Some(id), Some(taken)) => !taken.insert((id as u32, header.seq, header.stamp_ns)),
+            (Some(id), None) if row.publisher != Publisher::Truth => !self.seen.fresh(id, header),
             _ => false,
         }
     }
@@ -298,13 +386,16 @@ impl Recorder {
     }
 
     /// The recording with its latencies and the processes' usage, and the MCAP file.
-    fn finish(mut self, ipc: &Ipc) -> (Recording, RunMcap) {
+    fn finish(mut self, ipc: &Ipc) -> (Recording, RunMcap, Option<Journal>) {
         self.rejected.flush_all();
         self.monitor.sample(ipc);
         self.rec.latencies = self.latency.latencies().to_vec();
         self.rec.streamed_s = self.latency.streamed_s();
         self.rec.processes = self.monitor.usage();
-        (self.rec, self.mcap)
+        if self.resumed.is_some() {
+            self.rec.sort_by_stamp();
+        }
+        (self.rec, self.mcap, self.journal)
     }
 }
 

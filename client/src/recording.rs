@@ -154,6 +154,17 @@ impl Recording {
         }
     }
 
+    /// Puts the streams recorded in stamp order (stable: equal stamps keep their order),
+    /// as a client that resumed a run takes them out of order.
+    pub fn sort_by_stamp(&mut self) {
+        self.truth.sort_by_key(|p| p.stamp_ns);
+        self.dead_reckoning.sort_by_key(|p| p.stamp_ns);
+        self.controls.sort_by_key(|c| c.stamp_ns);
+        self.sightings.sort_by_key(|s| s.stamp_ns);
+        self.estimates.sort_by_key(|e| e.pose.stamp_ns);
+        self.status.sort_by_key(|s| s.stamp_ns);
+    }
+
     /// Keeps a smoothed trajectory (replacing the previous one).
     pub fn set_smoothed(&mut self, h: &TrajectoryHeader, poses: &[TrajectoryPose]) {
         self.smoothed = (poses.iter())

@@ -12,7 +12,7 @@
 //! messages rather than block. It exits once every stream of the stack has ended.
 
 use crate::foxglove_log::RunLog;
-use crate::inputs::{Ends, Inputs, TRUTH_WAIT_S, TruthWait};
+use crate::inputs::{Ends, Inputs, Opening, TRUTH_WAIT_S, TruthWait};
 use fastslam_protocol::ipc::{Flow, Ipc};
 use fastslam_protocol::message::Message;
 use fastslam_protocol::topics::{self, Topic};
@@ -81,7 +81,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Duration::from_secs_f64(args.wait_timeout_s.max(0.0)),
     )?;
     let truth = TruthWait::Within(Duration::from_secs_f64(TRUTH_WAIT_S));
-    let inputs = Inputs::open(&ipc, truth)?;
+    let opening = Opening::Wait {
+        truth,
+        resend: false,
+    };
+    let inputs = Inputs::open(&ipc, opening)?;
     let mut newest = Newest::default();
     let mut ends = inputs.ends();
     let mut published = Instant::now();

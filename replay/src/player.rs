@@ -103,18 +103,23 @@ pub fn play(ipc: &Ipc, data: &DataSet, pacing: Pacing, consumers: usize) -> Resu
     let out = Outputs {
         truth: match has_truth {
             true => Some(Truth {
-                poses: ipc.publisher(&topics::GROUND_TRUTH)?,
-                landmarks: ipc.slice_publisher(&topics::TRUE_LANDMARKS)?,
+                poses: ipc.publisher(&topics::GROUND_TRUTH)?.kept_for_client(ipc)?,
+                landmarks: (ipc.slice_publisher(&topics::TRUE_LANDMARKS)?).kept_for_client(ipc)?,
             }),
             false => None,
         },
-        odometry: ipc.publisher(&topics::ODOMETRY)?,
+        odometry: ipc.publisher(&topics::ODOMETRY)?.kept_for_client(ipc)?,
         laser: if data.raw_scans.is_empty() {
-            Laser::Observations(ipc.slice_publisher(&topics::OBSERVATIONS)?)
+            Laser::Observations(
+                ipc.slice_publisher(&topics::OBSERVATIONS)?
+                    .kept_for_client(ipc)?,
+            )
         } else {
-            Laser::Scans(ipc.slice_publisher(&topics::SCAN)?)
+            Laser::Scans(ipc.slice_publisher(&topics::SCAN)?.kept_for_client(ipc)?)
         },
-        eos: ipc.publisher(&topics::END_OF_STREAM)?,
+        eos: ipc
+            .publisher(&topics::END_OF_STREAM)?
+            .kept_for_client(ipc)?,
     };
     out.odometry.wait_for_subscribers(ipc, consumers)?;
     match &out.laser {
@@ -193,6 +198,8 @@ pub fn play(ipc: &Ipc, data: &DataSet, pacing: Pacing, consumers: usize) -> Resu
     {
         out.eos.send(EndOfStream::new(stream, last))?;
     }
+    // A client that dies now and is started again asks for what it missed.
+    ipc.wait_for_client()?;
     tracing::info!(
         data_s = (last_ns - first_ns) as f64 * 1e-9,
         wall_s = started.elapsed().as_secs_f64(),

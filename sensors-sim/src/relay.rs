@@ -159,7 +159,7 @@ impl SensorProcess {
     ) -> anyhow::Result<Self> {
         let (scenario, seed) = args.scenario()?;
         let ipc = Ipc::open(&args.stack.stack(), name, args.wait_timeout())?;
-        let eos = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
+        let eos = (ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?).kept_for_client(&ipc)?;
         let wait_subscribers = args.wait_subscribers;
         Ok(Self {
             scenario,

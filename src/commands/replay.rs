@@ -219,7 +219,12 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         let mut argv = vec![name.to_string()];
         argv.extend(flags);
         argv.extend(role.wait_flags(args.launch.live.live));
-        stack.spawn(name, &exe, &argv, &logs.join(format!("{name}.log")))?;
+        let log = logs.join(format!("{name}.log"));
+        stack.spawn(name, &exe, &argv, &log)?;
+        if name == "client" {
+            // A client that dies is started again and resumes the run from its journal.
+            stack.restart_when_killed(name, &exe, &argv, &log, "--resume");
+        }
     }
     let outcome = stack.wait(&stop, args.launch.timeout_s.map(Duration::from_secs_f64));
     drop(stack);

@@ -44,6 +44,7 @@ fn run_scans(args: &Args, spec: LidarSpec) -> anyhow::Result<()> {
     let scans = process
         .ipc
         .slice_publisher::<LaserScanHeader, f32>(&topics::SCAN)?
+        .kept_for_client(&process.ipc)?
         .coalescing();
     let scenario = &process.scenario;
     let rng = stream(process.seed, &[streams::LIDAR]);
@@ -67,6 +68,7 @@ fn run_features(args: &Args) -> anyhow::Result<()> {
     let observations = process
         .ipc
         .slice_publisher::<ObservationsHeader, Observation>(&topics::OBSERVATIONS)?
+        .kept_for_client(&process.ipc)?
         .coalescing();
     let mut sensor = LandmarkSensor::for_scenario(&process.scenario, process.seed);
     process.relay(&observations, |gt, seq| {

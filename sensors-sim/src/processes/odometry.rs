@@ -28,7 +28,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let odometry = process
         .ipc
         .publisher::<Odometry>(&topics::ODOMETRY)?
-        .coalescing();
+        .coalescing()
+        .kept_for_client(&process.ipc)?;
     let mut sensor = OdometrySensor::for_scenario(&process.scenario, process.seed);
     process.relay(&odometry, |gt, _| Ok(Some(sensor.measure(gt))))
 }

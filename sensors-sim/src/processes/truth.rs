@@ -43,10 +43,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // As fast as possible, several samples share a wake-up of the sensors and the client.
     let truth = ipc
         .publisher::<GroundTruth>(&topics::GROUND_TRUTH)?
-        .coalescing();
-    let landmarks =
-        ipc.slice_publisher::<LandmarkMapHeader, MapLandmark>(&topics::TRUE_LANDMARKS)?;
-    let eos = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
+        .coalescing()
+        .kept_for_client(&ipc)?;
+    let landmarks = (ipc
+        .slice_publisher::<LandmarkMapHeader, MapLandmark>(&topics::TRUE_LANDMARKS)?)
+    .kept_for_client(&ipc)?;
+    let eos = (ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?).kept_for_client(&ipc)?;
     truth.wait_for_subscribers(&ipc, args.sim.wait_subscribers)?;
 
     let map = true_map(&scenario);

@@ -49,16 +49,27 @@ impl Outputs {
     pub(crate) fn open(ipc: &Ipc) -> anyhow::Result<Self> {
         Ok(Self {
             // As fast as possible, the pose and status of several steps share a wake-up.
-            pose: ipc.publisher(&topics::POSE)?.coalescing(),
+            pose: ipc
+                .publisher(&topics::POSE)?
+                .coalescing()
+                .kept_for_client(ipc)?,
             map_get: ipc.slice_server(&topics::MAP_GET)?,
-            map: ipc.slice_publisher(&topics::MAP)?,
-            grid: ipc.slice_publisher(&topics::GRID)?,
-            smoothed_trajectory: ipc.slice_publisher(&topics::SMOOTHED_TRAJECTORY)?,
-            smoothed_map: ipc.slice_publisher(&topics::SMOOTHED_MAP)?,
-            particles: ipc.slice_publisher(&topics::PARTICLES)?,
-            status: ipc.publisher(&topics::STATUS)?.coalescing(),
+            map: ipc.slice_publisher(&topics::MAP)?.kept_for_client(ipc)?,
+            grid: ipc.slice_publisher(&topics::GRID)?.kept_for_client(ipc)?,
+            smoothed_trajectory: (ipc.slice_publisher(&topics::SMOOTHED_TRAJECTORY)?)
+                .kept_for_client(ipc)?,
+            smoothed_map: (ipc.slice_publisher(&topics::SMOOTHED_MAP)?).kept_for_client(ipc)?,
+            particles: ipc
+                .slice_publisher(&topics::PARTICLES)?
+                .kept_for_client(ipc)?,
+            status: ipc
+                .publisher(&topics::STATUS)?
+                .coalescing()
+                .kept_for_client(ipc)?,
             checkpoint: ipc.newest_only_publisher(&topics::CHECKPOINT)?,
-            eos: ipc.publisher(&topics::END_OF_STREAM)?,
+            eos: ipc
+                .publisher(&topics::END_OF_STREAM)?
+                .kept_for_client(ipc)?,
             last_pose: None,
             last_map: None,
             last_grid: None,

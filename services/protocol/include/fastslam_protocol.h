@@ -329,6 +329,24 @@ _Static_assert(offsetof(fastslam_Checkpointed, stream_count) == 16, "fastslam_Ch
 _Static_assert(offsetof(fastslam_Checkpointed, resume) == 20, "fastslam_Checkpointed must match the Rust layout");
 _Static_assert(offsetof(fastslam_Checkpointed, covered) == 24, "fastslam_Checkpointed must match the Rust layout");
 
+/* fastslam::ClientNotice: what the client has recorded; a restarted client's request */
+#define FASTSLAM_CLIENT_NOTICE_TYPE_NAME "fastslam::ClientNotice"
+typedef struct fastslam_ClientNotice {
+    fastslam_Header header;
+    uint64_t restarts; /* —: how many times the client recording this run was started again after it died */
+    uint64_t recorded[12]; /* —: per stream (index: `EndOfStream.stream`'s value), the sequence number below which every message is recorded; for maps, grids and smoothed trajectories, one past the newest recorded */
+    uint64_t ended; /* —: bit `s` set: the end of stream `s` is recorded */
+    uint64_t finished; /* —: 1 once the client has written its run folder */
+} fastslam_ClientNotice;
+_Static_assert(sizeof(fastslam_ClientNotice) == 136, "fastslam_ClientNotice must match the Rust layout");
+_Static_assert(_Alignof(fastslam_ClientNotice) == 8, "fastslam_ClientNotice must match the Rust layout");
+_Static_assert(offsetof(fastslam_ClientNotice, header.stamp_ns) == 0, "fastslam_ClientNotice must match the Rust layout");
+_Static_assert(offsetof(fastslam_ClientNotice, header.seq) == 8, "fastslam_ClientNotice must match the Rust layout");
+_Static_assert(offsetof(fastslam_ClientNotice, restarts) == 16, "fastslam_ClientNotice must match the Rust layout");
+_Static_assert(offsetof(fastslam_ClientNotice, recorded) == 24, "fastslam_ClientNotice must match the Rust layout");
+_Static_assert(offsetof(fastslam_ClientNotice, ended) == 120, "fastslam_ClientNotice must match the Rust layout");
+_Static_assert(offsetof(fastslam_ClientNotice, finished) == 128, "fastslam_ClientNotice must match the Rust layout");
+
 /* fastslam::EndOfStream: "this stream is finished" */
 #define FASTSLAM_END_OF_STREAM_TYPE_NAME "fastslam::EndOfStream"
 typedef struct fastslam_EndOfStream {

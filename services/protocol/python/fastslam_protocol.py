@@ -302,6 +302,24 @@ class Checkpointed(ctypes.Structure):
         return "fastslam::Checkpointed"
 
 
+class ClientNotice(ctypes.Structure):
+    """`fastslam::ClientNotice` (136 bytes, alignment 8): what the client has recorded; a restarted client's request."""
+
+    _fields_ = [
+        ("header", Header),
+        ("restarts", ctypes.c_uint64),  # —: how many times the client recording this run was started again after it died
+        ("recorded", ctypes.c_uint64 * 12),  # —: per stream (index: `EndOfStream.stream`'s value), the sequence number below which every message is recorded; for maps, grids and smoothed trajectories, one past the newest recorded
+        ("ended", ctypes.c_uint64),  # —: bit `s` set: the end of stream `s` is recorded
+        ("finished", ctypes.c_uint64),  # —: 1 once the client has written its run folder
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        """The iceoryx2 type name, as the Rust side declares it."""
+
+        return "fastslam::ClientNotice"
+
+
 class EndOfStream(ctypes.Structure):
     """`fastslam::EndOfStream` (24 bytes, alignment 8): "this stream is finished"."""
 
@@ -441,6 +459,7 @@ LAYOUTS = {
     ServiceStatus: (376, 8, {"header": 0, "steps": 16, "resamplings": 24, "n_eff": 32, "particles": 40, "distinct_particles": 44, "landmarks": 48, "step_time_ns": 56, "flags": 64, "nis_dof": 68, "rejections": 72, "nis": 200, "stream_count": 208, "torn_solves": 212, "streams": 216, "noise_profile": 312, "noise_fitted": 344}),
     StreamCovered: (16, 8, {"stream": 0, "reserved": 4, "covered_ns": 8}),
     Checkpointed: (88, 8, {"header": 0, "stream_count": 16, "resume": 20, "covered": 24}),
+    ClientNotice: (136, 8, {"header": 0, "restarts": 16, "recorded": 24, "ended": 120, "finished": 128}),
     EndOfStream: (24, 8, {"header": 0, "stream": 16, "reserved": 20}),
     LaserScanHeader: (48, 8, {"header": 0, "angle_min": 16, "angle_increment": 20, "time_increment": 24, "scan_time": 28, "range_min": 32, "range_max": 36, "ranges": 40, "intensities": 44}),
     OccupancyGridHeader: (56, 8, {"header": 0, "resolution": 16, "origin_x": 24, "origin_y": 32, "origin_theta": 40, "width": 48, "height": 52}),

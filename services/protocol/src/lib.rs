@@ -17,6 +17,7 @@
 
 #[cfg(feature = "cli")]
 pub mod cli;
+pub mod client_notice;
 pub mod grid;
 pub mod header;
 #[cfg(feature = "ipc")]
@@ -33,6 +34,7 @@ pub mod topics;
 pub mod trajectory;
 pub mod validate;
 
+pub use client_notice::ClientNotice;
 pub use grid::OccupancyGridHeader;
 pub use header::Header;
 pub use landmarks::{LandmarkMapHeader, MapLandmark, MapRequest, Observation, ObservationsHeader};

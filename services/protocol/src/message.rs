@@ -7,9 +7,9 @@
 
 use crate::validate::Rejection;
 use crate::{
-    Checkpointed, EndOfStream, GroundTruth, Header, LandmarkMapHeader, LaserScanHeader,
-    MapLandmark, Observation, ObservationsHeader, OccupancyGridHeader, Odometry, Particle,
-    ParticlesHeader, PoseEstimate, ServiceStatus, TrajectoryHeader, TrajectoryPose,
+    Checkpointed, ClientNotice, EndOfStream, GroundTruth, Header, LandmarkMapHeader,
+    LaserScanHeader, MapLandmark, Observation, ObservationsHeader, OccupancyGridHeader, Odometry,
+    Particle, ParticlesHeader, PoseEstimate, ServiceStatus, TrajectoryHeader, TrajectoryPose,
 };
 use bytemuck::Pod;
 use iceoryx2::prelude::ZeroCopySend;
@@ -40,6 +40,8 @@ pub enum Message<'a> {
     Status(&'a ServiceStatus),
     /// A [`Checkpointed`] note.
     Checkpointed(&'a Checkpointed),
+    /// A [`ClientNotice`].
+    ClientNotice(&'a ClientNotice),
     /// An [`EndOfStream`].
     EndOfStream(&'a EndOfStream),
 }
@@ -59,9 +61,40 @@ impl Message<'_> {
             Self::Particles(h, _) => h.header,
             Self::Status(m) => m.header,
             Self::Checkpointed(m) => m.header,
+            Self::ClientNotice(m) => m.header,
             Self::EndOfStream(m) => m.header,
         }
     }
+}
+
+impl Message<'_> {
+    /// Appends its bytes to `out`: the message as it lies in shared memory, or the
+    /// header followed by the slice (what [`Fixed`]/[`Slice`] payloads read back with
+    /// `bytemuck`).
+    pub fn write_bytes(&self, out: &mut Vec<u8>) {
+        use bytemuck::bytes_of;
+        match *self {
+            Self::GroundTruth(m) => out.extend_from_slice(bytes_of(m)),
+            Self::Odometry(m) => out.extend_from_slice(bytes_of(m)),
+            Self::Pose(m) => out.extend_from_slice(bytes_of(m)),
+            Self::Status(m) => out.extend_from_slice(bytes_of(m)),
+            Self::Checkpointed(m) => out.extend_from_slice(bytes_of(m)),
+            Self::ClientNotice(m) => out.extend_from_slice(bytes_of(m)),
+            Self::EndOfStream(m) => out.extend_from_slice(bytes_of(m)),
+            Self::Observations(h, items) => slice_bytes(h, items, out),
+            Self::Scan(h, items) => slice_bytes(h, items, out),
+            Self::LandmarkMap(h, items) => slice_bytes(h, items, out),
+            Self::Grid(h, items) => slice_bytes(h, items, out),
+            Self::Trajectory(h, items) => slice_bytes(h, items, out),
+            Self::Particles(h, items) => slice_bytes(h, items, out),
+        }
+    }
+}
+
+/// Appends a slice message's header and then its items to `out`.
+fn slice_bytes<H: Pod, T: Pod>(header: &H, items: &[T], out: &mut Vec<u8>) {
+    out.extend_from_slice(bytemuck::bytes_of(header));
+    out.extend_from_slice(bytemuck::cast_slice(items));
 }
 
 /// A message type that travels alone on its topic.
@@ -127,6 +160,7 @@ fixed_messages!(
     PoseEstimate => Pose,
     ServiceStatus => Status,
     Checkpointed => Checkpointed,
+    ClientNotice => ClientNotice,
     EndOfStream => EndOfStream,
 );
 

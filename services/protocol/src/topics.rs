@@ -134,6 +134,16 @@ pub const CHECKPOINT: Topic = Topic {
     history: 1,
     initial_slice_len: 1,
 };
+/// [`crate::ClientNotice`] from the client: what it has recorded, and that it was
+/// started again. Every process that publishes for the client subscribes once; the
+/// client never waits on it, so the buffer is ample, and the newest stays in history for
+/// a publisher that starts later.
+pub const CLIENT_NOTICE: Topic = Topic {
+    name: "client/notice",
+    buffer: 64,
+    history: 1,
+    initial_slice_len: 1,
+};
 /// [`crate::EndOfStream`] from every publisher of a finite stream.
 pub const END_OF_STREAM: Topic = Topic {
     name: "end_of_stream",
@@ -301,6 +311,18 @@ pub const MAP_GET: RequestResponse = RequestResponse {
 /// The full service name of `topic` under `prefix`.
 pub fn service_name(prefix: &str, topic: &str) -> String {
     format!("{prefix}/{topic}")
+}
+
+/// The service on which the publishers of `topic` send again, to a client started again
+/// after a crash, what it had not recorded ([`crate::ClientNotice`]): `<topic>/resend`,
+/// with the topic's settings but no history. Its name is made once per call and lives as
+/// long as the process (a process opens a handful).
+pub fn resend(topic: &Topic) -> Topic {
+    Topic {
+        name: Box::leak(format!("{}/resend", topic.name).into_boxed_str()),
+        history: 0,
+        ..*topic
+    }
 }
 
 #[cfg(test)]

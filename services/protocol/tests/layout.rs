@@ -40,6 +40,7 @@ fn rust_layouts() -> Vec<Layout> {
         layout!(MapRequest: reserved),
         layout!(StreamCovered: stream, reserved, covered_ns),
         layout!(Checkpointed: header.stamp_ns, header.seq, stream_count, resume, covered),
+        layout!(ClientNotice: header.stamp_ns, header.seq, restarts, recorded, ended, finished),
         layout!(StreamStatus: stream, queued, last_input_ns, quiet, reserved),
         layout!(ServiceStatus: header.stamp_ns, header.seq, steps, resamplings, n_eff, particles,
             distinct_particles, landmarks, step_time_ns, flags, nis_dof, rejections, nis,

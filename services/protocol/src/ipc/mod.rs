@@ -13,12 +13,14 @@
 //! - `mismatch`: why a service another process created cannot be opened;
 //! - `wake`: the loop that sleeps until samples arrive ([`Ipc::wake_loop`]);
 //! - `publisher`: [`Pub`], lossless and optionally coalescing wake-ups;
+//! - `kept`: what a publisher keeps for the client and sends again when it restarts;
 //! - `subscriber`: [`Sub`], [`HoldingSub`] and publisher probes;
 //! - `request_response`: [`SliceServer`] and [`Ipc::request_slice`];
 //! - `wire`: [`Wire`], one API over fixed-size and slice payloads;
 //! - `error`: [`IpcError`].
 
 mod error;
+mod kept;
 mod mismatch;
 mod node;
 mod publisher;

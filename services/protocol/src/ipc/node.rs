@@ -2,13 +2,18 @@
 //! wait timeout bounds and a signal cuts short, and the opening of the services behind
 //! every topic.
 
+#[cfg(doc)]
+use super::Pub;
+use super::kept::Notices;
 use super::{IpcError, Result, Service, StackConfig, Wire, iox_err, mismatch, shutdown, stack};
 use crate::topics::{self, Topic};
 use iceoryx2::node::NodeWaitFailure;
 use iceoryx2::prelude::*;
 use iceoryx2::service::port_factory::publish_subscribe::PortFactory;
 use iceoryx2::service::static_config::message_type_details::{TypeDetail, TypeVariant};
+use std::cell::OnceCell;
 use std::fmt::Debug;
+use std::rc::Rc;
 use std::time::{Duration, Instant};
 
 /// One process's connection to a stack: an iceoryx2 node under the stack's config.
@@ -18,6 +23,8 @@ pub struct Ipc {
     wait_timeout: Duration,
     pub(super) busy_poll: bool,
     pub(super) spin: Duration,
+    /// The client's notices, subscribed to once the first publisher keeps for it.
+    notices: OnceCell<Rc<Notices>>,
 }
 
 impl Ipc {
@@ -46,6 +53,7 @@ impl Ipc {
             wait_timeout,
             busy_poll: false,
             spin: Duration::ZERO,
+            notices: OnceCell::new(),
         })
     }
 
@@ -120,6 +128,42 @@ impl Ipc {
             if Instant::now() >= until {
                 return Ok(());
             }
+        }
+    }
+
+    /// The process's subscription to the client's notices ([`Pub::kept_for_client`]).
+    pub(super) fn client_notices(&self) -> Result<Rc<Notices>> {
+        if let Some(n) = self.notices.get() {
+            return Ok(n.clone());
+        }
+        let n = Rc::new(Notices::open(self)?);
+        Ok(self.notices.get_or_init(|| n).clone())
+    }
+
+    /// Tends what this process's publishers keep for the client; true while one of them
+    /// keeps messages a client that died may still ask for.
+    pub(super) fn tend_kept(&self) -> Result<bool> {
+        self.notices.get().map_or(Ok(false), |n| n.tend_all())
+    }
+
+    /// Waits, up to the wait timeout, until the client has recorded everything this
+    /// process's publishers keep for it ([`Pub::kept_for_client`]): a process that does
+    /// not wait for its subscribers to leave calls it before it exits, so that a client
+    /// started again after a crash can still ask. A timeout is logged, not an error.
+    ///
+    /// # Errors
+    /// [`IpcError::Shutdown`] on a signal, IPC failures.
+    pub fn wait_for_client(&self) -> Result<()> {
+        let waited = self.wait_for(
+            || "the client to record what was kept for it".into(),
+            || Ok((!self.tend_kept()?).then_some(())),
+        );
+        match waited {
+            Err(IpcError::Timeout { what, waited }) => {
+                tracing::warn!(?waited, "gave up waiting for {what}");
+                Ok(())
+            }
+            other => other,
         }
     }
 

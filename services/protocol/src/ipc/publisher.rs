@@ -4,8 +4,10 @@
 
 #[cfg(doc)]
 use super::Sub;
+use super::kept::Kept;
 use super::{Ipc, IpcError, Result, Service, Wire, iox_err, shutdown};
-use crate::topics::Topic;
+use crate::message::{FixedMessage, SliceMessage};
+use crate::topics::{self, Topic};
 use iceoryx2::config::Config;
 use iceoryx2::node::{NodeState, NodeView};
 use iceoryx2::port::notifier::Notifier;
@@ -17,6 +19,7 @@ use iceoryx2::service::port_factory::publish_subscribe::PortFactory;
 use std::cell::Cell;
 use std::collections::{HashMap, HashSet};
 use std::fmt::Debug;
+use std::rc::Rc;
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
@@ -63,7 +66,7 @@ pub struct Pub<P: Wire + ?Sized, H: Debug + ZeroCopySend + 'static> {
     service: PortFactory<Service, P, H>,
     publisher: Publisher<Service, P, H>,
     notifier: Notifier<Service>,
-    topic: &'static str,
+    pub(super) topic: &'static str,
     /// Wake-ups sent at most once per this period ([`Pub::coalescing`]); `None`: one per
     /// sample.
     coalesce: Option<Duration>,
@@ -79,6 +82,10 @@ pub struct Pub<P: Wire + ?Sized, H: Debug + ZeroCopySend + 'static> {
     learnt: Cell<(usize, Option<Instant>)>,
     /// The stack's iceoryx2 configuration (to list its nodes).
     config: Config,
+    /// The topic's settings.
+    settings: Topic,
+    /// What is kept for the client ([`Pub::kept_for_client`]).
+    kept: Option<Rc<Kept<P, H>>>,
 }
 
 /// What a publisher does when a subscriber's buffer is full.
@@ -239,7 +246,22 @@ where
             watch,
             learnt: Cell::new((0, None)),
             config,
+            settings: *topic,
+            kept: None,
         })
+    }
+
+    /// This publisher, keeping every message it sends for the client until the client's
+    /// notices say it recorded it, and sending what it keeps again, on the topic's
+    /// resend service, to a client started again after a crash (see
+    /// [`crate::ClientNotice`]). Nothing is kept before a client has given notice.
+    ///
+    /// # Errors
+    /// As [`Ipc::publisher`], for the resend service and the notices.
+    pub fn kept_for_client(mut self, ipc: &Ipc) -> Result<Self> {
+        let resend = Self::open(ipc, &topics::resend(&self.settings), Full::Wait)?;
+        self.kept = Some(Kept::open(ipc, &self.settings, resend)?);
+        Ok(self)
     }
 
     /// This publisher, waking its subscribers at most once per [`COALESCING_PERIOD`]
@@ -360,10 +382,20 @@ where
         mut look: impl FnMut() -> Result<Option<Subscribers>>,
     ) -> Result<()> {
         let mut outsiders_since = None;
+        let mut told = false;
         let left = ipc.wait_for(
             || format!("the subscribers of {} to leave", self.topic),
             || {
+                // A client that died may be started again and ask for what it missed.
+                let keeping = ipc.tend_kept()?;
                 let seen = look()?.filter(|seen| seen.alive == 0);
+                if keeping && seen.is_some() && !std::mem::replace(&mut told, true) {
+                    tracing::warn!(
+                        "the client died before it recorded everything: keeping what it \
+                         missed for a client started again (`client --resume`)"
+                    );
+                }
+                let seen = seen.filter(|_| !keeping);
                 let Some(Subscribers { outside, .. }) = seen else {
                     return Ok(None);
                 };
@@ -474,7 +506,7 @@ fn retry_unless_dead_or_shutting_down(
     }
 }
 
-impl<T: Debug + ZeroCopySend + 'static> Pub<T, ()> {
+impl<T: FixedMessage> Pub<T, ()> {
     /// Publishes one message and wakes the subscribers.
     ///
     /// # Errors
@@ -484,13 +516,17 @@ impl<T: Debug + ZeroCopySend + 'static> Pub<T, ()> {
         self.publisher
             .send_copy(value)
             .map_err(iox_err(format!("send on {}", self.topic)))?;
-        self.notify()
+        self.notify()?;
+        match &self.kept {
+            Some(kept) => kept.keep(value.message(), size_of::<T>(), move |p| p.send(value)),
+            None => Ok(()),
+        }
     }
 }
 
 impl<H, T> Pub<[T], H>
 where
-    H: Debug + ZeroCopySend + Default + 'static,
+    H: SliceMessage<Item = T>,
     T: Debug + ZeroCopySend + Copy + 'static,
 {
     /// Publishes `header` with `items` and wakes the subscribers. The items are written
@@ -509,7 +545,13 @@ where
         sample
             .send()
             .map_err(iox_err(format!("send on {}", self.topic)))?;
-        self.notify()
+        self.notify()?;
+        let Some(kept) = &self.kept else {
+            return Ok(());
+        };
+        let bytes = size_of::<H>() + size_of_val(items);
+        let copy = items.to_vec();
+        kept.keep(header.message(items), bytes, move |p| p.send(header, &copy))
     }
 }
 

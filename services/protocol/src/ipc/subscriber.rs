@@ -52,6 +52,19 @@ impl Ipc {
         Sub::open_now(self, topic)
     }
 
+    /// Opens a subscriber for a header `H` plus a slice of `T` on `topic` without waiting
+    /// for a publisher (see [`Ipc::optional_subscriber`]).
+    ///
+    /// # Errors
+    /// As [`Ipc::publisher`].
+    pub fn optional_slice_subscriber<H, T>(&self, topic: &Topic) -> Result<Sub<[T], H>>
+    where
+        H: Debug + ZeroCopySend + 'static,
+        T: Debug + ZeroCopySend + 'static,
+    {
+        Sub::open_now(self, topic)
+    }
+
     /// Opens a subscriber for a header `H` plus a slice of `T` on `topic`; see
     /// [`Ipc::subscriber`].
     ///
