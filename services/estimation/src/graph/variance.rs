@@ -44,7 +44,7 @@ pub const SETTLED: f64 = 0.05;
 /// Most rounds (re-weighted solves).
 const ROUNDS: usize = 5;
 /// Seed of the probes.
-const PROBE_SEED: u64 = 0x5eed_0f_7ace;
+const PROBE_SEED: u64 = 0x005e_ed0f_7ace;
 /// A group's variance factor at or above this blames it (σ 41 % above the model's).
 pub const SUSPECT_SCALE: f64 = 2.0;
 /// Fewest redundant residuals a group needs for a verdict.
