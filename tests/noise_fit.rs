@@ -1,8 +1,9 @@
 //! The noise fit and the noise check's suspect on simulated runs in process: with the
 //! sensor's or the odometry's noise configured four times too small (σ), the check names
 //! that source and the fitted noise lies within 30 % of the simulator's — the smoothing
-//! back-end's variance components (docs/ALGORITHMS.md §1, "Noise fit"; §8.4). The ignored
-//! tests print the measurements the docs quote.
+//! back-end's variance components (docs/ALGORITHMS.md §1, "Noise fit"; §8.4). A recorded
+//! robot with the profile fitted on it names no suspect. The ignored tests print the
+//! measurements the docs quote.
 
 use fastslam_client::Metrics;
 use fastslam_sensors_sim::Scenario;
@@ -92,23 +93,43 @@ fn show(what: &str, m: &Metrics) {
     );
 }
 
-#[test]
-#[ignore = "measurement: MRCLAM robot 1, known association, adapt off and on, five seeds"]
-fn measure_mrclam() {
+/// MRCLAM robot 1 under known association with its profile, seed `seed`, `adapt` set.
+fn run_mrclam(seed: u64, adapt: bool) -> Metrics {
     let set = fastslam_replay::registry::find("mrclam").unwrap();
     let association = fastslam_replay::dataset::Association::Known;
     let source = offline::Source::replay(set, None, 1, association, None).unwrap();
+    let overrides = Overrides {
+        seed: Some(seed),
+        ..Overrides::default()
+    };
+    let mut config = source.service_config(None, &overrides).unwrap();
+    config.filter.noise.adapt = adapt;
+    offline::run_in_process(&source, seed, &config)
+        .unwrap()
+        .metrics
+}
+
+#[test]
+fn a_recorded_robot_with_its_profile_names_no_suspect() {
+    // The profile is fitted on this robot: the back-end finds its odometry as modelled
+    // and its sensor better than modelled, which is no suspect.
+    let f = run_mrclam(1, false).filter;
+    assert_eq!(
+        (f.nis_suspect.as_str(), f.noise_fit.as_str()),
+        ("", "smoother")
+    );
+    assert!(
+        within_30_percent(&f.noise_fitted, &f.noise_profile, 0..2),
+        "{f:?}"
+    );
+}
+
+#[test]
+#[ignore = "measurement: MRCLAM robot 1, known association, adapt off and on, five seeds"]
+fn measure_mrclam() {
     for adapt in [false, true] {
         for seed in 1..=5 {
-            let overrides = Overrides {
-                seed: Some(seed),
-                ..Overrides::default()
-            };
-            let mut config = source.service_config(None, &overrides).unwrap();
-            config.filter.noise.adapt = adapt;
-            let m = offline::run_in_process(&source, seed, &config)
-                .unwrap()
-                .metrics;
+            let m = run_mrclam(seed, adapt);
             show(&format!("mrclam adapt {adapt} seed {seed}"), &m);
         }
     }

@@ -169,8 +169,8 @@ impl Health {
     }
 
     /// The status sent at shutdown: [`Health::now`], flagged [`flags::FINAL`] (not a step)
-    /// and with the landmark count, torn solves and noise fit as they are now (the back-end's last
-    /// solve included).
+    /// and with the landmark count, torn solves and noise fit as they are now (the
+    /// back-end's last solve included).
     pub fn final_status(&mut self, slam: &Slam, seq: &Sequencer) -> ServiceStatus {
         self.set_torn(slam);
         self.set_noise(slam);
