@@ -13,6 +13,7 @@ use crate::resources::ProcessUsage;
 use crate::stats::{Spread, mean};
 use fastslam_estimation::wrap_angle;
 use fastslam_protocol::MapLandmark;
+use fastslam_protocol::status::{noise_fit, noise_suspect};
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -160,8 +161,10 @@ pub struct FilterHealth {
     /// a whole window).
     #[serde(deserialize_with = "crate::json_number::number")]
     pub nis_high_fraction: f64,
-    /// Where the noise check points when it failed: `odometry` (the pose term dominates
-    /// the innovations), `sensor`, or empty when it never failed.
+    /// Where the noise check points: with the smoothing back-end's fit (`noise_fit` is
+    /// `smoother`), the source whose variance component is at least twice the model's
+    /// (the larger); else, when the NIS check failed, the suspect of most failed steps.
+    /// `odometry`, `sensor`, or empty.
     pub nis_suspect: String,
     /// Solves of the smoothing back-end withheld as torn (docs/ALGORITHMS.md §8.3).
     #[serde(default)]
@@ -175,6 +178,10 @@ pub struct FilterHealth {
     /// "Noise fit").
     #[serde(default)]
     pub noise_fitted: [f64; 4],
+    /// Where `noise_fitted` comes from: `smoother` (the back-end's variance components
+    /// of its last whole solve), `innovations` (the filter's fit), or empty (no fit).
+    #[serde(default)]
+    pub noise_fit: String,
 }
 
 /// Time and memory the run took.
@@ -436,14 +443,24 @@ pub fn filter_health(rec: &Recording) -> FilterHealth {
                 .collect::<Vec<_>>(),
         ),
         nis_high_fraction: high.len() as f64 / s.len().max(1) as f64,
-        nis_suspect: match high.iter().filter(|x| x.nis_pose).count() {
+        nis_suspect: match (s.last(), high.iter().filter(|x| x.nis_pose).count()) {
+            (Some(last), _) if last.noise_fit == noise_fit::SMOOTHER => match last.noise_suspect {
+                noise_suspect::ODOMETRY => "odometry".into(),
+                noise_suspect::SENSOR => "sensor".into(),
+                _ => String::new(),
+            },
             _ if high.is_empty() => String::new(),
-            pose if 2 * pose >= high.len() => "odometry".into(),
+            (_, pose) if 2 * pose >= high.len() => "odometry".into(),
             _ => "sensor".into(),
         },
         smoother_torn_solves: rec.torn_solves,
         noise_profile: s.last().map_or([0.0; 4], |x| x.noise_profile),
         noise_fitted: s.last().map_or([0.0; 4], |x| x.noise_fitted),
+        noise_fit: match s.last().map(|x| x.noise_fit) {
+            Some(noise_fit::SMOOTHER) => "smoother".into(),
+            Some(noise_fit::INNOVATIONS) => "innovations".into(),
+            _ => String::new(),
+        },
     }
 }
 
@@ -699,6 +716,8 @@ mod tests {
             nis_pose: stamp_ns != 3,
             noise_profile: [0.0; 4],
             noise_fitted: [0.0; 4],
+            noise_fit: 1,
+            noise_suspect: 0,
         }
     }
 
@@ -726,6 +745,16 @@ mod tests {
         assert_eq!(
             h.nis_suspect, "odometry",
             "half the failed steps blame the pose"
+        );
+        assert_eq!(h.noise_fit, "innovations");
+        let mut smoothed = rec.clone();
+        let last = smoothed.status.last_mut().unwrap();
+        (last.noise_fit, last.noise_suspect) = (noise_fit::SMOOTHER, noise_suspect::SENSOR);
+        let h = filter_health(&smoothed);
+        assert_eq!(
+            (h.nis_suspect.as_str(), h.noise_fit.as_str()),
+            ("sensor", "smoother"),
+            "the back-end's verdict stands over the failed steps'"
         );
         let c = cost(&rec);
         assert_eq!(c.step_time_ms.samples, 3);

@@ -307,6 +307,8 @@ mod tests {
                 nis_pose: false,
                 noise_profile: [0.1, 0.5, 0.2, 0.05],
                 noise_fitted: [0.4, 1.3, 0.2, 0.05],
+                noise_fit: 1,
+                noise_suspect: 0,
             }],
             latencies: vec![(200_000_000, 0.003)],
             ..Default::default()

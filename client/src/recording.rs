@@ -129,8 +129,12 @@ pub struct StatusSample {
     pub nis_pose: bool,
     /// The configured noise as standard deviations ([`ServiceStatus::noise_profile`]).
     pub noise_profile: [f64; 4],
-    /// The noise fitted from the innovations ([`ServiceStatus::noise_fitted`]).
+    /// The noise as fitted ([`ServiceStatus::noise_fitted`]).
     pub noise_fitted: [f64; 4],
+    /// Where `noise_fitted` comes from: a [`status::noise_fit`] value.
+    pub noise_fit: u32,
+    /// The source the noise check blames: a [`status::noise_suspect`] value.
+    pub noise_suspect: u32,
 }
 
 impl Recording {
@@ -247,8 +251,9 @@ impl Recording {
     }
 
     /// Adds the status message of an observation step; the service's final status (sent
-    /// at shutdown, not a step) is only logged. Either brings the rejection counts up to
-    /// date.
+    /// at shutdown, not a step) is only logged, and brings the last step's noise fit up
+    /// to date (the back-end's last whole solve). Either brings the rejection counts up
+    /// to date.
     pub fn add_status(&mut self, m: &ServiceStatus) {
         // The counts only grow: the newest status has them all.
         for (count, &now) in self.rejections.iter_mut().zip(&m.rejections) {
@@ -263,6 +268,10 @@ impl Recording {
                 rejected = m.rejections.iter().sum::<u64>(),
                 "final status of the service"
             );
+            if let Some(last) = self.status.last_mut() {
+                last.noise_fitted = m.noise_fitted;
+                (last.noise_fit, last.noise_suspect) = (m.noise_fit, m.noise_suspect);
+            }
             return;
         }
         self.status.push(StatusSample {
@@ -278,6 +287,8 @@ impl Recording {
             nis_pose: m.flags & status::flags::NIS_POSE != 0,
             noise_profile: m.noise_profile,
             noise_fitted: m.noise_fitted,
+            noise_fit: m.noise_fit,
+            noise_suspect: m.noise_suspect,
         });
     }
 }

@@ -8,7 +8,7 @@ use crate::config::ServiceConfig;
 use crate::smoothing::TornSolves;
 use crate::state::EstimatorState;
 use fastslam_estimation::fastslam::{self, StepReport};
-use fastslam_estimation::graph::{Feed, Solution};
+use fastslam_estimation::graph::{Feed, Solution, VarianceComponents};
 use fastslam_estimation::grid::OccupancyGrid;
 use fastslam_estimation::motion::Control;
 use fastslam_estimation::moves::MoveStats;
@@ -91,6 +91,12 @@ pub trait Estimator: std::fmt::Debug + Send {
     /// The back-end's solves withheld as torn (none without a back-end that gates them).
     fn torn_solves(&self) -> TornSolves {
         TornSolves::default()
+    }
+
+    /// The variance components of the back-end's newest whole solve (none without a
+    /// back-end that fits them).
+    fn noise_components(&self) -> Option<VarianceComponents> {
+        None
     }
 
     /// What the back-end was fed so far, for a checkpoint (empty without one).

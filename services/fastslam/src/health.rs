@@ -6,7 +6,9 @@ use crate::checkpoint::Checkpoint;
 use crate::sequencer::Sequencer;
 use crate::slam::{Slam, Step};
 use fastslam_estimation::fastslam::{NIS_WINDOW_SCANS, NisWindow, noise_suspect};
-use fastslam_protocol::status::{REJECTION_KINDS, RejectionKind, ServiceStatus, flags};
+use fastslam_protocol::status::{
+    REJECTION_KINDS, RejectionKind, ServiceStatus, flags, noise_fit, noise_suspect,
+};
 use std::time::{Duration, Instant};
 
 /// Everything behind the status message: step counters, rejections, and
@@ -93,11 +95,10 @@ impl Health {
                 },
             nis_dof: self.nis.dof().min(u64::from(u32::MAX)) as u32,
             nis: self.nis.per_dof(),
-            noise_profile: noise.map_or([0.0; 4], |n| n.profile),
-            noise_fitted: noise.map_or([0.0; 4], |n| n.fitted),
             ..ServiceStatus::default()
         };
         self.set_torn(slam);
+        self.set_noise(slam);
         self.now(seq)
     }
 
@@ -124,6 +125,38 @@ impl Health {
         flags::NIS_HIGH | if pose { flags::NIS_POSE } else { 0 }
     }
 
+    /// Notes in the status the noise fit and the source it blames: the back-end's
+    /// variance components once it has reported a whole solve, else the filter's fit to
+    /// its innovations with the suspect of the failed NIS check (docs/ALGORITHMS.md §1,
+    /// "Noise fit").
+    fn set_noise(&mut self, slam: &Slam) {
+        let status = &mut self.last;
+        let Some(report) = slam.noise() else {
+            (status.noise_fit, status.noise_suspect) = (noise_fit::NONE, noise_suspect::NONE);
+            return;
+        };
+        let blames = match slam.noise_components() {
+            Some(components) => {
+                let [q, r] = components.scales().map(f64::sqrt);
+                let p = report.profile;
+                status.noise_fitted = [p[0] * q, p[1] * q, p[2] * r, p[3] * r];
+                status.noise_fit = noise_fit::SMOOTHER;
+                components.blames_odometry()
+            }
+            None => {
+                status.noise_fitted = report.fitted;
+                status.noise_fit = noise_fit::INNOVATIONS;
+                (status.flags & flags::NIS_HIGH != 0).then_some(status.flags & flags::NIS_POSE != 0)
+            }
+        };
+        status.noise_profile = report.profile;
+        status.noise_suspect = match blames {
+            None => noise_suspect::NONE,
+            Some(true) => noise_suspect::ODOMETRY,
+            Some(false) => noise_suspect::SENSOR,
+        };
+    }
+
     /// Notes in the status the back-end's solves withheld as torn, as far as it reported
     /// them.
     fn set_torn(&mut self, slam: &Slam) {
@@ -136,10 +169,11 @@ impl Health {
     }
 
     /// The status sent at shutdown: [`Health::now`], flagged [`flags::FINAL`] (not a step)
-    /// and with the landmark count and torn solves as they are now (the back-end's last
-    /// solve included).
+    /// and with the landmark count, torn solves and noise fit as they are now (the
+    /// back-end's last solve included).
     pub fn final_status(&mut self, slam: &Slam, seq: &Sequencer) -> ServiceStatus {
         self.set_torn(slam);
+        self.set_noise(slam);
         let now = self.now(seq);
         ServiceStatus {
             particles: slam.particles() as u32,

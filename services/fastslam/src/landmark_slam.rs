@@ -11,7 +11,7 @@ use fastslam_estimation::Pose2;
 use fastslam_estimation::fastslam::association::AssociationMode;
 use fastslam_estimation::fastslam::{FastSlam, OptimiserRefiner, PoseRefiner, Proposal};
 use fastslam_estimation::features::{ExtractorConfig, extract};
-use fastslam_estimation::graph::{Feed, NoiseModel, SmootherConfig, Solution};
+use fastslam_estimation::graph::{Feed, NoiseModel, SmootherConfig, Solution, VarianceComponents};
 use fastslam_estimation::grid::{GridMapper, OccupancyGrid};
 use fastslam_estimation::motion::Control;
 use fastslam_estimation::moves::MoveStats;
@@ -270,6 +270,10 @@ impl Estimator for LandmarkSlam {
 
     fn torn_solves(&self) -> TornSolves {
         self.backend.as_ref().map(Backend::torn).unwrap_or_default()
+    }
+
+    fn noise_components(&self) -> Option<VarianceComponents> {
+        self.backend.as_ref().and_then(Backend::noise)
     }
 
     fn back_end_feed(&self) -> Vec<Feed> {

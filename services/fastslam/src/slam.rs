@@ -15,7 +15,7 @@ use crate::smoothing::TornSolves;
 use crate::state::EstimatorState;
 use fastslam_estimation::Pose2;
 use fastslam_estimation::fastslam::{self, FastSlam};
-use fastslam_estimation::graph::{Feed, Solution};
+use fastslam_estimation::graph::{Feed, Solution, VarianceComponents};
 use fastslam_estimation::motion::Control;
 use fastslam_estimation::moves::MoveStats;
 use fastslam_estimation::scan::RangeScan;
@@ -220,6 +220,12 @@ impl Slam {
     /// The back-end's solves withheld as torn so far.
     pub fn torn_solves(&self) -> TornSolves {
         self.estimator.torn_solves()
+    }
+
+    /// The variance components of the back-end's newest whole solve, as far as it
+    /// reported (`None` without a back-end or before its first whole solve).
+    pub fn noise_components(&self) -> Option<VarianceComponents> {
+        self.estimator.noise_components()
     }
 
     /// What the back-end was fed so far, for a checkpoint (empty without one).

@@ -12,11 +12,18 @@
 //! Every input it was given is also kept (the feed), so that a checkpoint can carry it
 //! and a resumed service rebuilds the same graph by feeding it again.
 //!
+//! After every whole solve the back-end also fits the variance components of its graph
+//! (`Graph::variance_components`, docs/ALGORITHMS.md §8.4) — torn or not, since a noise
+//! model that tears the solution is what they are for — and reports them beside the
+//! solve; [`Backend::noise`] holds the newest.
+//!
 //! A torn solution (its fit beyond [`SmootherConfig::torn_gate`], docs/ALGORITHMS.md
 //! §8.3) is withheld: not published and not used for re-anchoring, so the previous good
 //! solution (or the filter) stands; it is logged and counted ([`TornSolves`]).
 
-use fastslam_estimation::graph::{Feed, NoiseModel, Smoother, SmootherConfig, Solution, TornGate};
+use fastslam_estimation::graph::{
+    Feed, NoiseModel, Smoother, SmootherConfig, Solution, TornGate, VarianceComponents,
+};
 use fastslam_estimation::stats::percentile;
 use std::collections::VecDeque;
 use std::sync::mpsc::{Receiver, Sender, channel};
@@ -28,6 +35,8 @@ use std::time::Instant;
 struct Report {
     scan: u64,
     solve: Solve,
+    /// The variance components after a whole solve.
+    noise: Option<VarianceComponents>,
 }
 
 /// What became of the solve a scan asked for.
@@ -70,6 +79,8 @@ pub struct Backend {
     pending: Option<VecDeque<(u64, Solution)>>,
     /// The solves withheld as torn.
     torn: TornSolves,
+    /// The variance components of the newest whole solve.
+    noise: Option<VarianceComponents>,
 }
 
 impl Backend {
@@ -98,14 +109,16 @@ impl Backend {
                     let due = smoother.feed(&feed);
                     if matches!(feed, Feed::Scan { .. }) {
                         scan += 1;
-                        let solve = if due {
-                            judge(smoother.solve(), &busy, &gate)
+                        let (solve, noise) = if due {
+                            let outcome = smoother.solve();
+                            let noise = components(&outcome, &smoother);
+                            (judge(outcome, &busy, &gate), noise)
                         } else {
-                            Solve::None
+                            (Solve::None, None)
                         };
                         busy.add(spent + started.elapsed().as_secs_f64());
                         spent = 0.0;
-                        if outbox.send(Report { scan, solve }).is_err() {
+                        if outbox.send(Report { scan, solve, noise }).is_err() {
                             return;
                         }
                     } else {
@@ -114,8 +127,10 @@ impl Backend {
                 }
                 // The filter's side hung up: the stream ended. A last solve over everything.
                 if smoother.has_news() {
-                    let solve = judge(smoother.solve_whole(), &busy, &gate);
-                    let _ = outbox.send(Report { scan, solve });
+                    let outcome = smoother.solve_whole();
+                    let noise = components(&outcome, &smoother);
+                    let solve = judge(outcome, &busy, &gate);
+                    let _ = outbox.send(Report { scan, solve, noise });
                 }
                 busy.log();
                 if let Some(path) = graph_out {
@@ -133,6 +148,7 @@ impl Backend {
             unpublished: None,
             pending: reanchor.then(VecDeque::new),
             torn: TornSolves::default(),
+            noise: None,
         };
         for f in feed {
             backend.send(f);
@@ -166,6 +182,9 @@ impl Backend {
     /// Takes one report in.
     fn take(&mut self, report: Report) {
         self.scans_reported = self.scans_reported.max(report.scan);
+        if report.noise.is_some() {
+            self.noise = report.noise;
+        }
         match report.solve {
             Solve::None => {}
             Solve::Torn => {
@@ -222,6 +241,13 @@ impl Backend {
         self.torn
     }
 
+    /// The variance components of the newest whole solve reported (`None` before the
+    /// first). After [`finish`](Self::finish), those of the last whole solve, which the
+    /// data alone decides.
+    pub fn noise(&self) -> Option<VarianceComponents> {
+        self.noise
+    }
+
     /// Everything fed so far, for a checkpoint.
     pub fn feed(&self) -> &[Feed] {
         &self.feed
@@ -238,6 +264,36 @@ impl Backend {
             tracing::warn!("smoothing back-end panicked");
         }
         self.latest()
+    }
+}
+
+/// The variance components of `smoother`'s graph after `outcome`, when it is a whole
+/// solve (logged; a failure is logged and gives `None`).
+fn components(
+    outcome: &fastslam_estimation::Result<Solution>,
+    smoother: &Smoother,
+) -> Option<VarianceComponents> {
+    if !matches!(outcome, Ok(solution) if solution.whole) {
+        return None;
+    }
+    let started = Instant::now();
+    match smoother.graph().variance_components() {
+        Ok(v) => {
+            tracing::info!(
+                odometry_scale = v.odometry.scale,
+                odometry_redundancy = v.odometry.redundancy,
+                sensor_scale = v.landmarks.scale,
+                sensor_redundancy = v.landmarks.redundancy,
+                rounds = v.rounds,
+                seconds = started.elapsed().as_secs_f64(),
+                "smoother variance components"
+            );
+            Some(v)
+        }
+        Err(e) => {
+            tracing::warn!("smoother: no variance components: {e}");
+            None
+        }
     }
 }
 

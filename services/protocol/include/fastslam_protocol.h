@@ -277,9 +277,11 @@ typedef struct fastslam_ServiceStatus {
     uint32_t torn_solves; /* —: solves of the smoothing back-end withheld as torn so far (docs/ALGORITHMS.md); 0 without a back-end */
     fastslam_StreamStatus streams[4]; /* —: the service's input streams (odometry first, then the lidar), the first `stream_count` entries */
     double noise_profile[4]; /* m/s or m/√m, rad/s or rad or rad/√rad, m, rad: the configured noise as standard deviations: the motion model's two (`sigma_v` and `sigma_omega` or `sigma_steering`; increment: `translation_per_m`, `rotation_per_rad`), `sigma_range`, `sigma_bearing` (0 without a noise fit) */
-    double noise_fitted[4]; /* as `noise_profile: the same four fitted from the innovations (docs/ALGORITHMS.md §1, "Noise fit"; the profile's until the fit has warmed up; 0 without a noise fit) */
+    double noise_fitted[4]; /* as `noise_profile: the same four as fitted (docs/ALGORITHMS.md §1, "Noise fit"): by the smoothing back-end's variance components once it has solved the whole graph (§8.4), else from the innovations (the profile's until that fit has warmed up); 0 without a noise fit */
+    uint32_t noise_fit; /* —: where `noise_fitted` comes from: 0 no noise fit, 1 the filter's innovations, 2 the smoothing back-end's newest whole solve */
+    uint32_t noise_suspect; /* —: the source the noise check blames: 0 none, 1 the odometry, 2 the sensor. With `noise_fit` 2, the back-end's verdict (a group's variance at least twice the model's, the larger); else that of the failed NIS check (bits 5 and 6 of `flags`) */
 } fastslam_ServiceStatus;
-_Static_assert(sizeof(fastslam_ServiceStatus) == 376, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(sizeof(fastslam_ServiceStatus) == 384, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(_Alignof(fastslam_ServiceStatus) == 8, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, header.stamp_ns) == 0, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, header.seq) == 8, "fastslam_ServiceStatus must match the Rust layout");
@@ -299,6 +301,8 @@ _Static_assert(offsetof(fastslam_ServiceStatus, torn_solves) == 212, "fastslam_S
 _Static_assert(offsetof(fastslam_ServiceStatus, streams) == 216, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, noise_profile) == 312, "fastslam_ServiceStatus must match the Rust layout");
 _Static_assert(offsetof(fastslam_ServiceStatus, noise_fitted) == 344, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, noise_fit) == 376, "fastslam_ServiceStatus must match the Rust layout");
+_Static_assert(offsetof(fastslam_ServiceStatus, noise_suspect) == 380, "fastslam_ServiceStatus must match the Rust layout");
 
 /* fastslam::StreamCovered: what a checkpoint holds of one input stream */
 #define FASTSLAM_STREAM_COVERED_TYPE_NAME "fastslam::StreamCovered"

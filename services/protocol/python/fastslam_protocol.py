@@ -240,7 +240,7 @@ class StreamStatus(ctypes.Structure):
 
 
 class ServiceStatus(ctypes.Structure):
-    """`fastslam::ServiceStatus` (376 bytes, alignment 8): the service's filter health and input bookkeeping."""
+    """`fastslam::ServiceStatus` (384 bytes, alignment 8): the service's filter health and input bookkeeping."""
 
     _fields_ = [
         ("header", Header),
@@ -259,7 +259,9 @@ class ServiceStatus(ctypes.Structure):
         ("torn_solves", ctypes.c_uint32),  # —: solves of the smoothing back-end withheld as torn so far (docs/ALGORITHMS.md); 0 without a back-end
         ("streams", StreamStatus * 4),  # —: the service's input streams (odometry first, then the lidar), the first `stream_count` entries
         ("noise_profile", ctypes.c_double * 4),  # m/s or m/√m, rad/s or rad or rad/√rad, m, rad: the configured noise as standard deviations: the motion model's two (`sigma_v` and `sigma_omega` or `sigma_steering`; increment: `translation_per_m`, `rotation_per_rad`), `sigma_range`, `sigma_bearing` (0 without a noise fit)
-        ("noise_fitted", ctypes.c_double * 4),  # as `noise_profile: the same four fitted from the innovations (docs/ALGORITHMS.md §1, "Noise fit"; the profile's until the fit has warmed up; 0 without a noise fit)
+        ("noise_fitted", ctypes.c_double * 4),  # as `noise_profile: the same four as fitted (docs/ALGORITHMS.md §1, "Noise fit"): by the smoothing back-end's variance components once it has solved the whole graph (§8.4), else from the innovations (the profile's until that fit has warmed up); 0 without a noise fit
+        ("noise_fit", ctypes.c_uint32),  # —: where `noise_fitted` comes from: 0 no noise fit, 1 the filter's innovations, 2 the smoothing back-end's newest whole solve
+        ("noise_suspect", ctypes.c_uint32),  # —: the source the noise check blames: 0 none, 1 the odometry, 2 the sensor. With `noise_fit` 2, the back-end's verdict (a group's variance at least twice the model's, the larger); else that of the failed NIS check (bits 5 and 6 of `flags`)
     ]
 
     @staticmethod
@@ -456,7 +458,7 @@ LAYOUTS = {
     MapLandmark: (56, 8, {"id": 0, "x": 8, "y": 16, "cov_xx": 24, "cov_xy": 32, "cov_yy": 40, "observations": 48}),
     MapRequest: (8, 8, {"reserved": 0}),
     StreamStatus: (24, 8, {"stream": 0, "queued": 4, "last_input_ns": 8, "quiet": 16, "reserved": 20}),
-    ServiceStatus: (376, 8, {"header": 0, "steps": 16, "resamplings": 24, "n_eff": 32, "particles": 40, "distinct_particles": 44, "landmarks": 48, "step_time_ns": 56, "flags": 64, "nis_dof": 68, "rejections": 72, "nis": 200, "stream_count": 208, "torn_solves": 212, "streams": 216, "noise_profile": 312, "noise_fitted": 344}),
+    ServiceStatus: (384, 8, {"header": 0, "steps": 16, "resamplings": 24, "n_eff": 32, "particles": 40, "distinct_particles": 44, "landmarks": 48, "step_time_ns": 56, "flags": 64, "nis_dof": 68, "rejections": 72, "nis": 200, "stream_count": 208, "torn_solves": 212, "streams": 216, "noise_profile": 312, "noise_fitted": 344, "noise_fit": 376, "noise_suspect": 380}),
     StreamCovered: (16, 8, {"stream": 0, "reserved": 4, "covered_ns": 8}),
     Checkpointed: (88, 8, {"header": 0, "stream_count": 16, "resume": 20, "covered": 24}),
     ClientNotice: (136, 8, {"header": 0, "restarts": 16, "recorded": 24, "ended": 120, "finished": 128}),

@@ -173,9 +173,35 @@ pub struct ServiceStatus {
     /// `translation_per_m` and `rotation_per_rad`), `sigma_range`, `sigma_bearing`
     /// (0 for an estimator without a noise fit).
     pub noise_profile: [f64; 4],
-    /// The same four fitted from the innovations (the profile's until the fit has
-    /// warmed up; 0 without a noise fit).
+    /// The same four as fitted: by the smoothing back-end's variance components once it
+    /// has solved the whole graph, else from the innovations (the profile's until the fit
+    /// has warmed up); 0 without a noise fit. [`ServiceStatus::noise_fit`] says which.
     pub noise_fitted: [f64; 4],
+    /// Where `noise_fitted` comes from: one of [`noise_fit`].
+    pub noise_fit: u32,
+    /// The noise source the check blames: one of [`noise_suspect`].
+    pub noise_suspect: u32,
+}
+
+/// The values of [`ServiceStatus::noise_fit`].
+pub mod noise_fit {
+    /// No noise fit (an estimator without one).
+    pub const NONE: u32 = 0;
+    /// The filter's fit to its innovations.
+    pub const INNOVATIONS: u32 = 1;
+    /// The smoothing back-end's variance components of its newest whole solve.
+    pub const SMOOTHER: u32 = 2;
+}
+
+/// The values of [`ServiceStatus::noise_suspect`].
+pub mod noise_suspect {
+    /// None: the noise check has not failed, or the back-end's components find no source
+    /// above its threshold.
+    pub const NONE: u32 = 0;
+    /// The odometry (`sigma_v`, `sigma_omega` or `sigma_steering` too small).
+    pub const ODOMETRY: u32 = 1;
+    /// The sensor (`sigma_range`, `sigma_bearing` too small).
+    pub const SENSOR: u32 = 2;
 }
 
 impl ServiceStatus {

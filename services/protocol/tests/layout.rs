@@ -44,7 +44,7 @@ fn rust_layouts() -> Vec<Layout> {
         layout!(StreamStatus: stream, queued, last_input_ns, quiet, reserved),
         layout!(ServiceStatus: header.stamp_ns, header.seq, steps, resamplings, n_eff, particles,
             distinct_particles, landmarks, step_time_ns, flags, nis_dof, rejections, nis,
-            stream_count, torn_solves, streams, noise_profile, noise_fitted),
+            stream_count, torn_solves, streams, noise_profile, noise_fitted, noise_fit, noise_suspect),
         layout!(EndOfStream: header.stamp_ns, header.seq, stream, reserved),
         layout!(LaserScanHeader: header.stamp_ns, header.seq, angle_min, angle_increment,
             time_increment, scan_time, range_min, range_max, ranges, intensities),

@@ -32,6 +32,7 @@ mod integrate;
 mod smoother;
 mod solve;
 mod system;
+mod variance;
 mod window;
 
 pub use consistency::{Fit, TornGate};
@@ -39,6 +40,7 @@ pub use duplicates::duplicates;
 pub use integrate::OdometryIntegrator;
 pub use smoother::{Feed, KernelKind, NoiseModel, Smoother, SmootherConfig, Solution};
 pub use solve::{Covariances, Damping, Kernel, PoseUpdate, SolveOptions, SolveReport};
+pub use variance::{Component, VarianceComponents};
 
 use crate::observation::{Observation, predict};
 use crate::pose::{Pose2, wrap_angle};
