@@ -6,6 +6,7 @@
 //! measurements the docs quote.
 
 use fastslam_client::Metrics;
+use fastslam_client::warnings::Warnings;
 use fastslam_sensors_sim::Scenario;
 use fastslam_service::config::{Overrides, ServiceConfig};
 use fastslam_stack::{offline, settings};
@@ -57,6 +58,12 @@ fn assert_blamed_and_fitted(scenario: &str, odometry: f64, sensor: f64, suspect:
         let f = &m.filter;
         assert_eq!(f.nis_suspect, suspect, "seed {seed}: {f:?}");
         assert_eq!(f.noise_fit, "smoother", "seed {seed}");
+        // The summary's warning names the same source.
+        let warned = Warnings::of(&m).lines;
+        assert!(
+            warned.iter().any(|l| l.contains(&format!("the {suspect} noise at σ"))),
+            "seed {seed}: {warned:?}"
+        );
         let truth: [f64; 4] =
             std::array::from_fn(|i| f.noise_profile[i] / if i < 2 { odometry } else { sensor });
         assert!(
