@@ -107,11 +107,20 @@ impl LogOddsGrid {
 
 /// The cell `(i, j)` holding map point `(x, y)` on the lattice of side `resolution` (m)
 /// whose cell (0, 0) has its lower-left corner at `origin`.
+#[inline]
 pub(crate) fn cell_of(origin: [f64; 2], resolution: f64, x: f64, y: f64) -> (i64, i64) {
     (
-        ((x - origin[0]) / resolution).floor() as i64,
-        ((y - origin[1]) / resolution).floor() as i64,
+        floor_i64((x - origin[0]) / resolution),
+        floor_i64((y - origin[1]) / resolution),
     )
+}
+
+/// `v.floor() as i64` for every `v` (saturating, NaN to 0) without a call into libm: the
+/// cast truncates toward zero, and a negative value with a fraction is one lower.
+#[inline]
+fn floor_i64(v: f64) -> i64 {
+    let t = v as i64;
+    t.saturating_sub(i64::from(t as f64 > v))
 }
 
 /// The inverse sensor model of one scan: calls `update(i, j, delta)` for the cells of
@@ -175,6 +184,39 @@ fn bresenham(from: (i64, i64), to: (i64, i64), mut visit: impl FnMut(i64, i64)) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn floor_i64_is_floor_cast_for_every_kind_of_value() {
+        let big = 2f64.powi(63);
+        let mut values = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            f64::EPSILON,
+            -f64::EPSILON,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            big,
+            -big,
+            big * 2.0,
+            -big * 2.0,
+            f64::MAX,
+            f64::MIN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        for k in -2000..2000 {
+            let x = f64::from(k) * 0.37 + 1e-3 * f64::from(k % 7);
+            values.extend([x, x.floor(), x.floor().next_down(), x.floor().next_up()]);
+        }
+        for v in values {
+            assert_eq!(floor_i64(v), v.floor() as i64, "{v:e}");
+        }
+    }
 
     #[test]
     fn bresenham_visits_a_connected_line_between_the_ends() {

@@ -28,7 +28,7 @@ mod likelihood;
 mod snapshot;
 mod tiles;
 
-pub use likelihood::{ScanMatchConfig, ScanTarget};
+pub use likelihood::{ScanLikelihood, ScanMatchConfig, ScanTarget};
 pub use snapshot::{GridFilterState, GridParticleState};
 pub use tiles::{GridIndexState, SharedTiles, TILE, TILE_BYTES, TileState, TileTable, TiledGrid};
 
@@ -91,7 +91,7 @@ pub struct GridStep {
 pub struct GridFastSlam {
     filter: FastSlamConfig,
     grid: GridConfig,
-    matcher: ScanMatchConfig,
+    matcher: ScanLikelihood,
     mover: Option<Mover>,
     particles: Vec<GridParticle>,
     weights: Weights,
@@ -130,12 +130,13 @@ impl GridFastSlam {
             grid: TiledGrid::new(grid.resolution),
         };
         let n = filter.particles;
+        let resolution = grid.resolution;
         Ok(Self {
             particles: vec![particle; n],
             weights: Weights::from_log(&vec![0.0; n])?,
             filter,
             grid,
-            matcher,
+            matcher: ScanLikelihood::new(matcher, resolution),
             mover,
             keyframes: 0,
             travelled: (0.0, 0.0),
@@ -216,7 +217,7 @@ impl GridFastSlam {
             });
         }
         let beams = self.grid.kept_beams(scan);
-        let mut points = self.matcher.end_points(scan);
+        let mut points = self.matcher.config().end_points(scan);
         if let Some(m) = &self.mount {
             for p in &mut points {
                 *p = m.transform_point(*p);
@@ -248,7 +249,7 @@ impl GridFastSlam {
                     grid: &p.grid,
                     predicted: p.predicted,
                     points: &points,
-                    config: matcher,
+                    likelihood: matcher,
                 };
                 let Some(mover) = mover else {
                     let mut rng = streams.stream(&[i as u64, PURPOSE_MOTION]);

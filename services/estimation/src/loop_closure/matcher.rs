@@ -14,7 +14,7 @@
 //! by scoring a small part of the window. A local refinement then moves the pose off the
 //! cell lattice ([`super::refine`]).
 
-use super::probability::FULL;
+use super::probability::{Cast, FULL};
 use super::pyramid::MatchGrid;
 use super::refine::refine;
 use crate::pose::Pose2;
@@ -58,7 +58,7 @@ struct Lattice {
     /// Heading of each lattice step (rad, submap frame).
     headings: Vec<f64>,
     /// The points' cells at each heading, at the initial translation.
-    cells: Vec<Vec<(i32, i32)>>,
+    cells: Vec<Cast>,
     /// Translations within `±reach` cells each way.
     reach: i32,
     angular_step: f64,
@@ -82,7 +82,7 @@ impl Lattice {
             .iter()
             .map(|&theta| {
                 let (s, c) = theta.sin_cos();
-                points
+                let cells = points
                     .iter()
                     .map(|q| {
                         let (x, y) = (
@@ -92,7 +92,8 @@ impl Lattice {
                         let (i, j) = p.cell(x, y);
                         (clamp_i32(i), clamp_i32(j))
                     })
-                    .collect()
+                    .collect();
+                Cast::new(cells)
             })
             .collect();
         Self {

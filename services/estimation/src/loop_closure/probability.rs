@@ -20,6 +20,61 @@ pub struct ProbabilityGrid {
 /// The largest cell value: probability 1.
 pub const FULL: u32 = 255;
 
+/// Cells to sum (a scan cast to cells at one heading), with their bounding box.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Cast {
+    cells: Vec<(i32, i32)>,
+    /// Smallest `i` and `j`, then largest (empty: `i32::MAX`, then `i32::MIN`).
+    bounds: [i32; 4],
+}
+
+impl Cast {
+    /// `cells` and their bounding box.
+    pub(crate) fn new(cells: Vec<(i32, i32)>) -> Self {
+        let bounds = cells.iter().fold(
+            [i32::MAX, i32::MAX, i32::MIN, i32::MIN],
+            |[a, b, c, d], &(i, j)| [a.min(i), b.min(j), c.max(i), d.max(j)],
+        );
+        Self { cells, bounds }
+    }
+}
+
+/// `Σ v(c + offset + (pad, pad))` over the cells `c` of `cast`, `v` the row-major
+/// `values` of a `width × height` lattice and 0 outside it. When the shifted bounding box
+/// lies inside, the cells are read without testing each.
+#[inline]
+pub(crate) fn sum_over(
+    values: &[u8],
+    width: usize,
+    height: usize,
+    pad: i64,
+    cast: &Cast,
+    offset: (i32, i32),
+) -> u32 {
+    let (di, dj) = (i64::from(offset.0) + pad, i64::from(offset.1) + pad);
+    let [i0, j0, i1, j1] = cast.bounds.map(i64::from);
+    let inside = |i: i64, j: i64| (0..width as i64).contains(&i) && (0..height as i64).contains(&j);
+    if inside(i0 + di, j0 + dj) && inside(i1 + di, j1 + dj) {
+        (cast.cells.iter())
+            .map(|&(i, j)| {
+                let (a, b) = ((i64::from(i) + di) as usize, (i64::from(j) + dj) as usize);
+                u32::from(values[b * width + a])
+            })
+            .sum()
+    } else {
+        (cast.cells.iter())
+            .map(|&(i, j)| {
+                let (a, b) = (i64::from(i) + di, i64::from(j) + dj);
+                if inside(a, b) {
+                    u32::from(values[b as usize * width + a as usize])
+                } else {
+                    0
+                }
+            })
+            .sum()
+    }
+}
+
 impl ProbabilityGrid {
     /// The cells of `grid` (percent, −1 unknown), cropped to the smallest rectangle that
     /// holds every cell of at least `keep_from` percent (0: every known cell; empty when
@@ -98,18 +153,10 @@ impl ProbabilityGrid {
         crate::grid::cell_of(self.origin, self.resolution, x, y)
     }
 
-    /// `Σ get(c + offset)` over the cells `c`.
+    /// `Σ get(c + offset)` over the cells `c` of `cast`.
     #[inline]
-    pub(crate) fn sum(&self, cells: &[(i32, i32)], offset: (i32, i32)) -> u32 {
-        cells
-            .iter()
-            .map(|&(i, j)| {
-                u32::from(self.get(
-                    i64::from(i) + i64::from(offset.0),
-                    i64::from(j) + i64::from(offset.1),
-                ))
-            })
-            .sum()
+    pub(crate) fn sum(&self, cast: &Cast, offset: (i32, i32)) -> u32 {
+        sum_over(&self.cells, self.width, self.height, 0, cast, offset)
     }
 
     /// Cell `(i, j)`'s value (0 outside the grid).

@@ -8,7 +8,7 @@
 //! padded by `2^h − 1` cells below and to the left so that blocks reaching into the grid
 //! from outside keep their bound.
 
-use super::probability::ProbabilityGrid;
+use super::probability::{Cast, ProbabilityGrid, sum_over};
 
 /// One max-pooled level, padded by `pad` cells below and to the left.
 #[derive(Debug, Clone, PartialEq)]
@@ -70,18 +70,10 @@ impl MaxPooled {
         }
     }
 
-    /// `Σ get(c + offset)` over the cells `c`.
+    /// `Σ get(c + offset)` over the cells `c` of `cast`.
     #[inline]
-    pub(crate) fn sum(&self, cells: &[(i32, i32)], offset: (i32, i32)) -> u32 {
-        cells
-            .iter()
-            .map(|&(i, j)| {
-                u32::from(self.get(
-                    i64::from(i) + i64::from(offset.0),
-                    i64::from(j) + i64::from(offset.1),
-                ))
-            })
-            .sum()
+    pub(crate) fn sum(&self, cast: &Cast, offset: (i32, i32)) -> u32 {
+        sum_over(&self.cells, self.width, self.height, self.pad, cast, offset)
     }
 }
 
@@ -124,12 +116,12 @@ impl MatchGrid {
         self.levels.len() + 1
     }
 
-    /// `Σ level_h(c + offset)` over the cells `c`.
+    /// `Σ level_h(c + offset)` over the cells `c` of `cast`.
     #[inline]
-    pub(crate) fn sum(&self, h: usize, cells: &[(i32, i32)], offset: (i32, i32)) -> u32 {
+    pub(crate) fn sum(&self, h: usize, cast: &Cast, offset: (i32, i32)) -> u32 {
         match h.checked_sub(1) {
-            None => self.probabilities.sum(cells, offset),
-            Some(k) => self.levels[k].sum(cells, offset),
+            None => self.probabilities.sum(cast, offset),
+            Some(k) => self.levels[k].sum(cast, offset),
         }
     }
 
@@ -170,8 +162,13 @@ mod tests {
                         .map(|(a, b)| grid.get(i + a, j + b))
                         .max()
                         .unwrap();
-                    let got = pyramid.sum(h, &[(i as i32, j as i32)], (0, 0));
+                    let got = pyramid.sum(h, &Cast::new(vec![(i as i32, j as i32)]), (0, 0));
                     assert_eq!(got, u32::from(expected), "level {h} ({i}, {j})");
+                    // The same cell among others, summed with the box inside or not.
+                    let pair = Cast::new(vec![(i as i32, j as i32), (0, 0)]);
+                    let both =
+                        u32::from(expected) + pyramid.sum(h, &Cast::new(vec![(0, 0)]), (0, 0));
+                    assert_eq!(pyramid.sum(h, &pair, (0, 0)), both, "level {h} ({i}, {j})");
                 }
             }
         }
