@@ -61,7 +61,9 @@ fn assert_blamed_and_fitted(scenario: &str, odometry: f64, sensor: f64, suspect:
         // The summary's warning names the same source.
         let warned = Warnings::of(&m).lines;
         assert!(
-            warned.iter().any(|l| l.contains(&format!("the {suspect} noise at σ"))),
+            warned
+                .iter()
+                .any(|l| l.contains(&format!("the {suspect} noise at σ"))),
             "seed {seed}: {warned:?}"
         );
         let truth: [f64; 4] =
