@@ -51,6 +51,14 @@ impl Notices {
     /// Tends what every publisher of the process keeps; true while one of them keeps
     /// messages a client that died may still ask for (none has said it finished).
     pub(super) fn tend_all(&self) -> Result<bool> {
+        match self.newest()? {
+            Some(notice) => self.tend_each(&notice),
+            None => Ok(false),
+        }
+    }
+
+    /// Tends what every publisher of the process keeps after `notice`, the newest.
+    fn tend_each(&self, notice: &ClientNotice) -> Result<bool> {
         let kept: Vec<Rc<dyn Tend>> = self
             .kept
             .borrow()
@@ -59,7 +67,7 @@ impl Notices {
             .collect();
         let mut waiting = false;
         for k in kept {
-            waiting |= k.tend()?;
+            waiting |= k.tend(notice)?;
         }
         Ok(waiting)
     }
@@ -67,9 +75,10 @@ impl Notices {
 
 /// What tending a publisher's kept messages does, whatever its payload type.
 trait Tend {
-    /// Forgets what the client recorded, sends everything again to a client started
-    /// again; true while messages remain that the client has not recorded.
-    fn tend(&self) -> Result<bool>;
+    /// Forgets what `notice`, the client's newest, says it recorded, sends everything
+    /// again to a client started again; true while messages remain that the client has
+    /// not recorded.
+    fn tend(&self, notice: &ClientNotice) -> Result<bool>;
 }
 
 /// Whether the client has recorded a message kept for it.
@@ -168,9 +177,9 @@ impl<P: Wire + ?Sized, H: Debug + ZeroCopySend + 'static> Kept<P, H> {
         bytes: usize,
         resend: impl Fn(&Pub<P, H>) -> Result<()> + 'static,
     ) -> Result<()> {
-        if self.notices.newest()?.is_none() {
+        let Some(notice) = self.notices.newest()? else {
             return Ok(());
-        }
+        };
         {
             let mut state = self.state.borrow_mut();
             let mark = Mark::of(message, state.stream);
@@ -196,15 +205,12 @@ impl<P: Wire + ?Sized, H: Debug + ZeroCopySend + 'static> Kept<P, H> {
         }
         // Every publisher of the process answers a restarted client, also one that sends
         // rarely (a map, an end-of-stream).
-        self.notices.tend_all().map(|_| ())
+        self.notices.tend_each(&notice).map(|_| ())
     }
 }
 
 impl<P: Wire + ?Sized, H: Debug + ZeroCopySend + 'static> Tend for Kept<P, H> {
-    fn tend(&self) -> Result<bool> {
-        let Some(notice) = self.notices.newest()? else {
-            return Ok(false);
-        };
+    fn tend(&self, notice: &ClientNotice) -> Result<bool> {
         let mut state = self.state.borrow_mut();
         if notice.restarts > state.answered {
             state.answered = notice.restarts;
@@ -225,7 +231,7 @@ impl<P: Wire + ?Sized, H: Debug + ZeroCopySend + 'static> Tend for Kept<P, H> {
             state.applied = Some(key);
             let mut freed = 0;
             state.entries.retain(|e| {
-                let recorded = e.mark.recorded(&notice);
+                let recorded = e.mark.recorded(notice);
                 freed += if recorded { e.bytes } else { 0 };
                 !recorded
             });
