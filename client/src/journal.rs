@@ -21,7 +21,7 @@ use fastslam_protocol::validate::Rejection;
 use fastslam_protocol::{ClientNotice, Header, StreamId, client_notice::NOTICE_STREAMS};
 use std::collections::BTreeSet;
 use std::fs::{File, OpenOptions};
-use std::io::Write;
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -33,6 +33,9 @@ const WRITE_EVERY: Duration = Duration::from_millis(100);
 
 /// Bytes before a record's body.
 const RECORD_HEAD: usize = 8;
+
+/// Bytes of a start record's body.
+const START_BYTES: usize = 2;
 
 /// What a record holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -135,27 +138,36 @@ pub struct Journal {
 }
 
 impl Journal {
-    /// Opens the journal of the run folder `dir`: a fresh one (an old one is removed),
-    /// or with `resume` the one there, whose messages it gives to `each` (with their
-    /// topic's row and check) before it goes on writing. Returns it with the start the
-    /// journal records (`None` for a fresh one), and publishes its first notice.
+    /// Starts a fresh journal in the run folder `dir` (an old one there is removed) and
+    /// publishes its first notice.
     ///
     /// # Errors
-    /// A journal that cannot be read or written; with `resume`, none there.
-    pub fn open(
+    /// The journal cannot be written, or the notice sent.
+    pub fn create(ipc: &Ipc, dir: &Path) -> anyhow::Result<Self> {
+        remove_files(dir)?;
+        Self::go_on(ipc, dir, Marks::default(), 0)
+    }
+
+    /// Takes the journal of a client that died in the run folder `dir`: gives its
+    /// messages to `each` (with their topic's row and check), then goes on writing it and
+    /// publishes its first notice, which asks the publishers for what they kept. Returns
+    /// it with the start the journal records.
+    ///
+    /// # Errors
+    /// No journal there, or one that cannot be read or written.
+    pub fn resume(
         ipc: &Ipc,
         dir: &Path,
-        resume: bool,
         each: impl FnMut(&'static TopicRow, Message<'_>, Result<(), Rejection>),
-    ) -> anyhow::Result<(Self, Option<Start>)> {
+    ) -> anyhow::Result<(Self, Start)> {
+        let (marks, restarts, start) = replay(dir, &dir.join(FILE), each)?;
+        Ok((Self::go_on(ipc, dir, marks, restarts)?, start))
+    }
+
+    /// The journal of `dir` appended to, holding `marks`, for the client's `restarts`-th
+    /// restart; its first notice published.
+    fn go_on(ipc: &Ipc, dir: &Path, marks: Marks, restarts: u64) -> anyhow::Result<Self> {
         let path = dir.join(FILE);
-        let (marks, restarts, start) = if resume {
-            let (marks, restarts, start) = replay(dir, &path, each)?;
-            (marks, restarts, Some(start))
-        } else {
-            remove_files(dir)?;
-            (Marks::default(), 0, None)
-        };
         let file = OpenOptions::new()
             .create(true)
             .append(true)
@@ -173,29 +185,28 @@ impl Journal {
             written: Instant::now(),
         };
         journal.tell(false)?;
-        Ok((journal, start))
+        Ok(journal)
     }
 
     /// Records that a client started on this run folder with `start`'s choice (the
     /// first's, for a resumed one).
     pub fn started(&mut self, start: Start) {
-        let body = [start.lidar as u32 as u8, u8::from(start.truth)];
+        let body: [u8; START_BYTES] = [start.lidar as u32 as u8, u8::from(start.truth)];
         record(Kind::Start, 0, &body, &mut self.buffer);
     }
 
     /// Journals message `message` of `row`'s topic.
     pub fn add(&mut self, row: &'static TopicRow, message: Message<'_>) {
         let index = row_index(row);
-        let mut body = Vec::new();
-        message.write_bytes(&mut body);
+        let write = |out: &mut Vec<u8>| message.write_bytes(out);
         match row.stream {
             Some(stream) if snapshot(stream) => {
                 let mut rec = Vec::new();
-                record(Kind::Message, index, &body, &mut rec);
+                record_with(Kind::Message, index, &mut rec, write);
                 self.snapshots.retain(|(r, _)| *r != index);
                 self.snapshots.push((index, rec));
             }
-            _ => record(Kind::Message, index, &body, &mut self.buffer),
+            _ => record_with(Kind::Message, index, &mut self.buffer, write),
         }
         self.marks.take(row, message);
     }
@@ -257,12 +268,16 @@ impl Journal {
 /// No journal there, or one without a start record.
 pub fn start_of(dir: &Path) -> anyhow::Result<Start> {
     let path = dir.join(FILE);
-    let bytes = std::fs::read(&path).with_context(|| {
+    let file = File::open(&path).with_context(|| {
         format!(
             "--resume: no journal of a client that died in {}",
             path.display()
         )
     })?;
+    // The first record alone: a start record is short; the journal may be long.
+    let mut bytes = Vec::new();
+    file.take((RECORD_HEAD + START_BYTES) as u64)
+        .read_to_end(&mut bytes)?;
     match split_record(&bytes)? {
         Some((record, _)) if record.kind == Kind::Start => read_start(record.body),
         _ => bail!(
@@ -348,10 +363,17 @@ fn row_index(row: &TopicRow) -> usize {
 
 /// Appends a record of `kind` for topic row `row` with `body` to `out`.
 fn record(kind: Kind, row: usize, body: &[u8], out: &mut Vec<u8>) {
-    let len = u32::try_from(body.len()).expect("a message under 4 GiB");
-    out.extend_from_slice(&len.to_le_bytes());
-    out.extend_from_slice(&[kind as u8, row as u8, 0, 0]);
-    out.extend_from_slice(body);
+    record_with(kind, row, out, |out| out.extend_from_slice(body));
+}
+
+/// Appends a record of `kind` for topic row `row` to `out`, its body written by `body`
+/// straight after the head, whose length it then fills in.
+fn record_with(kind: Kind, row: usize, out: &mut Vec<u8>, body: impl FnOnce(&mut Vec<u8>)) {
+    let at = out.len();
+    out.extend_from_slice(&[0, 0, 0, 0, kind as u8, row as u8, 0, 0]);
+    body(out);
+    let len = u32::try_from(out.len() - at - RECORD_HEAD).expect("a message under 4 GiB");
+    out[at..at + 4].copy_from_slice(&len.to_le_bytes());
 }
 
 /// One record read back.
@@ -389,7 +411,11 @@ fn split_record(bytes: &[u8]) -> anyhow::Result<Option<(Record<'_>, &[u8])>> {
 
 /// The start a start record's body holds.
 fn read_start(body: &[u8]) -> anyhow::Result<Start> {
-    ensure!(body.len() == 2, "a start record of {} bytes", body.len());
+    ensure!(
+        body.len() == START_BYTES,
+        "a start record of {} bytes",
+        body.len()
+    );
     let lidar = StreamId::from_u32(u32::from(body[0])).context("a start record's lidar stream")?;
     Ok(Start {
         lidar,

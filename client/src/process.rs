@@ -133,7 +133,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (inputs, recorder)
     } else {
         // The first notice goes out before the producers start: they keep from then on.
-        let (journal, _) = Journal::open(&ipc, &args.out, false, |_, _, _| {})?;
+        let journal = Journal::create(&ipc, &args.out)?;
         let opening = Opening::Wait {
             truth: truth_wait,
             resend: true,
@@ -246,13 +246,11 @@ impl Recorder {
     /// The journal cannot be read or written.
     fn resume(&mut self, ipc: &Ipc, out: &Path) -> anyhow::Result<()> {
         self.resumed = Some(HashSet::new());
-        let (journal, start) = Journal::open(ipc, out, true, |row, message, checked| {
+        let (journal, start) = Journal::resume(ipc, out, |row, message, checked| {
             self.take_message(row, message, checked, false);
         })?;
         self.journal = Some(journal);
-        if let Some(start) = start {
-            self.journal_start(start);
-        }
+        self.journal_start(start);
         tracing::info!(
             poses = self.rec.estimates.len(),
             truth = self.rec.truth.len(),
