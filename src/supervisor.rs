@@ -30,17 +30,19 @@ pub struct Process {
     pub name: &'static str,
     child: Child,
     status: Option<ExitStatus>,
-    /// How to start it again when a signal kills it ([`Supervisor::restart_when_killed`]).
-    again: Option<Again>,
-}
-
-/// How a process killed by a signal is started again: its command line with a flag
-/// added, its output appended to its log, at most [`MOST_RESTARTS`] times.
-#[derive(Debug)]
-struct Again {
+    /// Its command line and log.
     exe: PathBuf,
     args: Vec<String>,
     log: PathBuf,
+    /// Whether it is started again when a signal kills it
+    /// ([`Supervisor::restart_when_killed`]).
+    again: Option<Again>,
+}
+
+/// How a process killed by a signal is started again: its command line with `flag`
+/// added, its output appended to its log, at most [`MOST_RESTARTS`] times.
+#[derive(Debug)]
+struct Again {
     flag: &'static str,
     restarts: u32,
 }
@@ -85,7 +87,7 @@ impl Supervisor {
         log: &Path,
     ) -> std::io::Result<()> {
         let out = open_log(log)?;
-        self.start(name, exe, args, out.try_clone()?.into(), out)
+        self.start(name, exe, args, log, out.try_clone()?.into(), out)
             .map(|_| ())
     }
 
@@ -103,7 +105,7 @@ impl Supervisor {
         log: &Path,
     ) -> std::io::Result<ChildStdout> {
         let out = open_log(log)?;
-        let child = self.start(name, exe, args, Stdio::piped(), out)?;
+        let child = self.start(name, exe, args, log, Stdio::piped(), out)?;
         child
             .stdout
             .take()
@@ -112,24 +114,11 @@ impl Supervisor {
 
     /// Starts process `name` again, with `flag` added to its command line, whenever a
     /// signal kills it (SIGKILL, a crash), at most [`MOST_RESTARTS`] times; its output
-    /// then goes to `log`, appended. A process that exits, whatever its status, is not
+    /// then goes to its log, appended. A process that exits, whatever its status, is not
     /// started again.
-    pub fn restart_when_killed(
-        &mut self,
-        name: &'static str,
-        exe: &Path,
-        args: &[String],
-        log: &Path,
-        flag: &'static str,
-    ) {
+    pub fn restart_when_killed(&mut self, name: &'static str, flag: &'static str) {
         if let Some(p) = self.processes.iter_mut().find(|p| p.name == name) {
-            p.again = Some(Again {
-                exe: exe.to_path_buf(),
-                args: args.to_vec(),
-                log: log.to_path_buf(),
-                flag,
-                restarts: 0,
-            });
+            p.again = Some(Again { flag, restarts: 0 });
         }
     }
 
@@ -147,20 +136,11 @@ impl Supervisor {
                 continue;
             }
             again.restarts += 1;
+            let args = (p.args.iter().map(String::as_str)).chain([again.flag]);
             let started = OpenOptions::new()
                 .append(true)
-                .open(&again.log)
-                .and_then(|log| {
-                    let mut command = Command::new(&again.exe);
-                    command
-                        .args(&again.args)
-                        .arg(again.flag)
-                        .stdin(Stdio::null())
-                        .stdout(log.try_clone()?)
-                        .stderr(log)
-                        .process_group(0);
-                    dying_with_this_process(&mut command).spawn()
-                });
+                .open(&p.log)
+                .and_then(|log| launch(&p.exe, args, log.try_clone()?.into(), log));
             match started {
                 Ok(child) => {
                     eprintln!(
@@ -180,22 +160,19 @@ impl Supervisor {
         name: &'static str,
         exe: &Path,
         args: &[String],
+        log: &Path,
         stdout: Stdio,
         stderr: File,
     ) -> std::io::Result<&mut Child> {
-        let mut command = Command::new(exe);
-        command
-            .args(args)
-            .stdin(Stdio::null())
-            .stdout(stdout)
-            .stderr(stderr)
-            .process_group(0);
-        let child = dying_with_this_process(&mut command).spawn()?;
+        let child = launch(exe, args, stdout, stderr)?;
         tracing::debug!(name, pid = child.id(), "started");
         self.processes.push(Process {
             name,
             child,
             status: None,
+            exe: exe.to_path_buf(),
+            args: args.to_vec(),
+            log: log.to_path_buf(),
             again: None,
         });
         let last = self.processes.len() - 1;
@@ -325,6 +302,23 @@ impl Drop for Supervisor {
     fn drop(&mut self) {
         self.stop_all();
     }
+}
+
+/// Starts `exe` with `args` in a process group of its own, dying with this process, its
+/// output going to `stdout` and `stderr`.
+fn launch<I, S>(exe: &Path, args: I, stdout: Stdio, stderr: File) -> std::io::Result<Child>
+where
+    I: IntoIterator<Item = S>,
+    S: AsRef<std::ffi::OsStr>,
+{
+    let mut command = Command::new(exe);
+    command
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(stdout)
+        .stderr(stderr)
+        .process_group(0);
+    dying_with_this_process(&mut command).spawn()
 }
 
 /// Creates (or empties) a log and opens it for appending.

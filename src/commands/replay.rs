@@ -223,7 +223,7 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         stack.spawn(name, &exe, &argv, &log)?;
         if name == "client" {
             // A client that dies is started again and resumes the run from its journal.
-            stack.restart_when_killed(name, &exe, &argv, &log, "--resume");
+            stack.restart_when_killed(name, "--resume");
         }
     }
     let outcome = stack.wait(&stop, args.launch.timeout_s.map(Duration::from_secs_f64));

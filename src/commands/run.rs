@@ -165,7 +165,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<u8> {
             // The client's progress lines drive the live view (see `progress`).
             let stdout = stack.spawn_reading_stdout(name, &exe, &argv, &log)?;
             // A client that dies is started again and resumes the run from its journal.
-            stack.restart_when_killed(name, &exe, &argv, &log, "--resume");
+            stack.restart_when_killed(name, "--resume");
             live_view = Some(progress::follow(
                 stdout,
                 &log,
