@@ -267,13 +267,7 @@ impl Graph {
                     &b.information,
                 )
             } else {
-                let j = SMatrix::<f64, 3, 6>::from_fn(|i, c| {
-                    if c < 3 {
-                        j_from[(i, c)]
-                    } else {
-                        j_to[(i, c - 3)]
-                    }
-                });
+                let j: SMatrix<f64, 3, 6> = side_by_side(&j_from, &j_to);
                 let vars = [pose(b.from), pose(b.to)];
                 Whitened::new(Group::Odometry, vars, (&r, &j), &b.information)
             };
@@ -287,13 +281,7 @@ impl Graph {
                 j_landmark,
             }) = s.linearise(p, m)
             {
-                let j = SMatrix::<f64, 2, 5>::from_fn(|i, c| {
-                    if c < 3 {
-                        j_pose[(i, c)]
-                    } else {
-                        j_landmark[(i, c - 3)]
-                    }
-                });
+                let j: SMatrix<f64, 2, 5> = side_by_side(&j_pose, &j_landmark);
                 let vars = [pose(s.pose), landmark(s.landmark)];
                 out.extend(Whitened::new(
                     Group::Landmarks,
@@ -306,13 +294,7 @@ impl Graph {
         for o in &self.offsets {
             let (p, m) = (&self.poses[o.pose], &self.landmarks[o.landmark]);
             let (r, j_pose, j_landmark) = o.jacobians(p, m);
-            let j = SMatrix::<f64, 2, 5>::from_fn(|i, c| {
-                if c < 3 {
-                    j_pose[(i, c)]
-                } else {
-                    j_landmark[(i, c - 3)]
-                }
-            });
+            let j: SMatrix<f64, 2, 5> = side_by_side(&j_pose, &j_landmark);
             let vars = [pose(o.pose), landmark(o.landmark)];
             out.extend(Whitened::new(
                 Group::Landmarks,
@@ -395,6 +377,15 @@ impl Traces {
             (scales[k] * step).clamp(MIN_SCALE, MAX_SCALE) / scales[k]
         })
     }
+}
+
+/// The columns of `a` followed by those of `b` (`C` = `A` + `B`).
+fn side_by_side<const R: usize, const A: usize, const B: usize, const C: usize>(
+    a: &SMatrix<f64, R, A>,
+    b: &SMatrix<f64, R, B>,
+) -> SMatrix<f64, R, C> {
+    const { assert!(A + B == C) };
+    SMatrix::from_fn(|i, c| if c < A { a[(i, c)] } else { b[(i, c - A)] })
 }
 
 #[cfg(test)]
