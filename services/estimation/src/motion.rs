@@ -267,6 +267,18 @@ impl MotionModel {
         }
     }
 
+    /// How much noise the model puts on a motion `delta` along the path (its translation
+    /// and heading variances, m² and rad²): the increment model's own variances, and for
+    /// the velocity models, whose noise is per unit of time, GMapping's increment noise.
+    /// Used to share a correction out along the path between two corrected poses.
+    pub fn path_variances(&self, delta: &Pose2) -> [f64; 2] {
+        let [trans, _, rot] = match self {
+            Self::Increment(model) => model.variances(delta),
+            Self::Unicycle(_) | Self::Bicycle(_) => Increment::default().variances(delta),
+        };
+        [trans, rot]
+    }
+
     /// True for a model driven by the odometry's pose increments rather than velocities.
     pub fn uses_increments(&self) -> bool {
         matches!(self, Self::Increment(_))

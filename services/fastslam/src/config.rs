@@ -18,6 +18,8 @@
 //! iterations = 10
 //! [optimizer.icoa]
 //! omega_max = 0.9
+//! [optimizer.hill]
+//! refinements = 5    # a climber stops after its step halved this often (0: never)
 //! [moves]             # fastslam_estimation::moves::MoveConfig
 //! bound_sigmas = 3.0
 //! prior_weight = 1.0

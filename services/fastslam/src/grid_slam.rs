@@ -94,11 +94,12 @@ impl GridSlam {
         stamp_ns: u64,
         scan: &RangeScan<'_>,
     ) -> fastslam_estimation::Result<(PoseEstimate, GridStep)> {
+        let predicted = self.back_end.is_some().then(|| self.filter.estimate().mean);
         let step = self.filter.observe(scan)?;
         let estimate = self.filter.estimate();
-        if self.back_end.is_none() {
+        let Some(predicted) = predicted else {
             return Ok((estimate, step));
-        }
+        };
         let keyframe = step.keyframe.then(|| Keyframe {
             stamp_ns,
             pose: estimate.mean,
@@ -108,7 +109,7 @@ impl GridSlam {
             sensor: self.mount,
         });
         let back_end = self.back_end.as_mut().expect("checked above");
-        let mean = back_end.scan(stamp_ns, estimate.mean, keyframe);
+        let mean = back_end.scan(stamp_ns, estimate.mean, keyframe, predicted);
         let turn = rotation(back_end.correction().theta);
         let covariance = turn * estimate.covariance * turn.transpose();
         Ok((PoseEstimate { mean, covariance }, step))
@@ -204,7 +205,8 @@ impl Estimator for GridSlam {
             None => None,
         };
         if enabled {
-            let mut back_end = LoopClosing::start(config.loop_closure.clone())?;
+            let mut back_end =
+                LoopClosing::start(config.loop_closure.clone(), config.filter.motion.clone())?;
             if let Some(state) = &replay {
                 back_end.replay(state)?;
             }

@@ -11,8 +11,9 @@
 //! that report only when the worker is later than the delay, so the published poses
 //! depend on the data only.
 //!
-//! The smoothed trajectory has a pose for every scan: the scan's keyframe's optimised
-//! pose moved by the front end's motion since that keyframe.
+//! The smoothed trajectory has a pose for every scan: between two optimised keyframes,
+//! the front end's path with their correction shared out along it by the motion model's
+//! noise ([`loop_closure::place_scans`]).
 //!
 //! A checkpoint holds what the back-end was handed ([`BackEndState`]: every scan's stamp
 //! and front-end pose, every keyframe); a resumed service hands it all to a fresh worker
@@ -24,6 +25,7 @@ use fastslam_estimation::Pose2;
 use fastslam_estimation::graph::{Fit, Solution, SolveReport};
 use fastslam_estimation::grid::{GridConfig, KeptBeam, OccupancyGrid};
 use fastslam_estimation::loop_closure::{self, Keyframe, LoopClosureConfig, PoseGraphMapper};
+use fastslam_estimation::motion::MotionModel;
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
@@ -93,19 +95,24 @@ pub struct LoopClosing {
     keyframes: Vec<Keyframe>,
     /// Every scan since the first keyframe: stamp, the front end's pose, its keyframe.
     scans: Vec<(u64, Pose2, usize)>,
+    /// Each keyframe's front-end pose before its scan was matched: the odometry's end of
+    /// the stretch from the keyframe before.
+    predicted: Vec<Pose2>,
     /// The correction in force: map → front-end map.
     correction: Pose2,
     /// The newest applied solve not yet published.
     unpublished: Option<Solved>,
     solves: u32,
+    /// The front end's motion model: how a correction is shared out between keyframes.
+    motion: MotionModel,
 }
 
 impl LoopClosing {
-    /// Starts the worker with `config`.
+    /// Starts the worker with `config`; `motion` is the front end's motion model.
     ///
     /// # Errors
     /// When the configuration is invalid or the thread cannot be started.
-    pub fn start(config: LoopClosureConfig) -> anyhow::Result<Self> {
+    pub fn start(config: LoopClosureConfig, motion: MotionModel) -> anyhow::Result<Self> {
         let delay = config.delay_keyframes;
         let mut mapper = PoseGraphMapper::new(config)?;
         let (to_worker, inbox) = channel::<Request>();
@@ -152,19 +159,29 @@ impl LoopClosing {
             reported: 0,
             keyframes: Vec::new(),
             scans: Vec::new(),
+            predicted: Vec::new(),
             correction: Pose2::default(),
             unpublished: None,
             solves: 0,
+            motion,
         })
     }
 
     /// Takes a scan's front-end pose `estimate` and, when the scan was a keyframe, the
-    /// keyframe; returns the pose in the map frame (`correction ∘ estimate`) with the
-    /// correction of keyframe `k − delay` applied at keyframe `k`.
-    pub fn scan(&mut self, stamp_ns: u64, estimate: Pose2, keyframe: Option<Keyframe>) -> Pose2 {
+    /// keyframe with `predicted`, the front end's pose of the scan before it was matched;
+    /// returns the pose in the map frame (`correction ∘ estimate`) with the correction of
+    /// keyframe `k − delay` applied at keyframe `k`.
+    pub fn scan(
+        &mut self,
+        stamp_ns: u64,
+        estimate: Pose2,
+        keyframe: Option<Keyframe>,
+        predicted: Pose2,
+    ) -> Pose2 {
         if let Some(keyframe) = keyframe {
             let index = self.keyframes.len();
             self.keyframes.push(keyframe.clone());
+            self.predicted.push(predicted);
             self.send(Request::Keyframe(Box::new(keyframe)));
             if let Some(due) = index.checked_sub(self.delay) {
                 self.apply_until(due);
@@ -235,6 +252,7 @@ impl LoopClosing {
         BackEndState {
             scans: self.scans.clone(),
             keyframes: self.keyframes.iter().map(KeyframeState::from).collect(),
+            predicted: self.predicted.clone(),
             unpublished: self.unpublished.is_some(),
         }
     }
@@ -249,17 +267,24 @@ impl LoopClosing {
         let mut next = 0;
         for &(stamp_ns, estimate, k) in &state.scans {
             let keyframe = if k == next {
-                let Some(keyframe) = state.keyframes.get(k) else {
+                let (Some(keyframe), Some(&predicted)) =
+                    (state.keyframes.get(k), state.predicted.get(k))
+                else {
                     bail!("the loop-closure state's scans name keyframe {k} it does not hold");
                 };
-                Some(Keyframe::from(keyframe))
+                Some((Keyframe::from(keyframe), predicted))
             } else if k + 1 == next {
                 None
             } else {
                 bail!("the loop-closure state's scans name keyframe {k} after {next}");
             };
             next += usize::from(keyframe.is_some());
-            self.scan(stamp_ns, estimate, keyframe);
+            match keyframe {
+                Some((keyframe, predicted)) => {
+                    self.scan(stamp_ns, estimate, Some(keyframe), predicted)
+                }
+                None => self.scan(stamp_ns, estimate, None, estimate),
+            };
         }
         if next != state.keyframes.len() {
             bail!(
@@ -328,17 +353,19 @@ impl LoopClosing {
     /// Every scan's pose under `solved`: its keyframe's optimised pose moved by the front
     /// end since that keyframe (the correction for keyframes the solve has not seen).
     fn trajectory(&self, solved: &Solved) -> Solution {
+        let scans: Vec<(Pose2, usize)> = self.scans.iter().map(|&(_, pose, k)| (pose, k)).collect();
+        let front_end: Vec<Pose2> = self.keyframes.iter().map(|k| k.pose).collect();
+        let placed = loop_closure::place_scans(
+            &scans,
+            &front_end,
+            &self.predicted,
+            &solved.poses,
+            &solved.correction,
+            |delta| self.motion.path_variances(delta),
+        );
         let poses = (self.scans.iter())
-            .map(|&(stamp, estimate, k)| {
-                let pose = match solved.poses.get(k) {
-                    Some(optimised) => {
-                        let since = self.keyframes[k].pose.inverse().compose(&estimate);
-                        optimised.compose(&since)
-                    }
-                    None => solved.correction.compose(&estimate),
-                };
-                (stamp, pose)
-            })
+            .zip(placed)
+            .map(|(&(stamp, _, _), pose)| (stamp, pose))
             .collect();
         Solution {
             poses,
@@ -381,6 +408,8 @@ pub struct BackEndState {
     pub scans: Vec<(u64, Pose2, usize)>,
     /// Every keyframe handed over, in order.
     pub keyframes: Vec<KeyframeState>,
+    /// Each keyframe's front-end pose before its scan was matched.
+    pub predicted: Vec<Pose2>,
     /// The newest solve applied had not been published yet.
     pub unpublished: bool,
 }

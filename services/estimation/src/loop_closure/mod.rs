@@ -20,6 +20,8 @@
 //!   keyframe's pose and the correction `optimised ∘ front-end⁻¹` of the newest keyframe
 //!   (map → front-end map).
 //! - **Map** ([`PoseGraphMapper::render`]): every keyframe's beams at its optimised pose.
+//! - **Trajectory** ([`place_scans`]): every scan between two optimised keyframes,
+//!   carrying the share of their correction that the odometry noise up to it holds.
 //!
 //! A caller adds keyframes ([`PoseGraphMapper::add_keyframe`]), solves when
 //! [`PoseGraphMapper::solve_due`] says so, publishes `correction ∘ front-end pose` as the
@@ -40,6 +42,7 @@ mod render;
 mod robust;
 mod search;
 mod submap;
+mod trajectory;
 
 pub use config::{LoopClosureConfig, MAX_DEPTH};
 pub use mapper::{Keyframe, KeyframeReport, LoopClosure, PoseGraphMapper, Solution};
@@ -48,3 +51,4 @@ pub use probability::{FULL, ProbabilityGrid};
 pub use pyramid::MatchGrid;
 pub use robust::{LoopEdge, WEIGHT_TOLERANCE};
 pub use submap::Submap;
+pub use trajectory::place_scans;

@@ -3,8 +3,8 @@
 
 use super::chaos::CircleMap;
 use super::{
-    Ba, BaConfig, Coa, Gwo, GwoConfig, HillClimb, Iba, IbaConfig, Icoa, IcoaConfig, Optimiser, Pso,
-    PsoConfig, Qpso, QpsoConfig,
+    Ba, BaConfig, Coa, Gwo, GwoConfig, HillClimb, HillConfig, Iba, IbaConfig, Icoa, IcoaConfig,
+    Optimiser, Pso, PsoConfig, Qpso, QpsoConfig,
 };
 use crate::check::require;
 use crate::moves::MoveCorrection;
@@ -119,6 +119,8 @@ pub struct OptimiserConfig {
     pub qpso: QpsoConfig,
     /// PSO constants (§4.5).
     pub pso: PsoConfig,
+    /// Hill climber constants (§4.6).
+    pub hill: HillConfig,
 }
 
 impl Default for OptimiserConfig {
@@ -132,6 +134,7 @@ impl Default for OptimiserConfig {
             gwo: GwoConfig::default(),
             qpso: QpsoConfig::default(),
             pso: PsoConfig::default(),
+            hill: HillConfig::default(),
         }
     }
 }
@@ -192,7 +195,7 @@ impl OptimiserConfig {
             OptimiserKind::Gwo => Some(Box::new(Gwo::new(self.gwo.clone())?)),
             OptimiserKind::Qpso => Some(Box::new(Qpso::new(self.qpso.clone())?)),
             OptimiserKind::Pso => Some(Box::new(Pso::new(self.pso.clone())?)),
-            OptimiserKind::Hill => Some(Box::new(HillClimb::new())),
+            OptimiserKind::Hill => Some(Box::new(HillClimb::new(self.hill.clone()))),
         })
     }
 }

@@ -5,29 +5,53 @@
 //! along each coordinate (`2D` candidates) and moves to the best of them when that is
 //! strictly better; when none is, its step halves. Steps start at a third of the box's
 //! half-width (one standard deviation of the motion prior in the corrected modes, whose
-//! box is ±3σ). No random draw: the search is deterministic.
+//! box is ±3σ). A member whose step has halved [`HillConfig::refinements`] times stops
+//! climbing, as GMapping's matcher does after its `iterations` refinements; the run's
+//! remaining generations cost it nothing. No random draw: the search is deterministic.
 
 use super::shared::{Batch, RunState};
 use super::{Optimiser, OptimiserKind, Population, Problem};
 use crate::Result;
 use crate::rng::SimRng;
+use serde::{Deserialize, Serialize};
 
 /// Initial step as a fraction of the box's half-width per coordinate.
 const INITIAL_STEP: f64 = 1.0 / 3.0;
 
+/// The hill climber's constants.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct HillConfig {
+    /// A member stops once its step has halved this many times (count); 0 never stops it
+    /// before the run's last generation. Default 0. GMapping's matcher stops after its
+    /// `iterations` refinements (5 in `slam_gmapping`).
+    pub refinements: usize,
+}
+
 /// Coordinate-wise hill climbing with step halving.
 #[derive(Debug, Clone, Default)]
 pub struct HillClimb {
+    config: HillConfig,
     run: RunState,
     candidates: Batch,
     /// Current step per member and coordinate (row-major).
     steps: Vec<f64>,
+    /// Times each member's step has halved.
+    halvings: Vec<usize>,
 }
 
 impl HillClimb {
-    /// A hill climber (it has no constants).
-    pub fn new() -> Self {
-        Self::default()
+    /// A hill climber with `config`'s constants.
+    pub fn new(config: HillConfig) -> Self {
+        Self {
+            config,
+            ..Self::default()
+        }
+    }
+
+    /// Whether member `i` still climbs.
+    fn climbing(&self, i: usize) -> bool {
+        still_climbing(&self.config, self.halvings[i])
     }
 }
 
@@ -47,6 +71,7 @@ impl Optimiser for HillClimb {
         self.steps = (0..population.len())
             .flat_map(|_| (0..bounds.dim()).map(|d| INITIAL_STEP * bounds.half_width(d)))
             .collect();
+        self.halvings = vec![0; population.len()];
         Ok(())
     }
 
@@ -60,6 +85,9 @@ impl Optimiser for HillClimb {
         let dim = population.dim();
         self.candidates.reset(dim);
         for i in 0..population.len() {
+            if !still_climbing(&self.config, self.halvings[i]) {
+                continue;
+            }
             for d in 0..dim {
                 for sign in [1.0, -1.0] {
                     let step = self.steps[i * dim + d];
@@ -71,10 +99,11 @@ impl Optimiser for HillClimb {
         let before = population.fitness().to_vec();
         population.accept_greedy(&self.candidates);
         for (i, &f) in before.iter().enumerate() {
-            if population.fitness()[i] >= f {
+            if self.climbing(i) && population.fitness()[i] >= f {
                 self.steps[i * dim..(i + 1) * dim]
                     .iter_mut()
                     .for_each(|s| *s *= 0.5);
+                self.halvings[i] += 1;
             }
         }
         Ok(())
@@ -83,6 +112,11 @@ impl Optimiser for HillClimb {
     fn run_state(&self) -> &RunState {
         &self.run
     }
+}
+
+/// Whether a member whose step has halved `halvings` times still climbs.
+fn still_climbing(config: &HillConfig, halvings: usize) -> bool {
+    config.refinements == 0 || halvings < config.refinements
 }
 
 #[cfg(test)]
@@ -97,7 +131,7 @@ mod tests {
         let mut rng = seeded(2);
         let start = problem.bounds().sample_uniform(4, &mut rng);
         let mut population = Population::evaluate(&problem, start).unwrap();
-        let mut hill = HillClimb::new();
+        let mut hill = HillClimb::new(HillConfig::default());
         let mut untouched = seeded(9);
         let summary = hill
             .run(&problem, &mut population, 200, &mut untouched)
@@ -108,10 +142,28 @@ mod tests {
     }
 
     #[test]
+    fn a_member_stops_after_its_refinements() {
+        let problem = Benchmark::new(TestFunction::Sphere, 2, false).unwrap();
+        let mut population = Population::evaluate(&problem, vec![0.0, 0.0, 50.0, 0.0]).unwrap();
+        let mut hill = HillClimb::new(HillConfig { refinements: 2 });
+        let summary = hill
+            .run(&problem, &mut population, 10, &mut seeded(1))
+            .unwrap();
+        assert_eq!(hill.halvings[0], 2, "the member at the bottom stopped");
+        assert!(summary.evaluations < 10 * 2 * 4, "{summary:?}");
+        let mut unbounded = HillClimb::new(HillConfig::default());
+        let mut population = Population::evaluate(&problem, vec![0.0, 0.0, 50.0, 0.0]).unwrap();
+        let all = unbounded
+            .run(&problem, &mut population, 10, &mut seeded(1))
+            .unwrap();
+        assert_eq!(all.evaluations, 10 * 2 * 4);
+    }
+
+    #[test]
     fn a_member_that_cannot_improve_halves_its_step_and_stays() {
         let problem = Benchmark::new(TestFunction::Sphere, 2, false).unwrap();
         let mut population = Population::evaluate(&problem, vec![0.0, 0.0, 50.0, 0.0]).unwrap();
-        let mut hill = HillClimb::new();
+        let mut hill = HillClimb::new(HillConfig::default());
         hill.start(&problem, &population, 1).unwrap();
         let first = hill.steps.clone();
         hill.step(&problem, &mut population, &mut seeded(1))

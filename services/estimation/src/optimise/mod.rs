@@ -81,7 +81,7 @@ pub use bounds::Bounds;
 pub use coa::Coa;
 pub use config::{OptimiserConfig, OptimiserKind};
 pub use gwo::{Gwo, GwoConfig};
-pub use hill::HillClimb;
+pub use hill::{HillClimb, HillConfig};
 pub use iba::{Iba, IbaConfig};
 pub use icoa::{Icoa, IcoaConfig};
 pub use population::{FnProblem, Population, Problem};
