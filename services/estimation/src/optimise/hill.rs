@@ -5,9 +5,10 @@
 //! along each coordinate (`2D` candidates) and moves to the best of them when that is
 //! strictly better; when none is, its step halves. Steps start at a third of the box's
 //! half-width (one standard deviation of the motion prior in the corrected modes, whose
-//! box is ±3σ). A member whose step has halved [`HillConfig::refinements`] times stops
-//! climbing, as GMapping's matcher does after its `iterations` refinements; the run's
-//! remaining generations cost it nothing. No random draw: the search is deterministic.
+//! box is ±3σ). Only the [`HillConfig::climbers`] members that start best climb, and a
+//! member whose step has halved [`HillConfig::refinements`] times stops, as GMapping's
+//! matcher does after its `iterations` refinements: the generations a member does not
+//! climb cost nothing. No random draw: the search is deterministic.
 
 use super::shared::{Batch, RunState};
 use super::{Optimiser, OptimiserKind, Population, Problem};
@@ -22,6 +23,10 @@ const INITIAL_STEP: f64 = 1.0 / 3.0;
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct HillConfig {
+    /// How many members climb: those of the best starting fitness (count; the first of
+    /// equals); the others keep their start. 0: every member. Default 0. GMapping's matcher
+    /// climbs from one start.
+    pub climbers: usize,
     /// A member stops once its step has halved this many times (count); 0 never stops it
     /// before the run's last generation. Default 0. GMapping's matcher stops after its
     /// `iterations` refinements (5 in `slam_gmapping`).
@@ -38,6 +43,8 @@ pub struct HillClimb {
     steps: Vec<f64>,
     /// Times each member's step has halved.
     halvings: Vec<usize>,
+    /// Whether each member climbs at all (one of the `climbers` best at the start).
+    chosen: Vec<bool>,
 }
 
 impl HillClimb {
@@ -51,7 +58,7 @@ impl HillClimb {
 
     /// Whether member `i` still climbs.
     fn climbing(&self, i: usize) -> bool {
-        still_climbing(&self.config, self.halvings[i])
+        self.chosen[i] && still_climbing(&self.config, self.halvings[i])
     }
 }
 
@@ -72,6 +79,7 @@ impl Optimiser for HillClimb {
             .flat_map(|_| (0..bounds.dim()).map(|d| INITIAL_STEP * bounds.half_width(d)))
             .collect();
         self.halvings = vec![0; population.len()];
+        self.chosen = best_starts(population.fitness(), self.config.climbers);
         Ok(())
     }
 
@@ -85,7 +93,7 @@ impl Optimiser for HillClimb {
         let dim = population.dim();
         self.candidates.reset(dim);
         for i in 0..population.len() {
-            if !still_climbing(&self.config, self.halvings[i]) {
+            if !(self.chosen[i] && still_climbing(&self.config, self.halvings[i])) {
                 continue;
             }
             for d in 0..dim {
@@ -112,6 +120,21 @@ impl Optimiser for HillClimb {
     fn run_state(&self) -> &RunState {
         &self.run
     }
+}
+
+/// Which members climb: the `climbers` of the lowest `fitness` (the first of equals), or
+/// all when `climbers` is 0 or covers them.
+fn best_starts(fitness: &[f64], climbers: usize) -> Vec<bool> {
+    if climbers == 0 || climbers >= fitness.len() {
+        return vec![true; fitness.len()];
+    }
+    let mut order: Vec<usize> = (0..fitness.len()).collect();
+    order.sort_by(|&a, &b| fitness[a].total_cmp(&fitness[b]).then(a.cmp(&b)));
+    let mut chosen = vec![false; fitness.len()];
+    for &i in &order[..climbers] {
+        chosen[i] = true;
+    }
+    chosen
 }
 
 /// Whether a member whose step has halved `halvings` times still climbs.
@@ -145,7 +168,10 @@ mod tests {
     fn a_member_stops_after_its_refinements() {
         let problem = Benchmark::new(TestFunction::Sphere, 2, false).unwrap();
         let mut population = Population::evaluate(&problem, vec![0.0, 0.0, 50.0, 0.0]).unwrap();
-        let mut hill = HillClimb::new(HillConfig { refinements: 2 });
+        let mut hill = HillClimb::new(HillConfig {
+            refinements: 2,
+            ..HillConfig::default()
+        });
         let summary = hill
             .run(&problem, &mut population, 10, &mut seeded(1))
             .unwrap();
@@ -157,6 +183,28 @@ mod tests {
             .run(&problem, &mut population, 10, &mut seeded(1))
             .unwrap();
         assert_eq!(all.evaluations, 10 * 2 * 4);
+    }
+
+    #[test]
+    fn only_the_best_starts_climb() {
+        let problem = Benchmark::new(TestFunction::Sphere, 2, false).unwrap();
+        let starts = vec![40.0, 0.0, 10.0, 0.0, 30.0, 0.0];
+        let mut population = Population::evaluate(&problem, starts.clone()).unwrap();
+        let mut hill = HillClimb::new(HillConfig {
+            climbers: 1,
+            ..HillConfig::default()
+        });
+        let summary = hill
+            .run(&problem, &mut population, 10, &mut seeded(1))
+            .unwrap();
+        assert_eq!(summary.evaluations, 10 * 4, "one member climbed");
+        assert_eq!(population.position(0), &starts[0..2]);
+        assert_eq!(population.position(2), &starts[4..6]);
+        assert!(
+            population.fitness()[1] < 100.0,
+            "{:?}",
+            population.fitness()
+        );
     }
 
     #[test]
