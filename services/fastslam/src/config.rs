@@ -19,6 +19,7 @@
 //! [optimizer.icoa]
 //! omega_max = 0.9
 //! [optimizer.hill]
+//! climbers = 2       # only the best-starting members climb (0: all)
 //! refinements = 5    # a climber stops after its step halved this often (0: never)
 //! [moves]             # fastslam_estimation::moves::MoveConfig
 //! bound_sigmas = 3.0

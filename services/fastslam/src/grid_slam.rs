@@ -100,16 +100,19 @@ impl GridSlam {
         let Some(predicted) = predicted else {
             return Ok((estimate, step));
         };
-        let keyframe = step.keyframe.then(|| Keyframe {
-            stamp_ns,
-            pose: estimate.mean,
-            covariance: estimate.covariance,
-            points: self.points(scan),
-            beams: self.grid.kept_beams(scan),
-            sensor: self.mount,
+        let keyframe = step.keyframe.then(|| {
+            let keyframe = Keyframe {
+                stamp_ns,
+                pose: estimate.mean,
+                covariance: estimate.covariance,
+                points: self.points(scan),
+                beams: self.grid.kept_beams(scan),
+                sensor: self.mount,
+            };
+            (keyframe, predicted)
         });
         let back_end = self.back_end.as_mut().expect("checked above");
-        let mean = back_end.scan(stamp_ns, estimate.mean, keyframe, predicted);
+        let mean = back_end.scan(stamp_ns, estimate.mean, keyframe);
         let turn = rotation(back_end.correction().theta);
         let covariance = turn * estimate.covariance * turn.transpose();
         Ok((PoseEstimate { mean, covariance }, step))

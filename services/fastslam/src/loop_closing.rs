@@ -168,17 +168,16 @@ impl LoopClosing {
     }
 
     /// Takes a scan's front-end pose `estimate` and, when the scan was a keyframe, the
-    /// keyframe with `predicted`, the front end's pose of the scan before it was matched;
-    /// returns the pose in the map frame (`correction ∘ estimate`) with the correction of
-    /// keyframe `k − delay` applied at keyframe `k`.
+    /// keyframe with the front end's pose of its scan before it was matched; returns the
+    /// pose in the map frame (`correction ∘ estimate`) with the correction of keyframe
+    /// `k − delay` applied at keyframe `k`.
     pub fn scan(
         &mut self,
         stamp_ns: u64,
         estimate: Pose2,
-        keyframe: Option<Keyframe>,
-        predicted: Pose2,
+        keyframe: Option<(Keyframe, Pose2)>,
     ) -> Pose2 {
-        if let Some(keyframe) = keyframe {
+        if let Some((keyframe, predicted)) = keyframe {
             let index = self.keyframes.len();
             self.keyframes.push(keyframe.clone());
             self.predicted.push(predicted);
@@ -279,12 +278,7 @@ impl LoopClosing {
                 bail!("the loop-closure state's scans name keyframe {k} after {next}");
             };
             next += usize::from(keyframe.is_some());
-            match keyframe {
-                Some((keyframe, predicted)) => {
-                    self.scan(stamp_ns, estimate, Some(keyframe), predicted)
-                }
-                None => self.scan(stamp_ns, estimate, None, estimate),
-            };
+            self.scan(stamp_ns, estimate, keyframe);
         }
         if next != state.keyframes.len() {
             bail!(
@@ -350,8 +344,10 @@ impl LoopClosing {
         self.unpublished = Some(solved);
     }
 
-    /// Every scan's pose under `solved`: its keyframe's optimised pose moved by the front
-    /// end since that keyframe (the correction for keyframes the solve has not seen).
+    /// Every scan's pose under `solved`: between two optimised keyframes, the share of
+    /// their correction the motion model gives it ([`loop_closure::place_scans`]); after
+    /// the newest, its keyframe's optimised pose moved by the front end since; the
+    /// correction for keyframes the solve has not seen.
     fn trajectory(&self, solved: &Solved) -> Solution {
         let scans: Vec<(Pose2, usize)> = self.scans.iter().map(|&(_, pose, k)| (pose, k)).collect();
         let front_end: Vec<Pose2> = self.keyframes.iter().map(|k| k.pose).collect();

@@ -56,9 +56,11 @@ impl HillClimb {
         }
     }
 
-    /// Whether member `i` still climbs.
+    /// Whether member `i` still climbs: it is one of the chosen, and its step has not
+    /// halved `refinements` times.
     fn climbing(&self, i: usize) -> bool {
-        self.chosen[i] && still_climbing(&self.config, self.halvings[i])
+        let refinements = self.config.refinements;
+        self.chosen[i] && (refinements == 0 || self.halvings[i] < refinements)
     }
 }
 
@@ -93,7 +95,7 @@ impl Optimiser for HillClimb {
         let dim = population.dim();
         self.candidates.reset(dim);
         for i in 0..population.len() {
-            if !(self.chosen[i] && still_climbing(&self.config, self.halvings[i])) {
+            if !self.climbing(i) {
                 continue;
             }
             for d in 0..dim {
@@ -135,11 +137,6 @@ fn best_starts(fitness: &[f64], climbers: usize) -> Vec<bool> {
         chosen[i] = true;
     }
     chosen
-}
-
-/// Whether a member whose step has halved `halvings` times still climbs.
-fn still_climbing(config: &HillConfig, halvings: usize) -> bool {
-    config.refinements == 0 || halvings < config.refinements
 }
 
 #[cfg(test)]
