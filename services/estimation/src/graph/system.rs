@@ -318,6 +318,18 @@ impl System {
         step.iter().all(|v| v.is_finite())
     }
 
+    /// The decrease of the cost `Σ rᵀ W r` the linearised model predicts for `step`, the
+    /// last [`step`](Self::step)'s solution: `−2 gᵀδ − δᵀ H δ`, which the damped system
+    /// `(H + λ D) δ = −g` turns into `−gᵀδ + λ δᵀ D δ` (never negative).
+    pub(crate) fn predicted_decrease(&self, step: &[f64]) -> f64 {
+        let along: f64 = step.iter().zip(&self.gradient).map(|(s, g)| s * g).sum();
+        let damping: f64 = (self.pattern.col_ptr()[..self.n].iter())
+            .zip(step)
+            .map(|(&d, s)| (self.damped[d] - self.h[d]) * s * s)
+            .sum();
+        damping - along
+    }
+
     /// Factorises the undamped `H` of the last linearisation, for solves against it
     /// ([`solve_in_place`](Self::solve_in_place)).
     ///
@@ -487,5 +499,52 @@ fn factorisation(reason: String) -> Error {
     Error::InvalidInput {
         what: "graph normal equations",
         reason,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::graph::{Kernel, Prior};
+    use crate::pose::Pose2;
+    use nalgebra::{Matrix3, Vector3};
+
+    /// With linear residuals (priors, the additive update) the cost is the model, so the
+    /// predicted decrease is the decrease a step makes, for any damping.
+    #[test]
+    fn predicted_decrease_is_the_decrease_of_a_quadratic_cost() {
+        let information = Matrix3::new(4.0, 1.0, 0.0, 1.0, 3.0, 0.5, 0.0, 0.5, 2.0);
+        let mut graph = Graph::default();
+        graph.add_pose(Pose2::new(1.0, -2.0, 0.3));
+        graph.add_pose(Pose2::new(0.5, 0.5, -0.2));
+        for (pose, mean) in [(0, Pose2::new(0.2, 0.1, 0.1)), (1, Pose2::default())] {
+            graph.priors.push(Prior {
+                pose,
+                mean,
+                information,
+            });
+        }
+        let cost = |poses: &[Pose2]| -> f64 {
+            (graph.priors.iter())
+                .map(|p| {
+                    let (x, m) = (poses[p.pose], p.mean);
+                    let r = Vector3::new(x.x - m.x, x.y - m.y, x.theta - m.theta);
+                    (r.transpose() * p.information * r)[0]
+                })
+                .sum()
+        };
+        let mut system = System::new(&graph).unwrap();
+        system.linearise(&graph, Kernel::None, PoseUpdate::Additive);
+        for (damping, lambda) in [(Damping::Marquardt, 0.0), (Damping::Levenberg, 0.7)] {
+            let mut step = vec![0.0; 6];
+            assert!(system.step(damping, lambda, &mut step));
+            let moved: Vec<Pose2> = (graph.poses.iter().zip(step.chunks_exact(3)))
+                .map(|(p, d)| Pose2::new(p.x + d[0], p.y + d[1], p.theta + d[2]))
+                .collect();
+            let actual = cost(&graph.poses) - cost(&moved);
+            let predicted = system.predicted_decrease(&step);
+            assert!(actual > 0.1, "{actual}");
+            assert!((predicted - actual).abs() < 1e-9 * actual, "{predicted} against {actual}");
+        }
     }
 }

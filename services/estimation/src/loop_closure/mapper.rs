@@ -319,6 +319,7 @@ impl PoseGraphMapper {
         self.loops.push(LoopEdge {
             closure,
             weight: 1.0,
+            robust_weight: 1.0,
             chi2: 0.0,
             between: self.graph.betweens.len(),
             information,

@@ -1,16 +1,19 @@
 //! Solving with loop closures that may be wrong: iteratively reweighted least squares
 //! outside the solver, then a χ² gate.
 //!
-//! Each round solves the graph (Levenberg–Marquardt, [`Graph::solve`]) with every loop
-//! closure's information scaled by its weight, then sets each weight to the Cauchy
-//! weight `1 / (1 + χ²/c²)` of its χ² under its nominal information at the solution. A
-//! wrong closure disagrees with the consecutive constraints and the other closures, ends
-//! with a large χ², and loses its pull round by round; rounds stop when no weight moves by
-//! more than [`WEIGHT_TOLERANCE`] or after `robust_rounds`. Then every closure whose χ²
-//! exceeds the gate is left out (weight 0), the others get their full information back,
-//! and a last solve gives the solution: least squares over the closures that fit.
-//! A left-out closure stays in the graph and is judged again at the next solve, from
-//! the solution without it.
+//! Each round solves the graph (Levenberg–Marquardt, [`Graph::solve`], as for a pose
+//! graph: the exponential update and Levenberg's damping) with every loop closure's
+//! information scaled by its weight, then sets each weight to the Cauchy weight
+//! `1 / (1 + χ²/c²)` of its χ² under its nominal information at the solution. A wrong
+//! closure disagrees with the consecutive constraints and the other closures, ends with a
+//! large χ², and loses its pull round by round; rounds stop when no weight moves by more
+//! than [`WEIGHT_TOLERANCE`] or after `robust_rounds`. Then every closure whose χ² exceeds
+//! the gate is left out (weight 0), the others get their full information back, and a
+//! last solve gives the solution: least squares over the closures that fit. A left-out
+//! closure stays in the graph and is judged again at the next solve, from the solution
+//! without it. The next solve's rounds start from the Cauchy weights the last rounds
+//! settled on (a new closure from 1), so they only have the new closures to settle; all
+//! of a solve's rounds share one symbolic factorisation.
 
 use super::config::LoopClosureConfig;
 use super::mapper::LoopClosure;
@@ -30,6 +33,9 @@ pub struct LoopEdge {
     /// Its weight in the last solve: 1 used in full, 0 left out (a new closure starts
     /// at 1).
     pub weight: f64,
+    /// Its Cauchy weight after the last reweighting round, where the next solve's rounds
+    /// start (1 for a new closure).
+    pub(crate) robust_weight: f64,
     /// `rᵀ Ω r` of its residual under its nominal information at the last solution (0
     /// before a solve).
     pub chi2: f64,
@@ -66,14 +72,18 @@ pub(crate) fn solve(
 ) -> Result<Report> {
     let options = SolveOptions {
         max_iterations: config.max_iterations,
-        ..SolveOptions::default()
+        ..SolveOptions::pose_graph()
     };
     let c2 = config.loop_kernel_scale * config.loop_kernel_scale;
     let (mut rounds, mut iterations) = (0, 0);
+    let mut system = None;
     if !loops.is_empty() {
+        for edge in loops.iter_mut() {
+            edge.weight = edge.robust_weight;
+        }
         loop {
             apply_weights(graph, loops);
-            iterations += graph.solve(&options)?.iterations;
+            iterations += graph.solve_with(&options, &mut system)?.iterations;
             rounds += 1;
             let mut change: f64 = 0.0;
             for edge in loops.iter_mut() {
@@ -81,6 +91,7 @@ pub(crate) fn solve(
                 let weight = 1.0 / (1.0 + edge.chi2 / c2);
                 change = change.max((weight - edge.weight).abs());
                 edge.weight = weight;
+                edge.robust_weight = weight;
             }
             if change <= WEIGHT_TOLERANCE || rounds >= config.robust_rounds {
                 break;
@@ -95,7 +106,7 @@ pub(crate) fn solve(
         }
     }
     apply_weights(graph, loops);
-    iterations += graph.solve(&options)?.iterations;
+    iterations += graph.solve_with(&options, &mut system)?.iterations;
     rounds += 1;
     for edge in loops.iter_mut() {
         edge.chi2 = edge_chi2(graph, edge);
