@@ -544,7 +544,10 @@ mod tests {
             let actual = cost(&graph.poses) - cost(&moved);
             let predicted = system.predicted_decrease(&step);
             assert!(actual > 0.1, "{actual}");
-            assert!((predicted - actual).abs() < 1e-9 * actual, "{predicted} against {actual}");
+            assert!(
+                (predicted - actual).abs() < 1e-9 * actual,
+                "{predicted} against {actual}"
+            );
         }
     }
 }

@@ -43,6 +43,13 @@ pub struct LoopClosureConfig {
     /// Match every `search_every`-th keyframe against the finished submaps (count, ≥ 1).
     /// Default 1.
     pub search_every: usize,
+    /// When a submap is finished, up to this many earlier keyframes whose estimates lie
+    /// within `max_search_distance` of its origin are matched against it, spread evenly
+    /// over them (count; 0: none). Without it, of two passes through one place only the
+    /// later pass's keyframes are matched, against the earlier pass's submaps. Default 30,
+    /// a submap's own keyframe count: a finished submap is searched from the past about
+    /// as often as its keyframes search the past.
+    pub earlier_keyframes: usize,
     /// Finished submaps whose origin lies within this distance of the keyframe (graph
     /// estimates) are searched (m). Default 15: a submap reaches about its range limit
     /// around the path it was built along.
@@ -101,6 +108,7 @@ impl Default for LoopClosureConfig {
             l_free: -0.1,
             l_clamp: 2.2,
             search_every: 1,
+            earlier_keyframes: 30,
             max_search_distance: 15.0,
             min_linear_window: 0.3,
             max_linear_window: 3.0,

@@ -57,9 +57,11 @@ pub struct LoopClosure {
 pub struct KeyframeReport {
     /// The keyframe's index (its pose's index in the graph).
     pub index: usize,
-    /// Finished submaps it was matched against.
+    /// Matches tried: the finished submaps it was matched against, and the earlier
+    /// keyframes matched against the submap it finished.
     pub searched: usize,
-    /// The matches that reached `min_score`, now loop-closure constraints.
+    /// The matches that reached `min_score`, now loop-closure constraints: its own,
+    /// then the earlier keyframes' in the submap it finished.
     pub closures: Vec<LoopClosure>,
     /// A solve is due ([`PoseGraphMapper::solve_due`]).
     pub solve_due: bool,
@@ -97,6 +99,16 @@ pub(crate) struct Kept {
     pub(crate) front_end: Pose2,
     pub(crate) sensor: Pose2,
     pub(crate) beams: Vec<KeptBeam>,
+    /// The points to match, when there are enough ([`PoseGraphMapper::matchable`]).
+    pub(crate) matchable: Option<Matchable>,
+}
+
+/// A keyframe's scan as it is matched: its points within `max_range` of the base (base
+/// frame) and their root-mean-square distance from it (m).
+#[derive(Debug, Clone)]
+pub(crate) struct Matchable {
+    pub(crate) points: Vec<[f64; 2]>,
+    pub(crate) lever: f64,
 }
 
 /// The loop-closing pose-graph back-end for grid SLAM; see the module documentation.
@@ -198,11 +210,13 @@ impl PoseGraphMapper {
                 ]);
             }
         }
+        let matchable = self.matchable(&keyframe.points);
         self.keyframes.push(Kept {
             stamp_ns: keyframe.stamp_ns,
             front_end: keyframe.pose,
             sensor: keyframe.sensor,
             beams: keyframe.beams,
+            matchable,
         });
         if self.submaps.last().is_none_or(|s| s.grid().is_some()) {
             self.submaps.push(Submap::new(index));
@@ -215,18 +229,21 @@ impl PoseGraphMapper {
         let kept = &self.keyframes[index];
         active.insert(&local, &kept.sensor, &kept.beams, &self.config);
         let started = std::time::Instant::now();
-        let (searched, closures) = if index.is_multiple_of(self.config.search_every) {
-            self.search(index, &keyframe.points)
+        let (mut searched, mut closures) = if index.is_multiple_of(self.config.search_every) {
+            self.search(index)
         } else {
             (0, Vec::new())
         };
-        let match_seconds = started.elapsed().as_secs_f64();
-        for closure in &closures {
-            self.add_loop_closure(*closure)?;
-        }
         let active = self.submaps.last_mut().expect("just ensured");
         if active.keyframes() >= self.config.keyframes_per_submap {
             active.finish(self.config.depth, self.config.resolution);
+            let (earlier, found) = self.search_earlier(self.submaps.len() - 1);
+            searched += earlier;
+            closures.extend(found);
+        }
+        let match_seconds = started.elapsed().as_secs_f64();
+        for closure in &closures {
+            self.add_loop_closure(*closure)?;
         }
         self.since_solve += 1;
         Ok(KeyframeReport {

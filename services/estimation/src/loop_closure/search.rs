@@ -10,73 +10,107 @@
 //! `L/√3` on a straight path, so `σ²_lin = σ²_xy + σ²_θ L² / 3`. Both are clamped to the
 //! configured windows. Loop closures already in the graph do not shrink the window: it
 //! is the chain's uncertainty, a bound the true one stays below.
+//!
+//! When a submap is finished, earlier keyframes near its origin are matched against it
+//! the same way, so that both passes through a place search the other's submaps.
 
-use super::mapper::{LoopClosure, PoseGraphMapper};
-use super::matcher::{ScanMatch, SearchWindow};
+use super::mapper::{LoopClosure, Matchable, PoseGraphMapper};
+use super::matcher::SearchWindow;
 use rayon::prelude::*;
 
 impl PoseGraphMapper {
-    /// Matches keyframe `index`'s `points` (base frame) against the finished submaps
-    /// near it: how many were searched, and the matches that reached `min_score`, in
-    /// submap order.
-    pub(crate) fn search(&self, index: usize, points: &[[f64; 2]]) -> (usize, Vec<LoopClosure>) {
+    /// `points` (base frame) as they are matched: those within `max_range` of the base
+    /// and their lever; `None` when fewer than `min_points` are left.
+    pub(crate) fn matchable(&self, points: &[[f64; 2]]) -> Option<Matchable> {
         let config = &self.config;
         let points: Vec<[f64; 2]> = (points.iter().copied())
             .filter(|p| p[0].hypot(p[1]) <= config.max_range)
             .collect();
         if points.len() < config.min_points.max(1) {
-            return (0, Vec::new());
+            return None;
         }
-        let lever = (points
-            .iter()
-            .map(|p| p[0] * p[0] + p[1] * p[1])
-            .sum::<f64>()
-            / points.len() as f64)
-            .sqrt();
-        if !(lever.is_finite() && lever > 0.0) {
-            return (0, Vec::new());
-        }
-        let here = self.graph.poses[index];
-        let candidates: Vec<usize> = (0..self.submaps.len())
-            .filter(|&s| {
-                let submap = &self.submaps[s];
-                let origin = self.graph.poses[submap.anchor()];
-                submap.grid().is_some()
-                    && submap.anchor() != index
-                    && (origin.x - here.x).hypot(origin.y - here.y) <= config.max_search_distance
-            })
-            .collect();
-        let matched = |&s: &usize| -> Option<(usize, ScanMatch)> {
-            let submap = &self.submaps[s];
-            let anchor = submap.anchor();
-            let initial = self.graph.poses[anchor].inverse().compose(&here);
-            let window = self.window(anchor, index);
-            let grid = submap.grid()?;
-            grid.match_scan(&points, &initial, &window, config.min_score)
-                .map(|m| (s, m))
-        };
-        let matches: Vec<Option<(usize, ScanMatch)>> = if candidates.len() > 1 {
-            candidates.par_iter().map(matched).collect()
-        } else {
-            candidates.iter().map(matched).collect()
-        };
-        let closures = matches
-            .into_iter()
-            .flatten()
-            .filter(|(_, m)| m.score > 0.0)
-            .map(|(submap, m)| LoopClosure {
-                keyframe: index,
-                submap,
-                pose: m.pose,
-                score: m.score,
-                lever,
-            })
-            .collect();
-        (candidates.len(), closures)
+        let squares: f64 = points.iter().map(|p| p[0] * p[0] + p[1] * p[1]).sum();
+        let lever = (squares / points.len() as f64).sqrt();
+        (lever.is_finite() && lever > 0.0).then_some(Matchable { points, lever })
     }
 
-    /// The search window for keyframe `index` in the frame of keyframe `anchor` (earlier);
-    /// see the module documentation.
+    /// Whether finished submap `submap`'s origin lies within `max_search_distance` of
+    /// keyframe `index`'s estimate.
+    fn near(&self, submap: usize, index: usize) -> bool {
+        let origin = self.graph.poses[self.submaps[submap].anchor()];
+        let here = self.graph.poses[index];
+        (origin.x - here.x).hypot(origin.y - here.y) <= self.config.max_search_distance
+    }
+
+    /// Matches keyframe `index` against the finished submaps near it: how many were
+    /// searched, and the matches that reached `min_score`, in submap order.
+    pub(crate) fn search(&self, index: usize) -> (usize, Vec<LoopClosure>) {
+        if self.keyframes[index].matchable.is_none() {
+            return (0, Vec::new());
+        }
+        let pairs: Vec<(usize, usize)> = (0..self.submaps.len())
+            .filter(|&s| {
+                let submap = &self.submaps[s];
+                submap.grid().is_some() && submap.anchor() != index && self.near(s, index)
+            })
+            .map(|s| (s, index))
+            .collect();
+        (pairs.len(), self.match_pairs(&pairs))
+    }
+
+    /// Matches earlier keyframes against the just finished `submap`: of the matchable
+    /// keyframes before its first one within `max_search_distance` of its origin, at most
+    /// `earlier_keyframes`, spread evenly over them. How many were searched, and the
+    /// matches that reached `min_score`, in keyframe order.
+    pub(crate) fn search_earlier(&self, submap: usize) -> (usize, Vec<LoopClosure>) {
+        let most = self.config.earlier_keyframes;
+        let eligible: Vec<usize> = (0..self.submaps[submap].anchor())
+            .filter(|&k| self.keyframes[k].matchable.is_some() && self.near(submap, k))
+            .collect();
+        if most == 0 || eligible.is_empty() {
+            return (0, Vec::new());
+        }
+        let take = most.min(eligible.len());
+        let pairs: Vec<(usize, usize)> = (0..take)
+            .map(|i| (submap, eligible[i * eligible.len() / take]))
+            .collect();
+        (pairs.len(), self.match_pairs(&pairs))
+    }
+
+    /// Matches each `(submap, keyframe)` pair, in parallel, one pair per task; the
+    /// matches that reached `min_score`, in the pairs' order. The window is centred on
+    /// the keyframe's estimate seen from the submap's origin.
+    fn match_pairs(&self, pairs: &[(usize, usize)]) -> Vec<LoopClosure> {
+        let config = &self.config;
+        let matched = |&(s, k): &(usize, usize)| -> Option<LoopClosure> {
+            let anchor = self.submaps[s].anchor();
+            let scan = self.keyframes[k].matchable.as_ref()?;
+            let initial = self.graph.poses[anchor]
+                .inverse()
+                .compose(&self.graph.poses[k]);
+            let window = self.window(anchor.min(k), anchor.max(k));
+            let grid = self.submaps[s].grid()?;
+            let m = grid.match_scan(&scan.points, &initial, &window, config.min_score)?;
+            (m.score > 0.0).then_some(LoopClosure {
+                keyframe: k,
+                submap: s,
+                pose: m.pose,
+                score: m.score,
+                lever: scan.lever,
+            })
+        };
+        if pairs.len() > 1 {
+            pairs.par_iter().map(matched).collect::<Vec<_>>()
+        } else {
+            pairs.iter().map(matched).collect()
+        }
+        .into_iter()
+        .flatten()
+        .collect()
+    }
+
+    /// The search window between keyframes `anchor` and `index` (the later); see the
+    /// module documentation.
     pub(crate) fn window(&self, anchor: usize, index: usize) -> SearchWindow {
         let (a, b) = (self.accumulated[anchor], self.accumulated[index]);
         let var_xy = (b[0] - a[0]).max(0.0);
