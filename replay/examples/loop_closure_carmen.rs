@@ -7,17 +7,20 @@
 //! correction, and, when `<name>.relations` sits next to the log, the Freiburg relation
 //! errors of the front end, of the real-time pose the service would publish (the front
 //! end's moved by the correction `delay_keyframes` keyframes old) and of the back-end's
-//! trajectory. Writes the back-end's map as a PGM image.
+//! trajectory (every scan placed as the service places it, `loop_closure::place_scans`).
+//! Writes the back-end's map as a PGM image.
 //!
 //! ```text
 //! cargo run --release -p fastslam-replay --example loop_closure_carmen -- \
-//!     /work/shared/data/freiburg/intel/intel.clf.gz [odometry|gridslam[:N]] [map.pgm]
+//!     data/freiburg/intel/intel.clf.gz [odometry|gridslam[:N]] [map.pgm]
 //! ```
 
 use fastslam_estimation::fastslam::FastSlamConfig;
 use fastslam_estimation::grid::GridConfig;
 use fastslam_estimation::gridslam::{GridFastSlam, ScanMatchConfig};
-use fastslam_estimation::loop_closure::{Keyframe, LoopClosureConfig, PoseGraphMapper};
+use fastslam_estimation::loop_closure::{
+    Keyframe, LoopClosureConfig, PoseGraphMapper, place_scans,
+};
 use fastslam_estimation::motion::{Control, Increment, MotionModel};
 use fastslam_estimation::moves::MoveConfig;
 use fastslam_estimation::optimise::{OptimiserConfig, OptimiserKind};
@@ -26,9 +29,9 @@ use fastslam_estimation::{Pose2, wrap_angle};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// What a front end says at a scan: its pose, and when the scan is a keyframe, the
-/// covariance of the motion since the previous keyframe.
-type Estimate = (Pose2, Option<[[f64; 3]; 3]>);
+/// What a front end says at a scan: its pose, its pose before the scan was matched, and
+/// when the scan is a keyframe, the covariance of the motion since the previous keyframe.
+type Estimate = (Pose2, Pose2, Option<[[f64; 3]; 3]>);
 
 /// Where the keyframes come from.
 enum FrontEnd {
@@ -47,14 +50,14 @@ impl FrontEnd {
                 let moved = last.map(|l| l.inverse().compose(odometry));
                 let due = moved.is_none_or(|d| d.x.hypot(d.y) >= 0.5 || d.theta.abs() >= 0.2618);
                 if !due {
-                    return (*odometry, None);
+                    return (*odometry, *odometry, None);
                 }
                 *last = Some(*odometry);
                 let d = moved.unwrap_or_default();
                 let (dist, turn) = (d.x.hypot(d.y), d.theta.abs());
                 let (vxy, vt) = (0.01 * dist + 0.01 * turn, 0.04 * dist + 0.04 * turn);
                 let c = [[vxy, 0.0, 0.0], [0.0, vxy, 0.0], [0.0, 0.0, vt]];
-                (*odometry, Some(c))
+                (*odometry, *odometry, Some(c))
             }
             Self::GridSlam(slam) => {
                 let control = Control {
@@ -62,11 +65,12 @@ impl FrontEnd {
                     ..Control::ZERO
                 };
                 slam.predict(&control, 0.1).expect("a finite increment");
+                let predicted = slam.estimate().mean;
                 let step = slam.observe(scan).expect("weights stay finite");
                 let e = slam.estimate();
                 let c = e.covariance;
                 let covariance = std::array::from_fn(|i| std::array::from_fn(|j| c[(i, j)]));
-                (e.mean, step.keyframe.then_some(covariance))
+                (e.mean, predicted, step.keyframe.then_some(covariance))
             }
         }
     }
@@ -76,7 +80,7 @@ fn main() -> anyhow::Result<()> {
     let mut args = std::env::args().skip(1);
     let path = PathBuf::from(
         args.next()
-            .unwrap_or_else(|| "/work/shared/data/freiburg/intel/intel.clf.gz".into()),
+            .unwrap_or_else(|| "data/freiburg/intel/intel.clf.gz".into()),
     );
     let front = args.next().unwrap_or_else(|| "odometry".into());
     let image = PathBuf::from(
@@ -125,7 +129,7 @@ fn main() -> anyhow::Result<()> {
     // (stamp, front end's pose, keyframe before it) of every scan; the front end's pose
     // at each keyframe.
     let mut scans: Vec<(u64, Pose2, usize)> = Vec::new();
-    let mut keyframe_poses: Vec<Pose2> = Vec::new();
+    let (mut keyframe_poses, mut predicted): (Vec<Pose2>, Vec<Pose2>) = (Vec::new(), Vec::new());
     // The correction in force after each keyframe, and every scan's real-time pose: the
     // front end's moved by the correction of `delay_keyframes` keyframes before.
     let mut corrections: Vec<Pose2> = Vec::new();
@@ -150,7 +154,7 @@ fn main() -> anyhow::Result<()> {
             ranges: &raw.items,
         };
         let t0 = Instant::now();
-        let (estimate, covariance) = front_end.step(&pose, &increment, &scan);
+        let (estimate, before_match, covariance) = front_end.step(&pose, &increment, &scan);
         front_s += t0.elapsed().as_secs_f64();
         if let Some(c) = covariance {
             let mount = data.laser_mount;
@@ -184,6 +188,7 @@ fn main() -> anyhow::Result<()> {
             worst_add = worst_add.max(dt);
             found += report.closures.len();
             keyframe_poses.push(estimate);
+            predicted.push(before_match);
             if report.solve_due {
                 let solution = mapper.solve()?;
                 solves += 1;
@@ -220,12 +225,21 @@ fn main() -> anyhow::Result<()> {
         total,
         mapper.bytes() as f64 / 1e6,
     );
-    // Every scan's pose: its keyframe's optimised pose moved by the front end since.
-    let optimised: Vec<(u64, Pose2)> = (scans.iter())
-        .map(|&(stamp, pose, k)| {
-            let since = keyframe_poses[k].inverse().compose(&pose);
-            (stamp, mapper.poses()[k].compose(&since))
-        })
+    // Every scan's pose, placed between its two keyframes' optimised poses.
+    let motion = MotionModel::Increment(Increment::default());
+    let placed = place_scans(
+        &scans
+            .iter()
+            .map(|&(_, pose, k)| (pose, k))
+            .collect::<Vec<_>>(),
+        &keyframe_poses,
+        &predicted,
+        mapper.poses(),
+        &mapper.correction(),
+        |delta| motion.path_variances(delta),
+    );
+    let optimised: Vec<(u64, Pose2)> = (scans.iter().zip(placed))
+        .map(|(&(stamp, _, _), pose)| (stamp, pose))
         .collect();
     let own: Vec<(u64, Pose2)> = scans.iter().map(|&(s, p, _)| (s, p)).collect();
     jumps.sort_by(|a, b| a.1.total_cmp(&b.1));
