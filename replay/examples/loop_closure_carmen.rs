@@ -214,7 +214,7 @@ fn main() -> anyhow::Result<()> {
     println!(
         "front end `{front}`: {:.1} s; {n} keyframes, {} submaps; loop closures found {found}, \
          accepted {} of {} at the end; back-end {:.1} ms per keyframe (worst {:.0} ms), \
-         {solves} solves of {:.0} ms on average; {:.1} s in all; {:.0} MB of submaps and beams",
+         {solves} solves of {:.0} ms on average; {:.1} s in all; {:.0} MB of submaps, beams and points",
         front_s,
         mapper.submaps().len(),
         solution.accepted,

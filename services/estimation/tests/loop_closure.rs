@@ -548,3 +548,18 @@ fn a_finished_submap_is_matched_from_the_keyframes_before_it() {
         );
     }
 }
+
+#[test]
+fn a_solve_with_nothing_new_settles_in_one_round() {
+    let run = ring_run();
+    let mut mapper = drive(test_config(), &run.keyframes, |_, _| {});
+    let before = mapper.poses().to_vec();
+    // The reweighting starts from the weights the last solve settled on: one round finds
+    // them unchanged, and the gated solve after it moves nothing.
+    let again = mapper.solve().unwrap();
+    assert_eq!(again.rounds, 2, "{again:?}");
+    let moved = (before.iter().zip(mapper.poses()))
+        .map(|(a, b)| distance(a, b))
+        .fold(0.0, f64::max);
+    assert!(moved < 1e-6, "{moved} m");
+}

@@ -436,13 +436,15 @@ impl PoseGraphMapper {
         &self.graph
     }
 
-    /// Bytes the submaps' grids and the kept beams take.
+    /// Bytes the submaps' grids and the kept beams and scan points take.
     pub fn bytes(&self) -> usize {
-        let beams: usize = self
-            .keyframes
-            .iter()
-            .map(|k| k.beams.len() * std::mem::size_of::<KeptBeam>())
+        let scans: usize = (self.keyframes.iter())
+            .map(|k| {
+                let points = k.matchable.as_ref().map_or(0, |m| m.points.len());
+                k.beams.len() * std::mem::size_of::<KeptBeam>()
+                    + points * std::mem::size_of::<[f64; 2]>()
+            })
             .sum();
-        self.submaps.iter().map(Submap::bytes).sum::<usize>() + beams
+        self.submaps.iter().map(Submap::bytes).sum::<usize>() + scans
     }
 }
