@@ -26,12 +26,43 @@ pub fn prefix(test: &str) -> String {
     format!("t{}{tag}x", std::process::id())
 }
 
-/// A fresh folder for a test's run folders.
+/// A fresh folder for a test's run folders. Folders of test processes that have ended
+/// and that are more than an hour old are removed first: a failed run's stay for a look,
+/// and the disk does not fill with every run's (a run of the suite writes about a
+/// gigabyte).
 pub fn folder(prefix: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join("fastslam-tests").join(prefix);
+    let root = std::env::temp_dir().join("fastslam-tests");
+    remove_ended(&root);
+    let dir = root.join(prefix);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("creating the test folder");
     dir
+}
+
+/// Removes the folders under `root` last changed over an hour ago whose [`prefix`] names
+/// a process that no longer runs.
+fn remove_ended(root: &Path) {
+    let hour = Duration::from_secs(3600);
+    let Ok(entries) = std::fs::read_dir(root) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let digits: String = name
+            .chars()
+            .skip(1)
+            .take_while(char::is_ascii_digit)
+            .collect();
+        let Ok(pid) = digits.parse::<u32>() else {
+            continue;
+        };
+        let alive = Path::new("/proc").join(pid.to_string()).exists();
+        let old = (entry.metadata().and_then(|m| m.modified()))
+            .is_ok_and(|t| t.elapsed().is_ok_and(|age| age > hour));
+        if name.starts_with('t') && pid != std::process::id() && !alive && old {
+            let _ = std::fs::remove_dir_all(entry.path());
+        }
+    }
 }
 
 /// Runs `fastslam-stack run` under `prefix`, writing the run folder `out`, with `extra`
