@@ -142,6 +142,7 @@ fn best_starts(fitness: &[f64], climbers: usize) -> Vec<bool> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::optimise::RunSummary;
     use crate::optimise::test_functions::{Benchmark, TestFunction};
     use crate::rng::seeded;
 
@@ -161,39 +162,40 @@ mod tests {
         assert_eq!(untouched, seeded(9), "the search draws nothing");
     }
 
-    #[test]
-    fn a_member_stops_after_its_refinements() {
+    /// Ten generations of `config` on the 2-D sphere from `starts` (two coordinates a
+    /// member): the climber, the population after them and the run's summary.
+    fn climb(config: HillConfig, starts: &[f64]) -> (HillClimb, Population, RunSummary) {
         let problem = Benchmark::new(TestFunction::Sphere, 2, false).unwrap();
-        let mut population = Population::evaluate(&problem, vec![0.0, 0.0, 50.0, 0.0]).unwrap();
-        let mut hill = HillClimb::new(HillConfig {
-            refinements: 2,
-            ..HillConfig::default()
-        });
+        let mut population = Population::evaluate(&problem, starts.to_vec()).unwrap();
+        let mut hill = HillClimb::new(config);
         let summary = hill
             .run(&problem, &mut population, 10, &mut seeded(1))
             .unwrap();
+        (hill, population, summary)
+    }
+
+    #[test]
+    fn a_member_stops_after_its_refinements() {
+        let starts = [0.0, 0.0, 50.0, 0.0];
+        let bounded = HillConfig {
+            refinements: 2,
+            ..HillConfig::default()
+        };
+        let (hill, _, summary) = climb(bounded, &starts);
         assert_eq!(hill.halvings[0], 2, "the member at the bottom stopped");
         assert!(summary.evaluations < 10 * 2 * 4, "{summary:?}");
-        let mut unbounded = HillClimb::new(HillConfig::default());
-        let mut population = Population::evaluate(&problem, vec![0.0, 0.0, 50.0, 0.0]).unwrap();
-        let all = unbounded
-            .run(&problem, &mut population, 10, &mut seeded(1))
-            .unwrap();
+        let (_, _, all) = climb(HillConfig::default(), &starts);
         assert_eq!(all.evaluations, 10 * 2 * 4);
     }
 
     #[test]
     fn only_the_best_starts_climb() {
-        let problem = Benchmark::new(TestFunction::Sphere, 2, false).unwrap();
-        let starts = vec![40.0, 0.0, 10.0, 0.0, 30.0, 0.0];
-        let mut population = Population::evaluate(&problem, starts.clone()).unwrap();
-        let mut hill = HillClimb::new(HillConfig {
+        let starts = [40.0, 0.0, 10.0, 0.0, 30.0, 0.0];
+        let one = HillConfig {
             climbers: 1,
             ..HillConfig::default()
-        });
-        let summary = hill
-            .run(&problem, &mut population, 10, &mut seeded(1))
-            .unwrap();
+        };
+        let (_, population, summary) = climb(one, &starts);
         assert_eq!(summary.evaluations, 10 * 4, "one member climbed");
         assert_eq!(population.position(0), &starts[0..2]);
         assert_eq!(population.position(2), &starts[4..6]);
