@@ -64,10 +64,13 @@ impl PoseGraphMapper {
     /// matches that reached `min_score`, in keyframe order.
     pub(crate) fn search_earlier(&self, submap: usize) -> (usize, Vec<LoopClosure>) {
         let most = self.config.earlier_keyframes;
+        if most == 0 {
+            return (0, Vec::new());
+        }
         let eligible: Vec<usize> = (0..self.submaps[submap].anchor())
             .filter(|&k| self.keyframes[k].matchable.is_some() && self.near(submap, k))
             .collect();
-        if most == 0 || eligible.is_empty() {
+        if eligible.is_empty() {
             return (0, Vec::new());
         }
         let take = most.min(eligible.len());
