@@ -48,18 +48,17 @@ fn remove_ended(root: &Path) {
     };
     for entry in entries.flatten() {
         let name = entry.file_name().to_string_lossy().into_owned();
-        let digits: String = name
-            .chars()
-            .skip(1)
-            .take_while(char::is_ascii_digit)
-            .collect();
+        let Some(rest) = name.strip_prefix('t') else {
+            continue;
+        };
+        let digits: String = rest.chars().take_while(char::is_ascii_digit).collect();
         let Ok(pid) = digits.parse::<u32>() else {
             continue;
         };
         let alive = Path::new("/proc").join(pid.to_string()).exists();
         let old = (entry.metadata().and_then(|m| m.modified()))
             .is_ok_and(|t| t.elapsed().is_ok_and(|age| age > hour));
-        if name.starts_with('t') && pid != std::process::id() && !alive && old {
+        if pid != std::process::id() && !alive && old {
             let _ = std::fs::remove_dir_all(entry.path());
         }
     }
