@@ -154,8 +154,14 @@ pub const OUTSIDE_GRACE: Duration = Duration::from_secs(2);
 struct Watch {
     /// The node of every subscriber port seen, by port id.
     node_of: HashMap<u128, u128>,
-    /// Nodes found dead.
+    /// Nodes found dead: listed as dead while still holding a subscriber port. iceoryx2
+    /// also lists a node as dead while its process removes the node's files on a clean
+    /// exit, but the process has given up its ports before then; a process that died
+    /// keeps its ports until someone cleans up after it.
     dead: HashSet<u128>,
+    /// Nodes the backpressure handler found listed as dead: dead once the handler is
+    /// called again for their port (it is called only while the port is connected).
+    suspects: HashSet<u128>,
     /// Nodes that are not the stack's own processes.
     outside: HashSet<u128>,
     /// Nodes of [`RESUMING_NODES`].
@@ -172,21 +178,32 @@ impl Watch {
         let Some(node) = self.node_of.get(&port).copied() else {
             return false;
         };
+        if self.suspects.contains(&node) {
+            // Still connected after its node was listed as dead: not leaving, dead.
+            self.dead.insert(node);
+        }
         if look && !self.dead.contains(&node) {
             // A failed look leaves the node as it was known: alive.
-            let _ = self.look(config);
+            if self
+                .look(config)
+                .is_ok_and(|listed_dead| listed_dead.contains(&node))
+            {
+                self.suspects.insert(node);
+            }
         }
         self.dead.contains(&node)
     }
 
-    /// Lists the stack's nodes (`config`): those whose process died and whose resources
-    /// nobody removed yet, and those that are not the stack's own processes.
-    fn look(&mut self, config: &Config) -> Result<()> {
-        Node::<Service>::list(config, |state| {
+    /// Lists the stack's nodes (`config`): notes those that are not the stack's own
+    /// processes and those that resume, and returns those listed as dead (whose process
+    /// died, or is removing the node's files as it exits).
+    fn look(&mut self, config: &Config) -> Result<HashSet<u128>> {
+        let mut listed_dead = HashSet::new();
+        let listed = Node::<Service>::list(config, |state| {
             let (id, details) = match &state {
                 NodeState::Alive(view) => (view.id().value(), view.details()),
                 NodeState::Dead(view) => {
-                    self.dead.insert(view.id().value());
+                    listed_dead.insert(view.id().value());
                     (view.id().value(), view.details())
                 }
                 _ => return CallbackProgression::Continue,
@@ -199,8 +216,9 @@ impl Watch {
                 self.resuming.insert(id);
             }
             CallbackProgression::Continue
-        })
-        .map_err(iox_err("list the stack's nodes"))
+        });
+        listed.map_err(iox_err("list the stack's nodes"))?;
+        Ok(listed_dead)
     }
 }
 
@@ -306,18 +324,24 @@ where
     /// died counted as reported.
     fn look(&self, report: bool) -> Result<Subscribers> {
         let mut guard = self.watch.lock().unwrap_or_else(PoisonError::into_inner);
-        guard.look(&self.config)?;
+        // The ports are listed after the nodes: a node listed as dead whose port is still
+        // there was not leaving (see `Watch::dead`).
+        let listed_dead = guard.look(&self.config)?;
         let Watch {
             node_of,
             dead,
             outside,
             resuming,
             reported,
+            ..
         } = &mut *guard;
         let mut seen = Subscribers::default();
         self.service.dynamic_config().list_subscribers(|d| {
             let node = d.node_id.value();
             node_of.insert(d.subscriber_id.value(), node);
+            if listed_dead.contains(&node) {
+                dead.insert(node);
+            }
             match (dead.contains(&node), outside.contains(&node)) {
                 (true, _) => {}
                 (false, true) => seen.outside += 1,
@@ -559,8 +583,105 @@ where
 mod tests {
     use super::*;
     use crate::EndOfStream;
+    use crate::ipc::StackConfig;
     use crate::ipc::testing::{TestStack, eos_ports, on_thread};
     use crate::topics;
+
+    /// Set in the subscriber process [`a_subscriber_died_only_if_its_node_died_holding_its_port`]
+    /// starts: the stack's prefix and root, and whether it leaves before it is killed.
+    const SUBSCRIBER_CHILD: &str = "FASTSLAM_TEST_SUBSCRIBER_CHILD";
+
+    /// The subscriber process: subscribes as the service would, says `ready`; if it is
+    /// one that leaves, drops its subscriber once a line comes on stdin and says `left`;
+    /// then waits to be killed.
+    fn subscriber_child(spec: &str) {
+        let mut parts = spec.split('|');
+        let (prefix, root, leave) = (parts.next(), parts.next(), parts.next());
+        let stack = StackConfig {
+            prefix: prefix.unwrap().to_string(),
+            root: root.map(str::to_string),
+        };
+        let ipc = Ipc::open(&stack, "fastslam-service", Duration::from_secs(5)).unwrap();
+        let sub = ipc
+            .subscriber::<EndOfStream>(&topics::END_OF_STREAM)
+            .unwrap();
+        println!("ready");
+        if leave == Some("leave") {
+            let _ = std::io::stdin().lines().next();
+            drop(sub);
+            println!("left");
+        }
+        std::thread::sleep(Duration::from_secs(60));
+    }
+
+    /// A subscriber whose node iceoryx2 lists as dead counts as died only when it still
+    /// holds its port: a process exiting cleanly gives up its ports, then its node is
+    /// listed as dead while it removes the node's files. Here both are frozen by a
+    /// SIGKILL: one subscriber process killed holding its port, one killed after it left.
+    #[test]
+    fn a_subscriber_died_only_if_its_node_died_holding_its_port() {
+        if let Ok(spec) = std::env::var(SUBSCRIBER_CHILD) {
+            return subscriber_child(&spec);
+        }
+        use std::io::{BufRead, Write};
+        let test = TestStack::new("died");
+        let config = test.config();
+        let spec = |leave: &str| {
+            let root = config.root.clone().unwrap_or_default();
+            format!("{}|{root}|{leave}", config.prefix)
+        };
+        let (holding, leaving) = (spec("hold"), spec("leave"));
+        let seen = on_thread(test.config(), "watching the subscribers hung", move |ipc| {
+            let out = ipc.publisher::<EndOfStream>(&topics::END_OF_STREAM)?;
+            let mut seen = Vec::new();
+            for spec in [holding, leaving] {
+                let mut child = std::process::Command::new(std::env::current_exe().unwrap())
+                    .args(["--exact", "--nocapture", "--test-threads=1"])
+                    .arg("ipc::publisher::tests::a_subscriber_died_only_if_its_node_died_holding_its_port")
+                    .env(SUBSCRIBER_CHILD, &spec)
+                    .stdin(std::process::Stdio::piped())
+                    .stdout(std::process::Stdio::piped())
+                    .spawn()
+                    .unwrap();
+                let mut lines = std::io::BufReader::new(child.stdout.take().unwrap()).lines();
+                let mut says = |word: &str| {
+                    (lines.by_ref().map_while(std::result::Result::ok)).any(|l| l.ends_with(word))
+                };
+                // Its port seen as a sensor sees the service's while it runs; then, for
+                // the one that leaves, gone.
+                let mut talk = || -> Result<Option<&str>> {
+                    if !says("ready") {
+                        return Ok(Some("ready"));
+                    }
+                    assert_eq!(out.watch()?.alive, 1);
+                    if spec.ends_with("leave") {
+                        writeln!(child.stdin.as_mut().unwrap(), "leave").unwrap();
+                        if !says("left") {
+                            return Ok(Some("left"));
+                        }
+                    }
+                    Ok(None)
+                };
+                let unsaid = talk();
+                child.kill().unwrap();
+                child.wait().unwrap();
+                if let Some(word) = unsaid? {
+                    panic!("the subscriber process did not say {word}");
+                }
+                seen.push(out.watch()?);
+            }
+            Ok(seen)
+        });
+        let seen = seen.unwrap();
+        assert_eq!(
+            (seen[0].alive, seen[0].died, seen[0].died_resuming),
+            (0, 1, 1)
+        );
+        assert_eq!(
+            (seen[1].alive, seen[1].died, seen[1].died_resuming),
+            (0, 0, 0)
+        );
+    }
 
     /// A listener that nothing ever clears (one whose subscriber is never drained or
     /// waited on) never makes its notifier block or fail, however many samples go by:
