@@ -225,6 +225,19 @@ fn main() -> anyhow::Result<()> {
         total,
         mapper.bytes() as f64 / 1e6,
     );
+    match (mapper.graph()).between_components(&|b| b.to != b.from + 1) {
+        Ok([chain, loops]) => println!(
+            "variance factors: consecutive {:.3} (redundancy {:.0} of {}), loop closures {:.3} \
+             (redundancy {:.0} of {})",
+            chain.scale,
+            chain.redundancy,
+            chain.residuals,
+            loops.scale,
+            loops.redundancy,
+            loops.residuals
+        ),
+        Err(e) => println!("variance factors: {e}"),
+    }
     // Every scan's pose, placed between its two keyframes' optimised poses.
     let motion = MotionModel::Increment(Increment::default());
     let placed = place_scans(
