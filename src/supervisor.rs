@@ -65,7 +65,10 @@ pub enum Outcome {
     /// The launcher was interrupted (SIGINT/SIGTERM); the processes were stopped.
     Interrupted,
     /// The run took longer than allowed; the processes were stopped.
-    TimedOut,
+    TimedOut {
+        /// The processes still running when the time was up.
+        running: Vec<&'static str>,
+    },
 }
 
 /// The running processes of one stack.
@@ -203,7 +206,10 @@ impl Supervisor {
                 break Outcome::Interrupted;
             }
             if timeout.is_some_and(|t| start.elapsed().saturating_sub(suspended) > t) {
-                break Outcome::TimedOut;
+                let running = self.poll().filter(|p| p.status.is_none());
+                break Outcome::TimedOut {
+                    running: running.map(|p| p.name).collect(),
+                };
             }
             if ctrl_z.pressed() {
                 let since = Instant::now();

@@ -1,4 +1,5 @@
-//! Ctrl-C on the launcher stops every process of the stack and removes its shared memory.
+//! Ctrl-C on the launcher stops every process of the stack and removes its shared memory;
+//! so does its timeout, which names the processes still running.
 
 mod common;
 
@@ -49,5 +50,30 @@ fn ctrl_c_leaves_no_process_and_no_shared_memory() {
         "stopping took {:?}",
         start.elapsed()
     );
+    assert_no_leftovers_and_remove(&prefix, &dir);
+}
+
+#[test]
+fn a_timeout_names_the_processes_still_running_and_their_last_log_lines() {
+    let prefix = prefix("timeout");
+    let dir = folder(&prefix);
+    // Real time: the short route takes 14 s, far past the 2 s allowed.
+    let out = Command::new(LAUNCHER)
+        .args(["run", "--realtime", "--scenario"])
+        .arg(short_scenario(&dir))
+        .args(["--prefix", &prefix, "--timeout-s", "2", "--out"])
+        .arg(dir.join("run"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let line = (stderr.lines())
+        .find(|l| l.starts_with("timed out with "))
+        .unwrap_or_else(|| panic!("{stderr}"));
+    for name in ["truth-sim", "service", "client"] {
+        assert!(line.contains(name), "{stderr}");
+        let said = format!("the {name}'s log ends with:");
+        assert!(stderr.contains(&said), "{stderr}");
+    }
     assert_no_leftovers_and_remove(&prefix, &dir);
 }

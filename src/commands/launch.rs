@@ -29,7 +29,8 @@ pub struct LaunchArgs {
     /// Real time (at a rate) or as fast as the stack can go.
     #[command(flatten)]
     pub pace: PaceArgs,
-    /// Stop everything after this many seconds, more than 0 (default: no limit).
+    /// Stop everything after this many seconds, more than 0 (default: no limit); the launcher
+    /// then names the processes still running and prints the last lines of their logs.
     #[arg(long, value_parser = timeout_s)]
     pub timeout_s: Option<f64>,
     /// Stack prefix, to let your own processes join (default: a fresh one per run,
@@ -293,8 +294,16 @@ pub(crate) fn conclude(
             );
             Ok(130)
         }
-        Outcome::TimedOut => {
-            eprintln!("timed out; processes stopped. Logs: {}", logs.display());
+        Outcome::TimedOut { running } => {
+            eprintln!(
+                "timed out with {} still running; processes stopped. Logs: {}",
+                running.join(", "),
+                logs.display()
+            );
+            for name in running {
+                let log = tail(&logs.join(format!("{name}.log")), 4);
+                eprintln!("the {name}'s log ends with:\n{log}");
+            }
             Ok(1)
         }
     }
