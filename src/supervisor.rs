@@ -206,7 +206,8 @@ impl Supervisor {
                 break Outcome::Interrupted;
             }
             if timeout.is_some_and(|t| start.elapsed().saturating_sub(suspended) > t) {
-                let running = self.poll().filter(|p| p.status.is_none());
+                // The statuses were refreshed at the top of this round.
+                let running = self.processes.iter().filter(|p| p.status.is_none());
                 break Outcome::TimedOut {
                     running: running.map(|p| p.name).collect(),
                 };
