@@ -5,11 +5,11 @@
 
 use crate::config::ServiceConfig;
 use crate::estimator::{Estimator, PoseSink, Step, message, particle};
-use crate::smoothing::{Backend, TornSolves};
+use crate::smoothing::{Backend, Takes, TornSolves};
 use crate::state::EstimatorState;
 use fastslam_estimation::Pose2;
 use fastslam_estimation::fastslam::association::AssociationMode;
-use fastslam_estimation::fastslam::{FastSlam, OptimiserRefiner, PoseRefiner, Proposal};
+use fastslam_estimation::fastslam::{Adapt, FastSlam, OptimiserRefiner, PoseRefiner, Proposal};
 use fastslam_estimation::features::{ExtractorConfig, extract};
 use fastslam_estimation::graph::{Feed, NoiseModel, SmootherConfig, Solution, VarianceComponents};
 use fastslam_estimation::grid::{GridMapper, OccupancyGrid};
@@ -35,9 +35,12 @@ pub struct LandmarkSlam {
     observations: Vec<Observation>,
     /// The smoothing back-end, when `[smoother] enabled`.
     backend: Option<Backend>,
-    /// With re-anchoring: the delay (scans) and the estimates of the last scans (stamp,
-    /// mean), to compare a solution's last pose with what the filter said then.
-    reanchor: Option<(u64, VecDeque<(u64, Pose2)>)>,
+    /// With re-anchoring or a filter on the back-end's noise fit: the scans between a
+    /// back-end's report and the filter taking it over.
+    handover_delay: Option<u64>,
+    /// With re-anchoring: the estimates of the last scans (stamp, mean), to compare a
+    /// solution's last pose with what the filter said then.
+    recent: Option<VecDeque<(u64, Pose2)>>,
     /// The laser's pose in the base frame (`[laser] mount`); `None` at the origin.
     mount: Option<Pose2>,
 }
@@ -69,7 +72,8 @@ impl LandmarkSlam {
             mapper: GridMapper::new(config.grid.clone())?,
             observations: Vec::new(),
             backend: None,
-            reanchor: None,
+            handover_delay: None,
+            recent: None,
             mount: (mount != Pose2::default()).then_some(mount),
         })
     }
@@ -108,7 +112,7 @@ impl LandmarkSlam {
                 sightings: self.filter.best_sightings(sensor),
             });
             let mean = Pose2::new(pose.x, pose.y, pose.theta);
-            self.reanchor_if_due(header.stamp_ns, mean);
+            self.take_over(header.stamp_ns, mean);
         }
         Ok(Step {
             pose,
@@ -117,25 +121,58 @@ impl LandmarkSlam {
         })
     }
 
-    /// With re-anchoring, after the scan stamped `stamp_ns` whose estimate was `mean`:
-    /// moves the particles onto the solution triggered `delay` scans ago, if that scan
-    /// closed a loop. The correction is the rigid motion taking the filter's estimate at
-    /// the solution's last pose onto that pose.
-    fn reanchor_if_due(&mut self, stamp_ns: u64, mean: Pose2) {
-        let (Some(backend), Some((delay, recent))) = (&mut self.backend, &mut self.reanchor) else {
+    /// After the scan stamped `stamp_ns` whose estimate was `mean`: takes over what the
+    /// back-end reported `delay` scans ago, if anything — its noise fit, then its
+    /// solution (re-anchoring).
+    fn take_over(&mut self, stamp_ns: u64, mean: Pose2) {
+        let (Some(backend), Some(delay)) = (&mut self.backend, self.handover_delay) else {
             return;
         };
-        recent.push_back((stamp_ns, mean));
-        while recent.len() as u64 > *delay + 1 {
-            recent.pop_front();
+        if let Some(recent) = &mut self.recent {
+            recent.push_back((stamp_ns, mean));
+            while recent.len() as u64 > delay + 1 {
+                recent.pop_front();
+            }
         }
-        let Some(solution) = backend.due(*delay) else {
+        let Some(handover) = backend.due(delay) else {
             return;
         };
+        if let Some(noise) = handover.noise {
+            self.run_on_noise(&noise);
+        }
+        if let Some(solution) = handover.solution {
+            self.reanchor(&solution);
+        }
+    }
+
+    /// Runs the filter on the noise the back-end's variance components `noise` support
+    /// ([`VarianceComponents::scales_to_run_on`]), saying so when that changes it.
+    fn run_on_noise(&mut self, noise: &VarianceComponents) {
+        let scales = noise.scales_to_run_on();
+        if scales == self.filter.noise_fit().in_use() {
+            return;
+        }
+        let report = self.filter.noise_report();
+        let [q, r] = scales.map(f64::sqrt);
+        let [p1, p2, pr, pb] = report.profile;
+        tracing::info!(
+            odometry_sigmas = ?[p1 * q, p2 * q],
+            sensor_sigmas = ?[pr * r, pb * r],
+            profile_odometry = ?[p1, p2],
+            profile_sensor = ?[pr, pb],
+            "filter runs on the smoothing back-end's noise fit"
+        );
+        self.filter.run_on_noise(scales);
+    }
+
+    /// Moves the particles onto `solution`: the correction is the rigid motion taking
+    /// the filter's estimate at the solution's last pose onto that pose.
+    fn reanchor(&mut self, solution: &Solution) {
         let Some(&(last_ns, smoothed)) = solution.poses.last() else {
             return;
         };
-        let Some(&(_, then)) = recent.iter().find(|(t, _)| *t == last_ns) else {
+        let recent = self.recent.iter().flatten();
+        let Some(&(_, then)) = recent.clone().find(|(t, _)| *t == last_ns) else {
             tracing::warn!(
                 last_ns,
                 "re-anchoring skipped: no estimate at the solution's last pose"
@@ -248,9 +285,14 @@ impl Estimator for LandmarkSlam {
                 && filter.association.mode == AssociationMode::Unknown,
             ..config.smoother.clone()
         };
-        self.backend = Some(Backend::start(smoother, noise, feed)?);
-        let delay = config.smoother.reanchor_delay_scans;
-        self.reanchor = config.smoother.reanchor.then(|| (delay, VecDeque::new()));
+        let takes = Takes {
+            solutions: config.smoother.reanchor,
+            noise: filter.noise.adapt == Adapt::Smoother,
+        };
+        self.backend = Some(Backend::start(smoother, noise, takes, feed)?);
+        self.handover_delay =
+            (takes.solutions || takes.noise).then_some(config.smoother.handover_delay_scans);
+        self.recent = takes.solutions.then(VecDeque::new);
         Ok(())
     }
 

@@ -5,9 +5,10 @@
 //! closes, and reports after every scan — with the solution when that scan closed a
 //! loop — through another channel, which the service drains between inputs.
 //!
-//! Re-anchoring needs a solution at a point the data fixes: the one triggered at scan
-//! `t` is applied after scan `t + delay` ([`Backend::due`]); only if the back-end has not
-//! reported scan `t` by then does the filter wait for it.
+//! Re-anchoring needs a solution at a point the data fixes, and so does running the
+//! filter on the back-end's noise fit: what scan `t` brought (a solution, variance
+//! components) is handed to the filter after scan `t + delay` ([`Backend::due`]); only
+//! if the back-end has not reported scan `t` by then does the filter wait for it.
 //!
 //! Every input it was given is also kept (the feed), so that a checkpoint can carry it
 //! and a resumed service rebuilds the same graph by feeding it again.
@@ -50,6 +51,24 @@ enum Solve {
     Torn,
 }
 
+/// What one scan's report hands the filter, `delay` scans later.
+#[derive(Debug)]
+pub struct Handover {
+    /// A solution to re-anchor on (a good one, with re-anchoring).
+    pub solution: Option<Solution>,
+    /// The variance components of a whole solve (when the filter runs on them).
+    pub noise: Option<VarianceComponents>,
+}
+
+/// What the filter takes over from the back-end.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Takes {
+    /// Its good solutions (re-anchoring).
+    pub solutions: bool,
+    /// Its variance components (`[filter.noise] adapt = "smoother"`).
+    pub noise: bool,
+}
+
 /// The solves withheld as torn.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct TornSolves {
@@ -75,8 +94,11 @@ pub struct Backend {
     scans_reported: u64,
     /// The newest solution not yet taken for publishing.
     unpublished: Option<Solution>,
-    /// Solutions kept for re-anchoring, with the scan that triggered them.
-    pending: Option<VecDeque<(u64, Solution)>>,
+    /// What the filter takes over (see [`Handover`]), with the scan that brought it;
+    /// `None` when it takes nothing.
+    pending: Option<VecDeque<(u64, Handover)>>,
+    /// Whether the filter takes over solutions (re-anchoring) and variance components.
+    takes: Takes,
     /// The solves withheld as torn.
     torn: TornSolves,
     /// The variance components of the newest whole solve.
@@ -85,16 +107,16 @@ pub struct Backend {
 
 impl Backend {
     /// Starts the back-end with `config` and `noise`, first fed with `feed` (a resumed
-    /// run's inputs so far).
+    /// run's inputs so far); the filter `takes` what it says from it ([`due`](Self::due)).
     ///
     /// # Errors
     /// When the configuration is invalid or the thread cannot be started.
     pub fn start(
         config: SmootherConfig,
         noise: NoiseModel,
+        takes: Takes,
         feed: Vec<Feed>,
     ) -> anyhow::Result<Self> {
-        let reanchor = config.reanchor;
         let graph_out = config.graph_out.clone();
         let gate = config.torn_gate();
         let mut smoother = Smoother::new(config, noise)?;
@@ -146,7 +168,8 @@ impl Backend {
             scans_fed: 0,
             scans_reported: 0,
             unpublished: None,
-            pending: reanchor.then(VecDeque::new),
+            pending: (takes.solutions || takes.noise).then(VecDeque::new),
+            takes,
             torn: TornSolves::default(),
             noise: None,
         };
@@ -185,6 +208,10 @@ impl Backend {
         if report.noise.is_some() {
             self.noise = report.noise;
         }
+        let mut handover = Handover {
+            solution: None,
+            noise: report.noise.filter(|_| self.takes.noise),
+        };
         match report.solve {
             Solve::None => {}
             Solve::Torn => {
@@ -193,11 +220,14 @@ impl Backend {
             }
             Solve::Good(solution) => {
                 self.torn.newest = false;
-                if let Some(pending) = &mut self.pending {
-                    pending.push_back((report.scan, solution.clone()));
-                }
+                handover.solution = self.takes.solutions.then(|| solution.clone());
                 self.unpublished = Some(solution);
             }
+        }
+        if let Some(pending) = &mut self.pending
+            && (handover.solution.is_some() || handover.noise.is_some())
+        {
+            pending.push_back((report.scan, handover));
         }
     }
 
@@ -209,10 +239,10 @@ impl Backend {
         self.unpublished.take()
     }
 
-    /// With re-anchoring, the solution to apply now, after `scans_fed` scans: the one
-    /// triggered `delay` scans ago, waiting for the back-end to report that scan if it
-    /// has not yet. `None` without re-anchoring or when that scan closed no loop.
-    pub fn due(&mut self, delay: u64) -> Option<Solution> {
+    /// What the filter takes over now, after `scans_fed` scans: what the scan `delay`
+    /// scans ago brought, waiting for the back-end to report that scan if it has not
+    /// yet. `None` when the filter takes nothing or that scan brought nothing.
+    pub fn due(&mut self, delay: u64) -> Option<Handover> {
         self.pending.as_ref()?;
         let target = self.scans_fed.checked_sub(delay)?;
         if self.scans_reported < target {

@@ -66,7 +66,7 @@ pub use estimate::{MapLandmark, PoseEstimate};
 pub use evidence::NegativeEvidence;
 pub use innovations::{Innovations, NIS_WINDOW_SCANS, NisVerdict, NisWindow, noise_suspect};
 pub use landmarks::{Landmark, LandmarkMap, Slot};
-pub use noise_fit::{NoiseConfig, NoiseFit, NoiseReport};
+pub use noise_fit::{Adapt, NoiseConfig, NoiseFit, NoiseReport};
 pub use particle::{MotionPrior, Particle};
 pub use proposal::Proposal;
 pub use refine::OptimiserRefiner;
@@ -433,10 +433,19 @@ impl FastSlam {
     /// Under `[noise] adapt`, once the fit has warmed up: runs on the fitted noise (the
     /// motion model's and the configured sensor's; a scan's own sensor keeps its noise).
     fn adapt_noise(&mut self) {
-        if !(self.config.noise.adapt && self.noise.warmed_up()) {
+        if !(self.config.noise.adapt == Adapt::Innovations && self.noise.warmed_up()) {
             return;
         }
         self.noise.adopt();
+        (self.config.motion, self.config.sensor) =
+            self.noise.apply(&self.profile.0, &self.profile.1);
+    }
+
+    /// Runs on the profile's noise with its variances scaled by `scales` `(odometry,
+    /// sensor)` from the next step on (the back-end's fit under `[noise] adapt =
+    /// "smoother"`; each scale within the noise fit's bounds). A checkpoint carries them.
+    pub fn run_on_noise(&mut self, scales: [f64; 2]) {
+        self.noise.run_on(scales);
         (self.config.motion, self.config.sensor) =
             self.noise.apply(&self.profile.0, &self.profile.1);
     }

@@ -24,13 +24,27 @@ use nalgebra::{Matrix2, Vector2};
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 
-/// `[filter.noise]`: whether the filter runs on the noise it fits.
+/// `[filter.noise]`: which fitted noise, if any, the filter runs on.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct NoiseConfig {
-    /// Run on the fitted noise once the fit has warmed up (`true`), or on the profile
-    /// throughout (`false`, the default; the fit is still made and reported).
-    pub adapt: bool,
+    /// The fit the filter runs on; every fit is made and reported whatever this says.
+    pub adapt: Adapt,
+}
+
+/// Which fitted noise the filter runs on (`[filter.noise] adapt`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Adapt {
+    /// The profile throughout.
+    Off,
+    /// This module's fit of the innovations, both ways, once warmed up.
+    Innovations,
+    /// The smoothing back-end's variance components, handed over at points the data
+    /// fixes, and only upwards: a source the back-end blames runs on its fitted noise,
+    /// the other on the profile's (the default; without a back-end, the profile).
+    #[default]
+    Smoother,
 }
 
 /// Scans in the fit's window.
@@ -209,6 +223,11 @@ impl NoiseFit {
     /// Runs the filter on the fitted scales from now on.
     pub(crate) fn adopt(&mut self) {
         self.in_use = self.fitted;
+    }
+
+    /// Runs the filter on the variance scales `scales` (against the profile) from now on.
+    pub(crate) fn run_on(&mut self, scales: [f64; 2]) {
+        self.in_use = scales.map(|s| s.clamp(MIN_SCALE, MAX_SCALE));
     }
 
     /// Which source the innovations blame once warmed up: the odometry (`true`) when its

@@ -94,6 +94,22 @@ impl VarianceComponents {
     pub fn scales(&self) -> [f64; 2] {
         [self.odometry.scale, self.landmarks.scale]
     }
+
+    /// The variance scales `(odometry, sensor)` a filter on the noise model's noise
+    /// should run on: a group's factor where it is a suspect on its own (at least
+    /// [`SUSPECT_SCALE`] with a redundancy of at least [`MIN_REDUNDANCY`]), else 1. The
+    /// model is a floor: a factor below 1 says the model is cautious, which it may be
+    /// for what the fit cannot see (a lag, landmarks in clusters), and is not followed.
+    pub fn scales_to_run_on(&self) -> [f64; 2] {
+        let of = |c: &Component| {
+            if c.scale >= SUSPECT_SCALE && c.redundancy >= MIN_REDUNDANCY {
+                c.scale
+            } else {
+                1.0
+            }
+        };
+        [of(&self.odometry), of(&self.landmarks)]
+    }
 }
 
 /// A factor's group.

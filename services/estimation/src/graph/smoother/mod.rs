@@ -111,10 +111,11 @@ pub struct SmootherConfig {
     pub max_iterations: usize,
     /// Move the filter's particles onto each loop-closure solution (re-anchoring).
     pub reanchor: bool,
-    /// Scans between a loop-closure solve's trigger and its re-anchoring: the back-end
-    /// solves meanwhile, and the filter waits for it only if it is not done by then, so
-    /// the point where particles move is fixed by the data (same run, same numbers).
-    pub reanchor_delay_scans: u64,
+    /// Scans between a solve's trigger and the filter taking it over (re-anchoring, the
+    /// noise fit): the back-end solves meanwhile, and the filter waits for it only if it
+    /// is not done by then, so the point where the filter changes is fixed by the data
+    /// (same run, same numbers).
+    pub handover_delay_scans: u64,
     /// Fuse the landmarks a solution says are one (a landmark mapped again after the
     /// path drifted): loop closure in the graph, for unknown association, where the
     /// keys are the filter's own ids. The service leaves it off under known association.
@@ -148,7 +149,7 @@ impl Default for SmootherConfig {
             kernel_scale: 3.0,
             max_iterations: 50,
             reanchor: false,
-            reanchor_delay_scans: 25,
+            handover_delay_scans: 25,
             fuse_duplicates: true,
             fuse_gate: 9.21,
             window_poses: 300,
