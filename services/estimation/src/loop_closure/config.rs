@@ -81,6 +81,10 @@ pub struct LoopClosureConfig {
     /// A loop closure's position standard deviation in cells at score 1; it grows as
     /// `1/score` (cells). Default 1.
     pub loop_sigma_cells: f64,
+    /// The least share of the best-held direction's position information a loop closure
+    /// keeps in its flattest direction (the match's curvature shapes it; in (0, 1], 1:
+    /// the same in every direction). Default 0.01.
+    pub loop_shape_floor: f64,
     /// Scale `c` of the Cauchy weight `1 / (1 + χ²/c²)` of a loop closure between solves
     /// (χ² of its nominal information; dimensionless). Default 3.
     pub loop_kernel_scale: f64,
@@ -120,6 +124,7 @@ impl Default for LoopClosureConfig {
             between_floor_xy: 0.02,
             between_floor_theta: 0.5f64.to_radians(),
             loop_sigma_cells: 1.0,
+            loop_shape_floor: 0.01,
             loop_kernel_scale: 3.0,
             loop_chi2_gate: 16.27,
             robust_rounds: 8,
@@ -176,6 +181,12 @@ impl LoopClosureConfig {
         positive("loop_closure.between_floor_xy", self.between_floor_xy)?;
         positive("loop_closure.between_floor_theta", self.between_floor_theta)?;
         positive("loop_closure.loop_sigma_cells", self.loop_sigma_cells)?;
+        in_range(
+            "loop_closure.loop_shape_floor",
+            self.loop_shape_floor,
+            f64::MIN_POSITIVE,
+            1.0,
+        )?;
         positive("loop_closure.loop_kernel_scale", self.loop_kernel_scale)?;
         positive("loop_closure.loop_chi2_gate", self.loop_chi2_gate)?;
         at_least_one("loop_closure.robust_rounds", self.robust_rounds)?;

@@ -8,7 +8,7 @@ use crate::graph::{Between, Graph, PoseResidual, Prior};
 use crate::grid::KeptBeam;
 use crate::pose::Pose2;
 use crate::{Error, Result};
-use nalgebra::{Matrix3, SymmetricEigen, Vector3};
+use nalgebra::{Matrix2, Matrix3, SymmetricEigen, Vector2, Vector3};
 
 /// Information of the prior that fixes the first keyframe where the front end put it.
 const ANCHOR_INFORMATION: f64 = 1e8;
@@ -50,6 +50,10 @@ pub struct LoopClosure {
     /// Root-mean-square distance of the matched points from the base (m): how far a
     /// heading error moves them.
     pub lever: f64,
+    /// The match's curvature in position (`JᵀJ` of the refinement's cost, x and y, in
+    /// the submap's frame), which shapes the constraint; `None`: held equally in every
+    /// direction.
+    pub curvature: Option<Matrix2<f64>>,
 }
 
 /// What adding a keyframe did.
@@ -298,10 +302,11 @@ impl PoseGraphMapper {
     }
 
     /// Adds a loop-closure constraint from submap `closure.submap`'s first keyframe to
-    /// keyframe `closure.keyframe`, measuring `closure.pose`, with the fixed information
-    /// `diag(1/σ², 1/σ², 1/σ_θ²)`: `σ = loop_sigma_cells · resolution / score`,
-    /// `σ_θ = σ / max(lever, 1 m)`. The matcher adds its own; this is for others (a
-    /// place recogniser, a test).
+    /// keyframe `closure.keyframe`, measuring `closure.pose`, with the information
+    /// `1/σ²` in position in the direction the match holds best, shaped by the match's
+    /// curvature in the others (`shaped`, at least `loop_shape_floor` of it), and `1/σ_θ²`
+    /// in heading: `σ = loop_sigma_cells · resolution / score`, `σ_θ = σ / max(lever,
+    /// 1 m)`. The matcher adds its own; this is for others (a place recogniser, a test).
     ///
     /// # Errors
     /// [`Error::InvalidInput`] for an unknown keyframe or submap, a keyframe that is the
@@ -328,11 +333,14 @@ impl PoseGraphMapper {
         };
         let sigma = self.config.loop_sigma_cells * self.config.resolution / closure.score;
         let sigma_theta = sigma / closure.lever.max(1.0);
-        let information = Matrix3::from_diagonal(&Vector3::new(
-            1.0 / (sigma * sigma),
-            1.0 / (sigma * sigma),
-            1.0 / (sigma_theta * sigma_theta),
-        ));
+        let mut information =
+            Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 1.0 / (sigma_theta * sigma_theta)));
+        let shape = closure.curvature.map_or_else(Matrix2::identity, |c| {
+            shaped(&c, self.config.loop_shape_floor)
+        });
+        information
+            .fixed_view_mut::<2, 2>(0, 0)
+            .copy_from(&(shape / (sigma * sigma)));
         self.loops.push(LoopEdge {
             closure,
             weight: 1.0,
@@ -446,5 +454,42 @@ impl PoseGraphMapper {
             })
             .sum();
         self.submaps.iter().map(Submap::bytes).sum::<usize>() + scans
+    }
+}
+/// The shape of a loop closure's position information from its match's `curvature`:
+/// the curvature over its largest eigenvalue, every eigenvalue raised to at least `floor`
+/// — 1 in the best-held direction, less where the match is flat (along a corridor). The
+/// identity when the curvature holds nothing.
+fn shaped(curvature: &Matrix2<f64>, floor: f64) -> Matrix2<f64> {
+    let eigen = SymmetricEigen::new(0.5 * (curvature + curvature.transpose()));
+    let largest = eigen.eigenvalues.max();
+    if !(largest > 0.0 && largest.is_finite()) {
+        return Matrix2::identity();
+    }
+    let scaled = eigen.eigenvalues.map(|l| (l / largest).max(floor));
+    eigen.eigenvectors
+        * Matrix2::from_diagonal(&Vector2::new(scaled[0], scaled[1]))
+        * eigen.eigenvectors.transpose()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_closure_keeps_its_information_where_the_match_is_held_and_loses_it_where_flat() {
+        // A match held 100 times more sharply across a corridor running at 30°.
+        let (s, c) = 30f64.to_radians().sin_cos();
+        let along = Vector2::new(c, s);
+        let across = Vector2::new(-s, c);
+        let curvature = along * along.transpose() + 100.0 * across * across.transpose();
+        let shape = shaped(&curvature, 0.001);
+        assert!(((shape * across).norm() - 1.0).abs() < 1e-12, "{shape}");
+        assert!(((shape * along).norm() - 0.01).abs() < 1e-12, "{shape}");
+        // The floor bounds how loose the flat direction gets.
+        let floored = shaped(&curvature, 0.1);
+        assert!(((floored * along).norm() - 0.1).abs() < 1e-12, "{floored}");
+        // Nothing held: the same information in every direction.
+        assert_eq!(shaped(&Matrix2::zeros(), 0.01), Matrix2::identity());
     }
 }

@@ -16,8 +16,9 @@
 
 use super::probability::{Cast, FULL};
 use super::pyramid::MatchGrid;
-use super::refine::refine;
+use super::refine::{curvature, refine};
 use crate::pose::Pose2;
+use nalgebra::Matrix3;
 
 /// Half widths of a search window around an initial pose.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -39,6 +40,9 @@ pub struct ScanMatch {
     pub score: f64,
     /// The heading step of the search lattice (rad).
     pub angular_step: f64,
+    /// The refinement cost's curvature `JᵀJ` at `pose` (variables x, y, θ): how sharply
+    /// the match is held in each direction.
+    pub curvature: Matrix3<f64>,
 }
 
 /// A search node: heading index, translation offset (cells) and its score or bound
@@ -197,7 +201,7 @@ impl MatchGrid {
         self.branch(&lattice, roots, top, threshold, &mut best);
         let best = best?;
         let coarse = lattice.pose(&best);
-        let pose = refine(
+        let (pose, curvature) = refine(
             self.probabilities(),
             points,
             &coarse,
@@ -209,6 +213,7 @@ impl MatchGrid {
             coarse,
             score: f64::from(best.score) / (f64::from(FULL) * points.len() as f64),
             angular_step: lattice.angular_step,
+            curvature,
         })
     }
 
@@ -278,6 +283,7 @@ impl MatchGrid {
             coarse,
             score: f64::from(best.score) / (f64::from(FULL) * points.len() as f64),
             angular_step: lattice.angular_step,
+            curvature: curvature(self.probabilities(), points, &coarse),
         })
     }
 }

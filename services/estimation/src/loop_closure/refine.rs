@@ -15,14 +15,15 @@ use nalgebra::{Matrix3, Vector3};
 const ITERATIONS: usize = 20;
 
 /// The refined pose of `points` (base frame) from `start` (submap frame); `start` itself
-/// when no better pose lies within `resolution` and `angular_step` of it.
+/// when no better pose lies within `resolution` and `angular_step` of it. With it, the
+/// cost's Gauss–Newton curvature `JᵀJ` there (variables x, y, θ).
 pub(crate) fn refine(
     grid: &ProbabilityGrid,
     points: &[[f64; 2]],
     start: &Pose2,
     resolution: f64,
     angular_step: f64,
-) -> Pose2 {
+) -> (Pose2, Matrix3<f64>) {
     let cost = |pose: &Pose2| -> f64 {
         let (s, c) = pose.theta.sin_cos();
         points
@@ -38,19 +39,7 @@ pub(crate) fn refine(
     let mut current = cost(&pose);
     let mut lambda = 1e-3;
     for _ in 0..ITERATIONS {
-        let (s, c) = pose.theta.sin_cos();
-        let mut h = Matrix3::zeros();
-        let mut g = Vector3::zeros();
-        for q in points {
-            let (x, y) = (pose.x + c * q[0] - s * q[1], pose.y + s * q[0] + c * q[1]);
-            let (v, grad) = grid.interpolate(x, y);
-            let r = 1.0 - v;
-            // ∂(x, y)/∂θ of the rotated point.
-            let (tx, ty) = (-s * q[0] - c * q[1], c * q[0] - s * q[1]);
-            let j = Vector3::new(-grad[0], -grad[1], -(grad[0] * tx + grad[1] * ty));
-            h += j * j.transpose();
-            g += j * r;
-        }
+        let (h, g) = normal_equations(grid, points, &pose);
         let damped = h + Matrix3::from_diagonal(&h.diagonal()) * lambda;
         let Some(step) = damped.try_inverse().map(|inv| -(inv * g)) else {
             break;
@@ -77,9 +66,37 @@ pub(crate) fn refine(
     }
     let moved = (pose.x - start.x).hypot(pose.y - start.y);
     let turned = crate::wrap_angle(pose.theta - start.theta).abs();
-    if moved <= resolution && turned <= angular_step {
+    let pose = if moved <= resolution && turned <= angular_step {
         pose
     } else {
         *start
+    };
+    (pose, curvature(grid, points, &pose))
+}
+
+/// The refinement cost's curvature `JᵀJ` at `pose` (variables x, y, θ).
+pub(crate) fn curvature(grid: &ProbabilityGrid, points: &[[f64; 2]], pose: &Pose2) -> Matrix3<f64> {
+    normal_equations(grid, points, pose).0
+}
+
+/// `JᵀJ` and `Jᵀr` of the residuals `1 − S(T pᵢ)` at `pose`.
+fn normal_equations(
+    grid: &ProbabilityGrid,
+    points: &[[f64; 2]],
+    pose: &Pose2,
+) -> (Matrix3<f64>, Vector3<f64>) {
+    let (s, c) = pose.theta.sin_cos();
+    let mut h = Matrix3::zeros();
+    let mut g = Vector3::zeros();
+    for q in points {
+        let (x, y) = (pose.x + c * q[0] - s * q[1], pose.y + s * q[0] + c * q[1]);
+        let (v, grad) = grid.interpolate(x, y);
+        let r = 1.0 - v;
+        // ∂(x, y)/∂θ of the rotated point.
+        let (tx, ty) = (-s * q[0] - c * q[1], c * q[0] - s * q[1]);
+        let j = Vector3::new(-grad[0], -grad[1], -(grad[0] * tx + grad[1] * ty));
+        h += j * j.transpose();
+        g += j * r;
     }
+    (h, g)
 }

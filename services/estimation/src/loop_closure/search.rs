@@ -100,6 +100,7 @@ impl PoseGraphMapper {
                 pose: m.pose,
                 score: m.score,
                 lever: scan.lever,
+                curvature: Some(m.curvature.fixed_view::<2, 2>(0, 0).into_owned()),
             })
         };
         if pairs.len() > 1 {
