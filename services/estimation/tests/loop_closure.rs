@@ -279,16 +279,22 @@ fn first_side(count: usize) -> Vec<Pose2> {
         .collect()
 }
 
-#[test]
-fn branch_and_bound_finds_a_known_offset_with_the_exhaustive_best_score() {
+/// A submap of the ring's first corner, seen from five poses, a scan's points taken in
+/// it and the scan's true pose.
+fn first_corner() -> (MatchGrid, Vec<[f64; 2]>, Pose2) {
     let world = corridor_world();
-    // A submap of the ring's first corner, seen from five poses.
     let poses: Vec<Pose2> = (0..5)
         .map(|k| Pose2::new(6.0 + 0.8 * k as f64, 0.1 * k as f64, 0.05 * k as f64))
         .collect();
     let submap = submap_from(&world, &poses, 3, 0.0);
     let truth = Pose2::new(8.3, 0.2, 0.07);
     let (_, points) = beams_and_points(&scan(&world, &truth, 0.01, 99));
+    (submap, points, truth)
+}
+
+#[test]
+fn branch_and_bound_finds_a_known_offset_with_the_exhaustive_best_score() {
+    let (submap, points, truth) = first_corner();
     let initial = Pose2::new(truth.x - 0.37, truth.y + 0.52, truth.theta - 0.12);
     let window = SearchWindow {
         linear: 1.0,
@@ -596,13 +602,7 @@ fn a_match_in_a_featureless_corridor_is_held_across_it_not_along_it() {
     );
     assert!(c[(0, 0)] < 0.1 * c[(1, 1)], "{c}");
     // In the ring's first corner both directions are held.
-    let world = corridor_world();
-    let poses: Vec<Pose2> = (0..5)
-        .map(|k| Pose2::new(6.0 + 0.8 * k as f64, 0.1 * k as f64, 0.05 * k as f64))
-        .collect();
-    let submap = submap_from(&world, &poses, 3, 0.0);
-    let truth = Pose2::new(8.3, 0.2, 0.07);
-    let (_, points) = beams_and_points(&scan(&world, &truth, 0.01, 99));
+    let (submap, points, truth) = first_corner();
     let corner = submap.match_scan(&points, &truth, &window, 0.0).unwrap();
     let c = corner.curvature;
     println!("corner: x {:.3e}, y {:.3e}", c[(0, 0)], c[(1, 1)]);
