@@ -1,7 +1,8 @@
 //! The smoothing back-end on a thread of its own (docs/ALGORITHMS.md §8.1). The filter's
 //! thread collects every control and every scan's keyed sightings and hands them over
 //! in one message per wake-up ([`Backend::flush`], after the pose has gone out, so that
-//! waking the back-end never competes with the pose), and never waits for it; the back-end grows its graph ([`Smoother`]), solves when a loop
+//! waking the back-end never competes with the pose), and waits for it only to take
+//! something over ([`Backend::due`]); the back-end grows its graph ([`Smoother`]), solves when a loop
 //! closes, and reports after every scan — with the solution when that scan closed a
 //! loop — through another channel, which the service drains between inputs.
 //!

@@ -49,7 +49,7 @@ pub struct FastSlamConfig {
     pub resampling: ResamplingConfig,
     /// The smallest spread of a particle's motion prior.
     pub prior_floor: PriorFloor,
-    /// Whether the filter runs on the noise it fits (`[noise] adapt`).
+    /// Which fitted noise the filter runs on (`[noise] adapt`).
     pub noise: NoiseConfig,
 }
 

@@ -430,7 +430,7 @@ impl FastSlam {
         self.noise.report(&self.profile.0, &self.profile.1)
     }
 
-    /// Under `[noise] adapt`, once the fit has warmed up: runs on the fitted noise (the
+    /// Under `[noise] adapt = "innovations"`, once the fit has warmed up: runs on the fitted noise (the
     /// motion model's and the configured sensor's; a scan's own sensor keeps its noise).
     fn adapt_noise(&mut self) {
         if !(self.config.noise.adapt == Adapt::Innovations && self.noise.warmed_up()) {

@@ -459,8 +459,11 @@ impl PoseGraphMapper {
 /// The shape of a loop closure's position information from its match's `curvature`:
 /// the curvature over its largest eigenvalue, every eigenvalue raised to at least `floor`
 /// — 1 in the best-held direction, less where the match is flat (along a corridor). The
-/// identity when the curvature holds nothing.
+/// identity when the curvature holds nothing or is not finite, and for a floor of 1.
 fn shaped(curvature: &Matrix2<f64>, floor: f64) -> Matrix2<f64> {
+    if floor >= 1.0 || !curvature.iter().all(|v| v.is_finite()) {
+        return Matrix2::identity();
+    }
     let eigen = SymmetricEigen::new(0.5 * (curvature + curvature.transpose()));
     let largest = eigen.eigenvalues.max();
     if !(largest > 0.0 && largest.is_finite()) {
@@ -489,7 +492,10 @@ mod tests {
         // The floor bounds how loose the flat direction gets.
         let floored = shaped(&curvature, 0.1);
         assert!(((floored * along).norm() - 0.1).abs() < 1e-12, "{floored}");
-        // Nothing held: the same information in every direction.
+        // Nothing held, nothing known, or a floor of 1: the same in every direction.
         assert_eq!(shaped(&Matrix2::zeros(), 0.01), Matrix2::identity());
+        let unknown = Matrix2::new(f64::NAN, 0.0, 0.0, 1.0);
+        assert_eq!(shaped(&unknown, 0.01), Matrix2::identity());
+        assert_eq!(shaped(&curvature, 1.0), Matrix2::identity());
     }
 }

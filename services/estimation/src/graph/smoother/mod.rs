@@ -115,6 +115,7 @@ pub struct SmootherConfig {
     /// noise fit): the back-end solves meanwhile, and the filter waits for it only if it
     /// is not done by then, so the point where the filter changes is fixed by the data
     /// (same run, same numbers).
+    #[serde(alias = "reanchor_delay_scans")]
     pub handover_delay_scans: u64,
     /// Fuse the landmarks a solution says are one (a landmark mapped again after the
     /// path drifted): loop closure in the graph, for unknown association, where the
