@@ -33,7 +33,7 @@ pub struct NoiseConfig {
 }
 
 /// Which fitted noise the filter runs on (`[filter.noise] adapt`).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Adapt {
     /// The profile throughout.
@@ -45,6 +45,32 @@ pub enum Adapt {
     /// the other on the profile's (the default; without a back-end, the profile).
     #[default]
     Smoother,
+}
+
+/// The names `adapt` takes, as the configuration spells them.
+const ADAPT_NAMES: [&str; 3] = ["off", "innovations", "smoother"];
+
+impl<'de> Deserialize<'de> for Adapt {
+    /// One of [`ADAPT_NAMES`]; anything else (a `true`/`false` switch included) is
+    /// refused with the names listed.
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Name;
+        impl serde::de::Visitor<'_> for Name {
+            type Value = Adapt;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                write!(f, "one of {ADAPT_NAMES:?}")
+            }
+            fn visit_str<E: serde::de::Error>(self, name: &str) -> Result<Adapt, E> {
+                match name {
+                    "off" => Ok(Adapt::Off),
+                    "innovations" => Ok(Adapt::Innovations),
+                    "smoother" => Ok(Adapt::Smoother),
+                    _ => Err(E::unknown_variant(name, &ADAPT_NAMES)),
+                }
+            }
+        }
+        deserializer.deserialize_str(Name)
+    }
 }
 
 /// Scans in the fit's window.
@@ -312,6 +338,18 @@ mod tests {
             assert!(within_30_percent(&fit, truth), "{:?}", fit.fitted());
             assert_eq!(fit.blames_odometry(), Some(blames_odometry));
         }
+    }
+
+    #[test]
+    fn adapt_takes_one_of_its_three_names_and_a_switch_is_refused_naming_them() {
+        let read = |text: &str| toml::from_str::<NoiseConfig>(text).map(|c| c.adapt);
+        assert_eq!(read("adapt = \"innovations\"").unwrap(), Adapt::Innovations);
+        assert_eq!(read("").unwrap(), Adapt::Smoother);
+        let refused = read("adapt = true").unwrap_err().to_string();
+        assert!(
+            refused.contains("\"off\", \"innovations\", \"smoother\""),
+            "{refused}"
+        );
     }
 
     #[test]
