@@ -35,9 +35,9 @@ pub struct LandmarkSlam {
     observations: Vec<Observation>,
     /// The smoothing back-end, when `[smoother] enabled`.
     backend: Option<Backend>,
-    /// With re-anchoring or a filter on the back-end's noise fit: the scans between a
-    /// back-end's report and the filter taking it over.
-    handover_delay: Option<u64>,
+    /// The scans between a back-end's report and the filter taking it over (what it
+    /// takes: [`Takes`]).
+    handover_delay: u64,
     /// With re-anchoring: the estimates of the last scans (stamp, mean), to compare a
     /// solution's last pose with what the filter said then.
     recent: Option<VecDeque<(u64, Pose2)>>,
@@ -72,7 +72,7 @@ impl LandmarkSlam {
             mapper: GridMapper::new(config.grid.clone())?,
             observations: Vec::new(),
             backend: None,
-            handover_delay: None,
+            handover_delay: 0,
             recent: None,
             mount: (mount != Pose2::default()).then_some(mount),
         })
@@ -125,9 +125,10 @@ impl LandmarkSlam {
     /// back-end reported `delay` scans ago, if anything — its noise fit, then its
     /// solution (re-anchoring).
     fn take_over(&mut self, stamp_ns: u64, mean: Pose2) {
-        let (Some(backend), Some(delay)) = (&mut self.backend, self.handover_delay) else {
+        let Some(backend) = &mut self.backend else {
             return;
         };
+        let delay = self.handover_delay;
         if let Some(recent) = &mut self.recent {
             recent.push_back((stamp_ns, mean));
             while recent.len() as u64 > delay + 1 {
@@ -152,17 +153,16 @@ impl LandmarkSlam {
         if scales == self.filter.noise_fit().in_use() {
             return;
         }
-        let report = self.filter.noise_report();
-        let [q, r] = scales.map(f64::sqrt);
-        let [p1, p2, pr, pb] = report.profile;
+        self.filter.run_on_noise(scales);
+        let [p1, p2, pr, pb] = self.filter.noise_report().profile;
+        let in_use = self.filter.config();
         tracing::info!(
-            odometry_sigmas = ?[p1 * q, p2 * q],
-            sensor_sigmas = ?[pr * r, pb * r],
+            odometry_sigmas = ?in_use.motion.noise_sigmas(),
+            sensor_sigmas = ?[in_use.sensor.sigma_range, in_use.sensor.sigma_bearing],
             profile_odometry = ?[p1, p2],
             profile_sensor = ?[pr, pb],
             "filter runs on the smoothing back-end's noise fit"
         );
-        self.filter.run_on_noise(scales);
     }
 
     /// Moves the particles onto `solution`: the correction is the rigid motion taking
@@ -171,8 +171,7 @@ impl LandmarkSlam {
         let Some(&(last_ns, smoothed)) = solution.poses.last() else {
             return;
         };
-        let recent = self.recent.iter().flatten();
-        let Some(&(_, then)) = recent.clone().find(|(t, _)| *t == last_ns) else {
+        let Some(&(_, then)) = (self.recent.iter().flatten()).find(|(t, _)| *t == last_ns) else {
             tracing::warn!(
                 last_ns,
                 "re-anchoring skipped: no estimate at the solution's last pose"
@@ -290,8 +289,7 @@ impl Estimator for LandmarkSlam {
             noise: filter.noise.adapt == Adapt::Smoother,
         };
         self.backend = Some(Backend::start(smoother, noise, takes, feed)?);
-        self.handover_delay =
-            (takes.solutions || takes.noise).then_some(config.smoother.handover_delay_scans);
+        self.handover_delay = config.smoother.handover_delay_scans;
         self.recent = takes.solutions.then(VecDeque::new);
         Ok(())
     }

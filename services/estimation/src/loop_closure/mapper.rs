@@ -456,6 +456,7 @@ impl PoseGraphMapper {
         self.submaps.iter().map(Submap::bytes).sum::<usize>() + scans
     }
 }
+
 /// The shape of a loop closure's position information from its match's `curvature`:
 /// the curvature over its largest eigenvalue, every eigenvalue raised to at least `floor`
 /// — 1 in the best-held direction, less where the match is flat (along a corridor). The
@@ -466,7 +467,7 @@ fn shaped(curvature: &Matrix2<f64>, floor: f64) -> Matrix2<f64> {
     }
     let eigen = SymmetricEigen::new(0.5 * (curvature + curvature.transpose()));
     let largest = eigen.eigenvalues.max();
-    if !(largest > 0.0 && largest.is_finite()) {
+    if largest <= 0.0 {
         return Matrix2::identity();
     }
     let scaled = eigen.eigenvalues.map(|l| (l / largest).max(floor));
