@@ -65,6 +65,14 @@ pub struct Component {
     pub scale: f64,
 }
 
+impl Component {
+    /// Whether the group is a suspect: its factor at least [`SUSPECT_SCALE`] with a
+    /// redundancy of at least [`MIN_REDUNDANCY`].
+    pub fn is_suspect(&self) -> bool {
+        self.scale >= SUSPECT_SCALE && self.redundancy >= MIN_REDUNDANCY
+    }
+}
+
 /// The variance components of a solved graph; see the module documentation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VarianceComponents {
@@ -87,7 +95,7 @@ impl VarianceComponents {
         } else {
             &self.landmarks
         };
-        (worse.scale >= SUSPECT_SCALE && worse.redundancy >= MIN_REDUNDANCY).then_some(odometry)
+        worse.is_suspect().then_some(odometry)
     }
 
     /// The factors `(odometry, sensor)`.
@@ -96,18 +104,12 @@ impl VarianceComponents {
     }
 
     /// The variance scales `(odometry, sensor)` a filter on the noise model's noise
-    /// should run on: a group's factor where it is a suspect on its own (at least
-    /// [`SUSPECT_SCALE`] with a redundancy of at least [`MIN_REDUNDANCY`]), else 1. The
+    /// should run on: a group's factor where it is a suspect on its own
+    /// ([`Component::is_suspect`]), else 1. The
     /// model is a floor: a factor below 1 says the model is cautious, which it may be
     /// for what the fit cannot see (a lag, landmarks in clusters), and is not followed.
     pub fn scales_to_run_on(&self) -> [f64; 2] {
-        let of = |c: &Component| {
-            if c.scale >= SUSPECT_SCALE && c.redundancy >= MIN_REDUNDANCY {
-                c.scale
-            } else {
-                1.0
-            }
-        };
+        let of = |c: &Component| if c.is_suspect() { c.scale } else { 1.0 };
         [of(&self.odometry), of(&self.landmarks)]
     }
 }
