@@ -175,6 +175,7 @@ fn main() -> anyhow::Result<()> {
                 points,
                 beams: grid.kept_beams(&scan),
                 sensor: mount,
+                odometry: None,
             };
             for (i, row) in c.iter().enumerate() {
                 for (j, v) in row.iter().enumerate() {

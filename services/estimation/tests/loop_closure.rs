@@ -194,6 +194,7 @@ fn ring_run() -> Run {
                 points,
                 beams,
                 sensor: Pose2::default(),
+                odometry: None,
             }
         })
         .collect();

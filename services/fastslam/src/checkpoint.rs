@@ -29,7 +29,7 @@ use std::path::{Path, PathBuf};
 /// The first bytes of every checkpoint file.
 pub const MAGIC: [u8; 8] = *b"FSLMCKPT";
 /// The payload layout written by this build; bumped whenever [`Checkpoint`] changes.
-pub const FORMAT_VERSION: u32 = 12;
+pub const FORMAT_VERSION: u32 = 13;
 /// Bytes before the payload: magic, version, length, hash.
 const HEADER_LEN: usize = 28;
 

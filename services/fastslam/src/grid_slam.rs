@@ -16,7 +16,7 @@ use fastslam_estimation::fastslam::{PoseEstimate, StepReport};
 use fastslam_estimation::graph::{Feed, Solution};
 use fastslam_estimation::grid::{GridConfig, OccupancyGrid};
 use fastslam_estimation::gridslam::{GridFastSlam, GridStep};
-use fastslam_estimation::loop_closure::Keyframe;
+use fastslam_estimation::loop_closure::{self, Keyframe};
 use fastslam_estimation::motion::Control;
 use fastslam_estimation::moves::MoveStats;
 use fastslam_estimation::scan::{Beam, RangeScan};
@@ -95,6 +95,7 @@ impl GridSlam {
         scan: &RangeScan<'_>,
     ) -> fastslam_estimation::Result<(PoseEstimate, GridStep)> {
         let predicted = self.back_end.is_some().then(|| self.filter.estimate().mean);
+        let prior = self.filter.motion_prior();
         let step = self.filter.observe(scan)?;
         let estimate = self.filter.estimate();
         let Some(predicted) = predicted else {
@@ -108,6 +109,10 @@ impl GridSlam {
                 points: self.points(scan),
                 beams: self.grid.kept_beams(scan),
                 sensor: self.mount,
+                odometry: Some(loop_closure::Odometry {
+                    predicted,
+                    covariance: prior,
+                }),
             };
             (keyframe, predicted)
         });

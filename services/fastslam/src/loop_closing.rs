@@ -24,7 +24,9 @@ use anyhow::bail;
 use fastslam_estimation::Pose2;
 use fastslam_estimation::graph::{Fit, Solution, SolveReport};
 use fastslam_estimation::grid::{GridConfig, KeptBeam, OccupancyGrid};
-use fastslam_estimation::loop_closure::{self, Keyframe, LoopClosureConfig, PoseGraphMapper};
+use fastslam_estimation::loop_closure::{
+    self, Keyframe, LoopClosureConfig, Odometry, PoseGraphMapper,
+};
 use fastslam_estimation::motion::MotionModel;
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
@@ -271,7 +273,7 @@ impl LoopClosing {
                 else {
                     bail!("the loop-closure state's scans name keyframe {k} it does not hold");
                 };
-                Some((Keyframe::from(keyframe), predicted))
+                Some((keyframe.restored(predicted), predicted))
             } else if k + 1 == next {
                 None
             } else {
@@ -425,6 +427,9 @@ pub struct KeyframeState {
     pub beams: Vec<(f32, f32, bool)>,
     /// The sensor's pose in the base frame.
     pub sensor: Pose2,
+    /// The motion model's covariance of the odometry's motion from the previous
+    /// keyframe, row-major; its pose is [`BackEndState::predicted`]'s.
+    pub odometry_covariance: Option<[f64; 9]>,
 }
 
 impl From<&Keyframe> for KeyframeState {
@@ -438,21 +443,28 @@ impl From<&Keyframe> for KeyframeState {
                 .map(|b| (b.angle, b.length, b.hit))
                 .collect(),
             sensor: k.sensor,
+            odometry_covariance: (k.odometry)
+                .map(|o| std::array::from_fn(|i| o.covariance[(i / 3, i % 3)])),
         }
     }
 }
 
-impl From<&KeyframeState> for Keyframe {
-    fn from(k: &KeyframeState) -> Self {
-        Self {
-            stamp_ns: k.stamp_ns,
-            pose: k.pose,
-            covariance: Matrix3::from_row_slice(&k.covariance),
-            points: k.points.clone(),
-            beams: (k.beams.iter())
+impl KeyframeState {
+    /// The keyframe this holds, with `predicted` as its odometry's pose.
+    fn restored(&self, predicted: Pose2) -> Keyframe {
+        Keyframe {
+            stamp_ns: self.stamp_ns,
+            pose: self.pose,
+            covariance: Matrix3::from_row_slice(&self.covariance),
+            points: self.points.clone(),
+            beams: (self.beams.iter())
                 .map(|&(angle, length, hit)| KeptBeam { angle, length, hit })
                 .collect(),
-            sensor: k.sensor,
+            sensor: self.sensor,
+            odometry: self.odometry_covariance.map(|c| Odometry {
+                predicted,
+                covariance: Matrix3::from_row_slice(&c),
+            }),
         }
     }
 }

@@ -332,6 +332,15 @@ impl GridFastSlam {
         )
     }
 
+    /// The particles' motion prior since the last keyframe, weighted: the odometry's
+    /// covariance of the motion since then (map axes).
+    pub fn motion_prior(&self) -> Matrix3<f64> {
+        (self.particles.iter())
+            .zip(self.weights.as_slice())
+            .map(|(p, w)| p.covariance * *w)
+            .sum()
+    }
+
     /// Index of the particle with the largest weight (the first of equals).
     pub fn best(&self) -> usize {
         self.weights.argmax()

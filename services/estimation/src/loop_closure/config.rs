@@ -78,6 +78,11 @@ pub struct LoopClosureConfig {
     pub between_floor_xy: f64,
     /// … heading (rad). Default 0.0087 (0.5°).
     pub between_floor_theta: f64,
+    /// Consecutive keyframes are also tied by the odometry's own motion between them,
+    /// with the motion model's covariance, unless it disagrees with the front end's
+    /// beyond `loop_chi2_gate` (docs/ALGORITHMS.md §9.1, "Odometry constraints").
+    /// Default true.
+    pub odometry_constraints: bool,
     /// A loop closure's position standard deviation in cells at score 1; it grows as
     /// `1/score` (cells). Default 1.
     pub loop_sigma_cells: f64,
@@ -123,6 +128,7 @@ impl Default for LoopClosureConfig {
             min_points: 20,
             between_floor_xy: 0.02,
             between_floor_theta: 0.5f64.to_radians(),
+            odometry_constraints: true,
             loop_sigma_cells: 1.0,
             loop_shape_floor: 0.01,
             loop_kernel_scale: 3.0,

@@ -6,7 +6,7 @@ use super::robust::{self, LoopEdge};
 use super::submap::Submap;
 use crate::graph::{Between, Graph, PoseResidual, Prior};
 use crate::grid::KeptBeam;
-use crate::pose::Pose2;
+use crate::pose::{Pose2, wrap_angle};
 use crate::{Error, Result};
 use nalgebra::{Matrix2, Matrix3, SymmetricEigen, Vector2, Vector3};
 
@@ -34,6 +34,19 @@ pub struct Keyframe {
     pub beams: Vec<KeptBeam>,
     /// The sensor's pose in the base frame (m, m, rad).
     pub sensor: Pose2,
+    /// The odometry's account of the motion since the previous keyframe, a constraint
+    /// of its own beside the front end's; `None`: none.
+    pub odometry: Option<Odometry>,
+}
+
+/// The odometry's account of the motion between two keyframes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Odometry {
+    /// The front end's pose of the keyframe's scan before the scan was matched: the
+    /// previous keyframe's pose moved by the odometry alone (front end's map frame).
+    pub predicted: Pose2,
+    /// The motion model's covariance of that motion, on the map frame's axes.
+    pub covariance: Matrix3<f64>,
 }
 
 /// A loop closure: keyframe `keyframe` was found at `pose` in submap `submap`'s frame.
@@ -205,6 +218,10 @@ impl PoseGraphMapper {
                     information,
                     residual: PoseResidual::Componentwise,
                 });
+                if let Some(between) = self.odometry_between(index, &delta, &covariance, &keyframe)
+                {
+                    self.graph.betweens.push(between);
+                }
                 let xy = SymmetricEigen::new(covariance.fixed_view::<2, 2>(0, 0).into_owned());
                 let before = self.accumulated[index - 1];
                 self.accumulated.push([
@@ -284,6 +301,45 @@ impl PoseGraphMapper {
                 ),
             })
         }
+    }
+
+    /// The odometry's constraint from keyframe `index − 1` to `index`, from the
+    /// keyframe's odometry ([`Keyframe::odometry`]): its motion `prev⁻¹ ∘ predicted`
+    /// with the motion model's covariance turned onto the previous keyframe's axes plus
+    /// the floor. `None` when the keyframe has no odometry, `odometry_constraints` is
+    /// off, or the odometry disagrees with the front end's motion `delta` (covariance
+    /// `covariance`, the previous keyframe's axes) beyond `loop_chi2_gate` in χ² of both
+    /// covariances: a lag or a glitch, where the front end believed the scan.
+    fn odometry_between(
+        &self,
+        index: usize,
+        delta: &Pose2,
+        covariance: &Matrix3<f64>,
+        keyframe: &Keyframe,
+    ) -> Option<Between> {
+        let odometry = keyframe
+            .odometry
+            .filter(|_| self.config.odometry_constraints)?;
+        let previous = self.keyframes[index - 1].front_end;
+        let moved = previous.inverse().compose(&odometry.predicted);
+        let spread = self.floored(&odometry.covariance, previous.theta);
+        let disagreement = Vector3::new(
+            moved.x - delta.x,
+            moved.y - delta.y,
+            wrap_angle(moved.theta - delta.theta),
+        );
+        let chi2 = (covariance + spread)
+            .cholesky()?
+            .solve(&disagreement)
+            .dot(&disagreement);
+        (chi2 <= self.config.loop_chi2_gate).then_some(())?;
+        Some(Between {
+            from: index - 1,
+            to: index,
+            delta: moved,
+            information: spread.cholesky()?.inverse(),
+            residual: PoseResidual::Componentwise,
+        })
     }
 
     /// The consecutive constraint's covariance: `covariance` (map axes) turned onto the
@@ -498,5 +554,57 @@ mod tests {
         let unknown = Matrix2::new(f64::NAN, 0.0, 0.0, 1.0);
         assert_eq!(shaped(&unknown, 0.01), Matrix2::identity());
         assert_eq!(shaped(&curvature, 1.0), Matrix2::identity());
+    }
+
+    /// A keyframe at `pose` with the odometry's end of the stretch at `predicted`, both
+    /// with covariance diag(σ², σ², σ²) before the floor.
+    fn keyframe(stamp_ns: u64, pose: Pose2, predicted: Pose2, sigma: f64) -> Keyframe {
+        let covariance = Matrix3::identity() * sigma * sigma;
+        Keyframe {
+            stamp_ns,
+            pose,
+            covariance,
+            points: Vec::new(),
+            beams: Vec::new(),
+            sensor: Pose2::default(),
+            odometry: Some(Odometry {
+                predicted,
+                covariance,
+            }),
+        }
+    }
+
+    #[test]
+    fn the_odometry_ties_consecutive_keyframes_unless_it_disagrees_with_the_front_end() {
+        let run = |odometry_x: f64, enabled: bool| {
+            let config = LoopClosureConfig {
+                odometry_constraints: enabled,
+                ..LoopClosureConfig::default()
+            };
+            let mut mapper = PoseGraphMapper::new(config).unwrap();
+            let first = Pose2::default();
+            mapper
+                .add_keyframe(keyframe(0, first, first, 0.05))
+                .unwrap();
+            let second = keyframe(
+                1,
+                Pose2::new(0.5, 0.0, 0.0),
+                Pose2::new(odometry_x, 0.0, 0.0),
+                0.05,
+            );
+            mapper.add_keyframe(second).unwrap();
+            let solution = mapper.solve().unwrap();
+            (mapper.graph().betweens.len(), solution.poses[1])
+        };
+        // Odometry 4 cm longer than the match, both held alike: the solution halves it.
+        let (constraints, pose) = run(0.54, true);
+        assert_eq!(constraints, 2);
+        assert!((pose.x - 0.52).abs() < 1e-6, "{pose:?}");
+        // Switched off, or a glitch of 1 m (χ² far beyond the gate): the match alone.
+        for (odometry_x, enabled) in [(0.54, false), (1.5, true)] {
+            let (constraints, pose) = run(odometry_x, enabled);
+            assert_eq!(constraints, 1, "{odometry_x} {enabled}");
+            assert!((pose.x - 0.5).abs() < 1e-6, "{pose:?}");
+        }
     }
 }

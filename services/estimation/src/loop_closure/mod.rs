@@ -45,7 +45,7 @@ mod submap;
 mod trajectory;
 
 pub use config::{LoopClosureConfig, MAX_DEPTH};
-pub use mapper::{Keyframe, KeyframeReport, LoopClosure, PoseGraphMapper, Solution};
+pub use mapper::{Keyframe, KeyframeReport, LoopClosure, Odometry, PoseGraphMapper, Solution};
 pub use matcher::{ScanMatch, SearchWindow};
 pub use probability::{FULL, ProbabilityGrid};
 pub use pyramid::MatchGrid;
