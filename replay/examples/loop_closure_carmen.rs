@@ -19,7 +19,7 @@ use fastslam_estimation::fastslam::FastSlamConfig;
 use fastslam_estimation::grid::GridConfig;
 use fastslam_estimation::gridslam::{GridFastSlam, ScanMatchConfig};
 use fastslam_estimation::loop_closure::{
-    Keyframe, LoopClosureConfig, PoseGraphMapper, place_scans,
+    Keyframe, LoopClosureConfig, Odometry, PoseGraphMapper, place_scans,
 };
 use fastslam_estimation::motion::{Control, Increment, MotionModel};
 use fastslam_estimation::moves::MoveConfig;
@@ -30,8 +30,10 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// What a front end says at a scan: its pose, its pose before the scan was matched, and
-/// when the scan is a keyframe, the covariance of the motion since the previous keyframe.
-type Estimate = (Pose2, Pose2, Option<[[f64; 3]; 3]>);
+/// when the scan is a keyframe, the covariance of the motion since the previous keyframe
+/// and the odometry's covariance of that motion (grid FastSLAM's motion prior; none for
+/// the odometry front end, whose motion is the odometry's).
+type Estimate = (Pose2, Pose2, Option<[[f64; 3]; 3]>, Option<[[f64; 3]; 3]>);
 
 /// Where the keyframes come from.
 enum FrontEnd {
@@ -50,14 +52,14 @@ impl FrontEnd {
                 let moved = last.map(|l| l.inverse().compose(odometry));
                 let due = moved.is_none_or(|d| d.x.hypot(d.y) >= 0.5 || d.theta.abs() >= 0.2618);
                 if !due {
-                    return (*odometry, *odometry, None);
+                    return (*odometry, *odometry, None, None);
                 }
                 *last = Some(*odometry);
                 let d = moved.unwrap_or_default();
                 let (dist, turn) = (d.x.hypot(d.y), d.theta.abs());
                 let (vxy, vt) = (0.01 * dist + 0.01 * turn, 0.04 * dist + 0.04 * turn);
                 let c = [[vxy, 0.0, 0.0], [0.0, vxy, 0.0], [0.0, 0.0, vt]];
-                (*odometry, *odometry, Some(c))
+                (*odometry, *odometry, Some(c), None)
             }
             Self::GridSlam(slam) => {
                 let control = Control {
@@ -66,11 +68,19 @@ impl FrontEnd {
                 };
                 slam.predict(&control, 0.1).expect("a finite increment");
                 let predicted = slam.estimate().mean;
+                let p = slam.motion_prior();
+                let prior = std::array::from_fn(|i| std::array::from_fn(|j| p[(i, j)]));
                 let step = slam.observe(scan).expect("weights stay finite");
                 let e = slam.estimate();
                 let c = e.covariance;
                 let covariance = std::array::from_fn(|i| std::array::from_fn(|j| c[(i, j)]));
-                (e.mean, predicted, step.keyframe.then_some(covariance))
+                let keyframe = step.keyframe;
+                (
+                    e.mean,
+                    predicted,
+                    keyframe.then_some(covariance),
+                    keyframe.then_some(prior),
+                )
             }
         }
     }
@@ -154,7 +164,7 @@ fn main() -> anyhow::Result<()> {
             ranges: &raw.items,
         };
         let t0 = Instant::now();
-        let (estimate, before_match, covariance) = front_end.step(&pose, &increment, &scan);
+        let (estimate, before_match, covariance, prior) = front_end.step(&pose, &increment, &scan);
         front_s += t0.elapsed().as_secs_f64();
         if let Some(c) = covariance {
             let mount = data.laser_mount;
@@ -181,6 +191,18 @@ fn main() -> anyhow::Result<()> {
                 for (j, v) in row.iter().enumerate() {
                     keyframe.covariance[(i, j)] = *v;
                 }
+            }
+            if let Some(p) = prior {
+                let mut odometry = Odometry {
+                    predicted: before_match,
+                    covariance: Default::default(),
+                };
+                for (i, row) in p.iter().enumerate() {
+                    for (j, v) in row.iter().enumerate() {
+                        odometry.covariance[(i, j)] = *v;
+                    }
+                }
+                keyframe.odometry = Some(odometry);
             }
             let t0 = Instant::now();
             let report = mapper.add_keyframe(keyframe)?;
