@@ -309,7 +309,8 @@ impl PoseGraphMapper {
     /// the floor. `None` when the keyframe has no odometry, `odometry_constraints` is
     /// off, or the odometry disagrees with the front end's motion `delta` (covariance
     /// `covariance`, the previous keyframe's axes) beyond `loop_chi2_gate` in χ² of both
-    /// covariances: a lag or a glitch, where the front end believed the scan.
+    /// covariances — a lag or a glitch, where the front end believed the scan — or that
+    /// χ² is not a number (a value not finite).
     fn odometry_between(
         &self,
         index: usize,
@@ -332,12 +333,12 @@ impl PoseGraphMapper {
             .cholesky()?
             .solve(&disagreement)
             .dot(&disagreement);
-        (chi2 <= self.config.loop_chi2_gate).then_some(())?;
-        Some(Between {
+        let information = spread.cholesky()?.inverse();
+        (chi2 <= self.config.loop_chi2_gate).then_some(Between {
             from: index - 1,
             to: index,
             delta: moved,
-            information: spread.cholesky()?.inverse(),
+            information,
             residual: PoseResidual::Componentwise,
         })
     }
