@@ -31,9 +31,9 @@ use std::time::Instant;
 
 /// What a front end says at a scan: its pose, its pose before the scan was matched, and
 /// when the scan is a keyframe, the covariance of the motion since the previous keyframe
-/// and the odometry's covariance of that motion (grid FastSLAM's motion prior; none for
-/// the odometry front end, whose motion is the odometry's).
-type Estimate = (Pose2, Pose2, Option<[[f64; 3]; 3]>, Option<[[f64; 3]; 3]>);
+/// and the odometry's account of that motion (grid FastSLAM's; none for the odometry
+/// front end, whose motion is the odometry's).
+type Estimate = (Pose2, Pose2, Option<[[f64; 3]; 3]>, Option<Odometry>);
 
 /// Where the keyframes come from.
 enum FrontEnd {
@@ -68,8 +68,10 @@ impl FrontEnd {
                 };
                 slam.predict(&control, 0.1).expect("a finite increment");
                 let predicted = slam.estimate().mean;
-                let p = slam.motion_prior();
-                let prior = std::array::from_fn(|i| std::array::from_fn(|j| p[(i, j)]));
+                let odometry = Odometry {
+                    predicted,
+                    covariance: slam.motion_prior(),
+                };
                 let step = slam.observe(scan).expect("weights stay finite");
                 let e = slam.estimate();
                 let c = e.covariance;
@@ -79,7 +81,7 @@ impl FrontEnd {
                     e.mean,
                     predicted,
                     keyframe.then_some(covariance),
-                    keyframe.then_some(prior),
+                    keyframe.then_some(odometry),
                 )
             }
         }
@@ -164,7 +166,8 @@ fn main() -> anyhow::Result<()> {
             ranges: &raw.items,
         };
         let t0 = Instant::now();
-        let (estimate, before_match, covariance, prior) = front_end.step(&pose, &increment, &scan);
+        let (estimate, before_match, covariance, odometry) =
+            front_end.step(&pose, &increment, &scan);
         front_s += t0.elapsed().as_secs_f64();
         if let Some(c) = covariance {
             let mount = data.laser_mount;
@@ -185,24 +188,12 @@ fn main() -> anyhow::Result<()> {
                 points,
                 beams: grid.kept_beams(&scan),
                 sensor: mount,
-                odometry: None,
+                odometry,
             };
             for (i, row) in c.iter().enumerate() {
                 for (j, v) in row.iter().enumerate() {
                     keyframe.covariance[(i, j)] = *v;
                 }
-            }
-            if let Some(p) = prior {
-                let mut odometry = Odometry {
-                    predicted: before_match,
-                    covariance: Default::default(),
-                };
-                for (i, row) in p.iter().enumerate() {
-                    for (j, v) in row.iter().enumerate() {
-                        odometry.covariance[(i, j)] = *v;
-                    }
-                }
-                keyframe.odometry = Some(odometry);
             }
             let t0 = Instant::now();
             let report = mapper.add_keyframe(keyframe)?;

@@ -94,27 +94,24 @@ impl GridSlam {
         stamp_ns: u64,
         scan: &RangeScan<'_>,
     ) -> fastslam_estimation::Result<(PoseEstimate, GridStep)> {
-        let predicted = self.back_end.is_some().then(|| self.filter.estimate().mean);
-        let prior = self.filter.motion_prior();
+        // The odometry's account of the stretch, which matching the scan replaces.
+        let odometry = self.back_end.is_some().then(|| loop_closure::Odometry {
+            predicted: self.filter.estimate().mean,
+            covariance: self.filter.motion_prior(),
+        });
         let step = self.filter.observe(scan)?;
         let estimate = self.filter.estimate();
-        let Some(predicted) = predicted else {
+        let Some(odometry) = odometry else {
             return Ok((estimate, step));
         };
-        let keyframe = step.keyframe.then(|| {
-            let keyframe = Keyframe {
-                stamp_ns,
-                pose: estimate.mean,
-                covariance: estimate.covariance,
-                points: self.points(scan),
-                beams: self.grid.kept_beams(scan),
-                sensor: self.mount,
-                odometry: Some(loop_closure::Odometry {
-                    predicted,
-                    covariance: prior,
-                }),
-            };
-            (keyframe, predicted)
+        let keyframe = step.keyframe.then(|| Keyframe {
+            stamp_ns,
+            pose: estimate.mean,
+            covariance: estimate.covariance,
+            points: self.points(scan),
+            beams: self.grid.kept_beams(scan),
+            sensor: self.mount,
+            odometry: Some(odometry),
         });
         let back_end = self.back_end.as_mut().expect("checked above");
         let mean = back_end.scan(stamp_ns, estimate.mean, keyframe);

@@ -97,9 +97,6 @@ pub struct LoopClosing {
     keyframes: Vec<Keyframe>,
     /// Every scan since the first keyframe: stamp, the front end's pose, its keyframe.
     scans: Vec<(u64, Pose2, usize)>,
-    /// Each keyframe's front-end pose before its scan was matched: the odometry's end of
-    /// the stretch from the keyframe before.
-    predicted: Vec<Pose2>,
     /// The correction in force: map → front-end map.
     correction: Pose2,
     /// The newest applied solve not yet published.
@@ -161,7 +158,6 @@ impl LoopClosing {
             reported: 0,
             keyframes: Vec::new(),
             scans: Vec::new(),
-            predicted: Vec::new(),
             correction: Pose2::default(),
             unpublished: None,
             solves: 0,
@@ -170,19 +166,13 @@ impl LoopClosing {
     }
 
     /// Takes a scan's front-end pose `estimate` and, when the scan was a keyframe, the
-    /// keyframe with the front end's pose of its scan before it was matched; returns the
-    /// pose in the map frame (`correction ∘ estimate`) with the correction of keyframe
+    /// keyframe (with the odometry's account of the stretch before it); returns the pose
+    /// in the map frame (`correction ∘ estimate`) with the correction of keyframe
     /// `k − delay` applied at keyframe `k`.
-    pub fn scan(
-        &mut self,
-        stamp_ns: u64,
-        estimate: Pose2,
-        keyframe: Option<(Keyframe, Pose2)>,
-    ) -> Pose2 {
-        if let Some((keyframe, predicted)) = keyframe {
+    pub fn scan(&mut self, stamp_ns: u64, estimate: Pose2, keyframe: Option<Keyframe>) -> Pose2 {
+        if let Some(keyframe) = keyframe {
             let index = self.keyframes.len();
             self.keyframes.push(keyframe.clone());
-            self.predicted.push(predicted);
             self.send(Request::Keyframe(Box::new(keyframe)));
             if let Some(due) = index.checked_sub(self.delay) {
                 self.apply_until(due);
@@ -253,7 +243,6 @@ impl LoopClosing {
         BackEndState {
             scans: self.scans.clone(),
             keyframes: self.keyframes.iter().map(KeyframeState::from).collect(),
-            predicted: self.predicted.clone(),
             unpublished: self.unpublished.is_some(),
         }
     }
@@ -268,12 +257,10 @@ impl LoopClosing {
         let mut next = 0;
         for &(stamp_ns, estimate, k) in &state.scans {
             let keyframe = if k == next {
-                let (Some(keyframe), Some(&predicted)) =
-                    (state.keyframes.get(k), state.predicted.get(k))
-                else {
+                let Some(keyframe) = state.keyframes.get(k) else {
                     bail!("the loop-closure state's scans name keyframe {k} it does not hold");
                 };
-                Some((keyframe.restored(predicted), predicted))
+                Some(Keyframe::from(keyframe))
             } else if k + 1 == next {
                 None
             } else {
@@ -353,10 +340,15 @@ impl LoopClosing {
     fn trajectory(&self, solved: &Solved) -> Solution {
         let scans: Vec<(Pose2, usize)> = self.scans.iter().map(|&(_, pose, k)| (pose, k)).collect();
         let front_end: Vec<Pose2> = self.keyframes.iter().map(|k| k.pose).collect();
+        // Where the odometry alone ended each stretch; without an odometry account, where
+        // the front end put the keyframe.
+        let predicted: Vec<Pose2> = (self.keyframes.iter())
+            .map(|k| k.odometry.map_or(k.pose, |o| o.predicted))
+            .collect();
         let placed = loop_closure::place_scans(
             &scans,
             &front_end,
-            &self.predicted,
+            &predicted,
             &solved.poses,
             &solved.correction,
             |delta| self.motion.path_variances(delta),
@@ -406,8 +398,6 @@ pub struct BackEndState {
     pub scans: Vec<(u64, Pose2, usize)>,
     /// Every keyframe handed over, in order.
     pub keyframes: Vec<KeyframeState>,
-    /// Each keyframe's front-end pose before its scan was matched.
-    pub predicted: Vec<Pose2>,
     /// The newest solve applied had not been published yet.
     pub unpublished: bool,
 }
@@ -427,9 +417,10 @@ pub struct KeyframeState {
     pub beams: Vec<(f32, f32, bool)>,
     /// The sensor's pose in the base frame.
     pub sensor: Pose2,
-    /// The motion model's covariance of the odometry's motion from the previous
-    /// keyframe, row-major; its pose is [`BackEndState::predicted`]'s.
-    pub odometry_covariance: Option<[f64; 9]>,
+    /// The odometry's account of the motion from the previous keyframe: the front end's
+    /// pose of the scan before it was matched, and the motion model's covariance,
+    /// row-major.
+    pub odometry: Option<(Pose2, [f64; 9])>,
 }
 
 impl From<&Keyframe> for KeyframeState {
@@ -443,25 +434,26 @@ impl From<&Keyframe> for KeyframeState {
                 .map(|b| (b.angle, b.length, b.hit))
                 .collect(),
             sensor: k.sensor,
-            odometry_covariance: (k.odometry)
-                .map(|o| std::array::from_fn(|i| o.covariance[(i / 3, i % 3)])),
+            odometry: (k.odometry).map(|o| {
+                let covariance = std::array::from_fn(|i| o.covariance[(i / 3, i % 3)]);
+                (o.predicted, covariance)
+            }),
         }
     }
 }
 
-impl KeyframeState {
-    /// The keyframe this holds, with `predicted` as its odometry's pose.
-    fn restored(&self, predicted: Pose2) -> Keyframe {
-        Keyframe {
-            stamp_ns: self.stamp_ns,
-            pose: self.pose,
-            covariance: Matrix3::from_row_slice(&self.covariance),
-            points: self.points.clone(),
-            beams: (self.beams.iter())
+impl From<&KeyframeState> for Keyframe {
+    fn from(k: &KeyframeState) -> Self {
+        Self {
+            stamp_ns: k.stamp_ns,
+            pose: k.pose,
+            covariance: Matrix3::from_row_slice(&k.covariance),
+            points: k.points.clone(),
+            beams: (k.beams.iter())
                 .map(|&(angle, length, hit)| KeptBeam { angle, length, hit })
                 .collect(),
-            sensor: self.sensor,
-            odometry: self.odometry_covariance.map(|c| Odometry {
+            sensor: k.sensor,
+            odometry: k.odometry.map(|(predicted, c)| Odometry {
                 predicted,
                 covariance: Matrix3::from_row_slice(&c),
             }),
