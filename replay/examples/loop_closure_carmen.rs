@@ -220,6 +220,14 @@ fn main() -> anyhow::Result<()> {
             scans.push((stamp, estimate, k));
         }
     }
+    match mapper.fit_odometry_weight() {
+        Some(fit) => println!(
+            "last solve: odometry constraints weighted ×{:.2} (variance factors: odometry {:.3}, \
+             the rest {:.3})",
+            fit.weight, fit.odometry.scale, fit.rest.scale
+        ),
+        None => println!("last solve: odometry constraints at the model's weight"),
+    }
     let solution = mapper.solve()?;
     solves += 1;
     solve_s += solution.seconds;
@@ -239,7 +247,7 @@ fn main() -> anyhow::Result<()> {
         total,
         mapper.bytes() as f64 / 1e6,
     );
-    match (mapper.graph()).between_components(&|b| b.to != b.from + 1) {
+    match (mapper.graph()).between_components(&|_, b| b.to != b.from + 1) {
         Ok([chain, loops]) => println!(
             "variance factors: consecutive {:.3} (redundancy {:.0} of {}), loop closures {:.3} \
              (redundancy {:.0} of {})",

@@ -143,8 +143,10 @@ impl LoopClosing {
                         return;
                     }
                 }
-                // The filter's side hung up: the last solve over what came since.
-                let solved = (since_solve > 0 && !refused)
+                // The filter's side hung up: the last solve, over what came since or with
+                // the odometry's weight fitted.
+                let fitted = !refused && fit_odometry(&mut mapper);
+                let solved = ((since_solve > 0 || fitted) && !refused)
                     .then(|| solve(&mut mapper))
                     .flatten();
                 let _ = outbox.send(Reply::Final(solved));
@@ -486,6 +488,31 @@ fn add(mapper: &mut PoseGraphMapper, keyframe: Keyframe) -> Result<Option<Solved
             Err(())
         }
     }
+}
+
+/// Weights the odometry constraints by their fit to the data before the last solve, when
+/// the configuration asks for it; logs the weight. Whether the weights changed.
+fn fit_odometry(mapper: &mut PoseGraphMapper) -> bool {
+    if !mapper.config().fit_odometry_at_end {
+        return false;
+    }
+    let Some(fit) = mapper.fit_odometry_weight() else {
+        tracing::info!(
+            "last solve: the odometry constraints keep the model's weight (too few of them \
+             or of loop closures to fit it)"
+        );
+        return false;
+    };
+    tracing::info!(
+        weight = fit.weight,
+        odometry_factor = fit.odometry.scale,
+        odometry_redundancy = fit.odometry.redundancy,
+        rest_factor = fit.rest.scale,
+        rest_redundancy = fit.rest.redundancy,
+        "last solve: the odometry constraints weighted by their variance factor against the \
+         front end's steps and the loop closures"
+    );
+    true
 }
 
 /// One solve of the mapper's graph; a failure is logged.

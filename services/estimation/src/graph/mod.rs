@@ -40,7 +40,7 @@ pub use duplicates::duplicates;
 pub use integrate::OdometryIntegrator;
 pub use smoother::{Feed, KernelKind, NoiseModel, Smoother, SmootherConfig, Solution};
 pub use solve::{Covariances, Damping, Kernel, PoseUpdate, SolveOptions, SolveReport};
-pub use variance::{Component, VarianceComponents};
+pub use variance::{Component, MIN_REDUNDANCY, VarianceComponents};
 
 use crate::observation::{Observation, predict};
 use crate::pose::{Pose2, wrap_angle};

@@ -131,14 +131,14 @@ enum Split<'a> {
     /// The odometry factors (betweens), and the landmark observations.
     OdometryAndSensor,
     /// The betweens `picks` does not pick, and those it picks (a graph of betweens).
-    Betweens(&'a dyn Fn(&Between) -> bool),
+    Betweens(&'a dyn Fn(usize, &Between) -> bool),
 }
 
 impl Split<'_> {
-    /// The group of between `b`.
-    fn of(&self, b: &Between) -> Group {
+    /// The group of between `b`, the graph's `index`-th.
+    fn of(&self, index: usize, b: &Between) -> Group {
         match self {
-            Self::Betweens(picks) if picks(b) => Group::Second,
+            Self::Betweens(picks) if picks(index, b) => Group::Second,
             _ => Group::First,
         }
     }
@@ -242,7 +242,7 @@ impl Graph {
 
     /// The variance components of a graph of betweens (a pose graph): `[0]` of those
     /// `picks` does not pick, `[1]` of those it picks (the consecutive constraints and
-    /// the loop closures, say). A between with zero information (a loop closure left
+    /// the loop closures, say); `picks` is given each between's index and the between. A between with zero information (a loop closure left
     /// out) counts in neither.
     ///
     /// # Errors
@@ -251,8 +251,13 @@ impl Graph {
     ///
     /// # Performance
     /// As [`Graph::variance_components`].
-    pub fn between_components(&self, picks: &dyn Fn(&Between) -> bool) -> Result<[Component; 2]> {
-        let picked = self.betweens.iter().filter(|b| picks(b)).count();
+    pub fn between_components(
+        &self,
+        picks: &dyn Fn(usize, &Between) -> bool,
+    ) -> Result<[Component; 2]> {
+        let picked = (self.betweens.iter().enumerate())
+            .filter(|(i, b)| picks(*i, b))
+            .count();
         if self.sightings.len() + self.offsets.len() > 0
             || picked == 0
             || picked == self.betweens.len()
@@ -302,8 +307,8 @@ impl Graph {
     /// Divides the first group's information by `step[0]` and the second's by
     /// `step[1]`.
     fn reweight(&mut self, split: Split<'_>, step: &[f64; 2]) {
-        for b in &mut self.betweens {
-            b.information /= step[split.of(b) as usize - 1];
+        for (i, b) in self.betweens.iter_mut().enumerate() {
+            b.information /= step[split.of(i, b) as usize - 1];
         }
         for s in &mut self.sightings {
             s.information /= step[1];
@@ -332,15 +337,20 @@ impl Graph {
             let (vars, j) = ([landmark(p.landmark), none], nalgebra::Matrix2::identity());
             out.extend(Whitened::new(Group::Anchor, vars, (&r, &j), &p.information));
         }
-        for b in &self.betweens {
+        for (i, b) in self.betweens.iter().enumerate() {
             let (r, j_from, j_to) = b.jacobians(&self.poses[b.from], &self.poses[b.to]);
             let factor = if b.from == b.to {
                 let j: Matrix3<f64> = j_from + j_to;
-                Whitened::new(split.of(b), [pose(b.from), none], (&r, &j), &b.information)
+                Whitened::new(
+                    split.of(i, b),
+                    [pose(b.from), none],
+                    (&r, &j),
+                    &b.information,
+                )
             } else {
                 let j: SMatrix<f64, 3, 6> = side_by_side(&j_from, &j_to);
                 let vars = [pose(b.from), pose(b.to)];
-                Whitened::new(split.of(b), vars, (&r, &j), &b.information)
+                Whitened::new(split.of(i, b), vars, (&r, &j), &b.information)
             };
             out.extend(factor);
         }
@@ -609,7 +619,7 @@ mod tests {
 
     #[test]
     fn the_components_of_a_pose_graph_tell_the_chain_from_the_loop_closures() {
-        let is_loop = |b: &Between| b.to != b.from + 1;
+        let is_loop = |_: usize, b: &Between| b.to != b.from + 1;
         for (chain, loops) in [(1.0, 1.0), (2.0, 1.0), (1.0, 2.0)] {
             // Three seeds' residuals pooled: one seed's loop group has a redundancy of
             // about 60 of its 114 residuals, a factor's σ then spreads by ±13 %.
@@ -625,7 +635,7 @@ mod tests {
         }
         let graph = pose_graph(1.0, 1.0, 1);
         assert!(
-            graph.between_components(&|_| false).is_err(),
+            graph.between_components(&|_, _| false).is_err(),
             "no loop closure"
         );
         assert!(

@@ -83,6 +83,11 @@ pub struct LoopClosureConfig {
     /// beyond `loop_chi2_gate` (docs/ALGORITHMS.md §9.1, "Odometry constraints").
     /// Default true.
     pub odometry_constraints: bool,
+    /// At the end of the data, the odometry constraints are weighted by their variance
+    /// factor against the other constraints' before the last solve
+    /// ([`super::PoseGraphMapper::fit_odometry_weight`]; docs/ALGORITHMS.md §9.1, "The
+    /// last solve"). Default true.
+    pub fit_odometry_at_end: bool,
     /// A loop closure's position standard deviation in cells at score 1; it grows as
     /// `1/score` (cells). Default 1.
     pub loop_sigma_cells: f64,
@@ -129,6 +134,7 @@ impl Default for LoopClosureConfig {
             between_floor_xy: 0.02,
             between_floor_theta: 0.5f64.to_radians(),
             odometry_constraints: true,
+            fit_odometry_at_end: true,
             loop_sigma_cells: 1.0,
             loop_shape_floor: 0.01,
             loop_kernel_scale: 3.0,

@@ -35,6 +35,8 @@
 mod config;
 mod mapper;
 mod matcher;
+#[cfg(test)]
+mod odometry_weight_tests;
 mod probability;
 mod pyramid;
 mod refine;
@@ -45,7 +47,9 @@ mod submap;
 mod trajectory;
 
 pub use config::{LoopClosureConfig, MAX_DEPTH};
-pub use mapper::{Keyframe, KeyframeReport, LoopClosure, Odometry, PoseGraphMapper, Solution};
+pub use mapper::{
+    Keyframe, KeyframeReport, LoopClosure, Odometry, OdometryWeight, PoseGraphMapper, Solution,
+};
 pub use matcher::{ScanMatch, SearchWindow};
 pub use probability::{FULL, ProbabilityGrid};
 pub use pyramid::MatchGrid;
