@@ -11,6 +11,10 @@
 //! that report only when the worker is later than the delay, so the published poses
 //! depend on the data only.
 //!
+//! When the input ends the worker solves a last time, the odometry constraints weighted
+//! by their fit to the data ([`PoseGraphMapper::fit_odometry_weight`]); the real-time
+//! pose never sees that solve; the final trajectory comes from it.
+//!
 //! The smoothed trajectory has a pose for every scan: between two optimised keyframes,
 //! the front end's path with their correction shared out along it by the motion model's
 //! noise ([`loop_closure::place_scans`]).

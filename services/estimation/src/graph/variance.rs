@@ -242,8 +242,8 @@ impl Graph {
 
     /// The variance components of a graph of betweens (a pose graph): `[0]` of those
     /// `picks` does not pick, `[1]` of those it picks (the consecutive constraints and
-    /// the loop closures, say); `picks` is given each between's index and the between. A between with zero information (a loop closure left
-    /// out) counts in neither.
+    /// the loop closures, say); `picks` is given each between's index and the between.
+    /// A between with zero information (a loop closure left out) counts in neither.
     ///
     /// # Errors
     /// When the graph holds landmark observations, either group is empty, or a solve or

@@ -19,6 +19,9 @@
 //!   reweighted outside the solver (Cauchy on their χ²) and gated; the result is every
 //!   keyframe's pose and the correction `optimised ∘ front-end⁻¹` of the newest keyframe
 //!   (map → front-end map).
+//! - **The last solve** ([`PoseGraphMapper::fit_odometry_weight`]): at the end of the
+//!   data the odometry constraints are weighted by their variance factor against the
+//!   other constraints' before the graph is solved a last time.
 //! - **Map** ([`PoseGraphMapper::render`]): every keyframe's beams at its optimised pose.
 //! - **Trajectory** ([`place_scans`]): every scan between two optimised keyframes,
 //!   carrying the share of their correction that the odometry noise up to it holds.
