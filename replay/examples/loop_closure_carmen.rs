@@ -220,17 +220,25 @@ fn main() -> anyhow::Result<()> {
             scans.push((stamp, estimate, k));
         }
     }
-    match mapper.fit_odometry_weight() {
-        Some(fit) => println!(
-            "last solve: odometry constraints weighted ×{:.2} (variance factors: odometry {:.3}, \
-             the rest {:.3})",
-            fit.weight, fit.odometry.scale, fit.rest.scale
-        ),
-        None => println!("last solve: odometry constraints at the model's weight"),
-    }
-    let solution = mapper.solve()?;
+    let mut solution = mapper.solve()?;
     solves += 1;
     solve_s += solution.seconds;
+    // The last solve, with the odometry's weight fitted to the solution, as the service's.
+    if mapper.config().fit_odometry_at_end {
+        match mapper.fit_odometry_weight() {
+            Some(fit) => {
+                println!(
+                    "last solve: odometry constraints weighted ×{:.2} (variance factors: \
+                     odometry {:.3}, the rest {:.3})",
+                    fit.weight, fit.odometry.scale, fit.rest.scale
+                );
+                solution = mapper.solve()?;
+                solves += 1;
+                solve_s += solution.seconds;
+            }
+            None => println!("last solve: odometry constraints at the model's weight"),
+        }
+    }
     let total = started.elapsed().as_secs_f64();
     let n = mapper.keyframes();
     println!(

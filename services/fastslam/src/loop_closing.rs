@@ -147,12 +147,15 @@ impl LoopClosing {
                         return;
                     }
                 }
-                // The filter's side hung up: the last solve, over what came since or with
-                // the odometry's weight fitted.
-                let fitted = !refused && fit_odometry(&mut mapper);
-                let solved = ((since_solve > 0 || fitted) && !refused)
+                // The filter's side hung up: a solve over what came since (its robust
+                // rounds judge the newest closures), then one with the odometry's weight
+                // fitted to that solution.
+                let mut solved = (since_solve > 0 && !refused)
                     .then(|| solve(&mut mapper))
                     .flatten();
+                if !refused && fit_odometry(&mut mapper) {
+                    solved = solve(&mut mapper).or(solved);
+                }
                 let _ = outbox.send(Reply::Final(solved));
             })?;
         Ok(Self {
