@@ -19,7 +19,7 @@ use fastslam_estimation::fastslam::FastSlamConfig;
 use fastslam_estimation::grid::GridConfig;
 use fastslam_estimation::gridslam::{GridFastSlam, ScanMatchConfig};
 use fastslam_estimation::loop_closure::{
-    Keyframe, LoopClosureConfig, Odometry, PoseGraphMapper, place_scans,
+    Keyframe, LoopClosureConfig, Odometry, OdometryFit, PoseGraphMapper, Solution, place_scans,
 };
 use fastslam_estimation::motion::{Control, Increment, MotionModel};
 use fastslam_estimation::moves::MoveConfig;
@@ -138,6 +138,7 @@ fn main() -> anyhow::Result<()> {
     let config = LoopClosureConfig::default();
     let mut mapper = PoseGraphMapper::new(config.clone())?;
     let (mut found, mut solves, mut solve_s, mut add_s, mut worst_add) = (0, 0, 0.0, 0.0, 0.0f64);
+    let mut latest: Option<Solution> = None;
     // (stamp, front end's pose, keyframe before it) of every scan; the front end's pose
     // at each keyframe.
     let mut scans: Vec<(u64, Pose2, usize)> = Vec::new();
@@ -210,6 +211,7 @@ fn main() -> anyhow::Result<()> {
                 let before = corrections.last().copied().unwrap_or_default();
                 let d = before.inverse().compose(&solution.correction);
                 jumps.push((d.x.hypot(d.y), d.theta.abs().to_degrees()));
+                latest = Some(solution);
             }
             corrections.push(mapper.correction());
         }
@@ -220,25 +222,23 @@ fn main() -> anyhow::Result<()> {
             scans.push((stamp, estimate, k));
         }
     }
-    let mut solution = mapper.solve()?;
-    solves += 1;
-    solve_s += solution.seconds;
     // The last solve, with the odometry's weight fitted to the solution, as the service's.
-    if mapper.config().fit_odometry_at_end {
-        match mapper.fit_odometry_weight() {
-            Some(fit) => {
-                println!(
-                    "last solve: odometry constraints weighted ×{:.2} (variance factors: \
-                     odometry {:.3}, the rest {:.3})",
-                    fit.weight, fit.odometry.scale, fit.rest.scale
-                );
-                solution = mapper.solve()?;
-                solves += 1;
-                solve_s += solution.seconds;
-            }
-            None => println!("last solve: odometry constraints at the model's weight"),
+    let finished = mapper.finish()?;
+    match finished.odometry {
+        OdometryFit::Weighted(fit) => println!(
+            "last solve: odometry constraints weighted ×{:.2} (variance factors: \
+             odometry {:.3}, the rest {:.3})",
+            fit.weight, fit.odometry.scale, fit.rest.scale
+        ),
+        OdometryFit::Off | OdometryFit::Unfitted => {
+            println!("last solve: odometry constraints at the model's weight")
         }
     }
+    solves += finished.solutions.len();
+    solve_s += finished.solutions.iter().map(|s| s.seconds).sum::<f64>();
+    let Some(solution) = finished.solutions.into_iter().last().or(latest) else {
+        anyhow::bail!("no solve: the log gave no keyframe");
+    };
     let total = started.elapsed().as_secs_f64();
     let n = mapper.keyframes();
     println!(

@@ -12,7 +12,7 @@
 //! depend on the data only.
 //!
 //! When the input ends the worker solves a last time, the odometry constraints weighted
-//! by their fit to the data ([`PoseGraphMapper::fit_odometry_weight`]); the real-time
+//! by their fit to the data ([`PoseGraphMapper::finish`]); the real-time
 //! pose never sees that solve; the final trajectory comes from it.
 //!
 //! The smoothed trajectory has a pose for every scan: between two optimised keyframes,
@@ -29,7 +29,7 @@ use fastslam_estimation::Pose2;
 use fastslam_estimation::graph::{Fit, Solution, SolveReport};
 use fastslam_estimation::grid::{GridConfig, KeptBeam, OccupancyGrid};
 use fastslam_estimation::loop_closure::{
-    self, Keyframe, LoopClosureConfig, Odometry, PoseGraphMapper,
+    self, Keyframe, LoopClosureConfig, Odometry, OdometryFit, PoseGraphMapper,
 };
 use fastslam_estimation::motion::MotionModel;
 use nalgebra::Matrix3;
@@ -123,7 +123,7 @@ impl LoopClosing {
         let worker = std::thread::Builder::new()
             .name("loop-closing".into())
             .spawn(move || {
-                let (mut index, mut since_solve, mut refused) = (0, 0, false);
+                let (mut index, mut refused) = (0, false);
                 for request in inbox {
                     let reply = match request {
                         Request::Keyframe(keyframe) => {
@@ -134,7 +134,6 @@ impl LoopClosing {
                                 refused = added.is_err();
                                 added.ok().flatten()
                             };
-                            since_solve = if solved.is_some() { 0 } else { since_solve + 1 };
                             index += 1;
                             Reply::Added {
                                 index: index - 1,
@@ -147,15 +146,8 @@ impl LoopClosing {
                         return;
                     }
                 }
-                // The filter's side hung up: a solve over what came since (its robust
-                // rounds judge the newest closures), then one with the odometry's weight
-                // fitted to that solution.
-                let mut solved = (since_solve > 0 && !refused)
-                    .then(|| solve(&mut mapper))
-                    .flatten();
-                if !refused && fit_odometry(&mut mapper) {
-                    solved = solve(&mut mapper).or(solved);
-                }
+                // The filter's side hung up: the last solve.
+                let solved = if refused { None } else { finish(&mut mapper) };
                 let _ = outbox.send(Reply::Final(solved));
             })?;
         Ok(Self {
@@ -497,29 +489,32 @@ fn add(mapper: &mut PoseGraphMapper, keyframe: Keyframe) -> Result<Option<Solved
     }
 }
 
-/// Weights the odometry constraints by their fit to the data before the last solve, when
-/// the configuration asks for it; logs the weight. Whether the weights changed.
-fn fit_odometry(mapper: &mut PoseGraphMapper) -> bool {
-    if !mapper.config().fit_odometry_at_end {
-        return false;
-    }
-    let Some(fit) = mapper.fit_odometry_weight() else {
-        tracing::info!(
+/// The mapper's last solve ([`PoseGraphMapper::finish`]), logged; its newest solution.
+fn finish(mapper: &mut PoseGraphMapper) -> Option<Solved> {
+    let mut finished = match mapper.finish() {
+        Ok(finished) => finished,
+        Err(e) => {
+            tracing::warn!("last loop-closure solve failed, the previous solution stands: {e}");
+            return None;
+        }
+    };
+    match finished.odometry {
+        OdometryFit::Off => {}
+        OdometryFit::Unfitted => tracing::info!(
             "last solve: the odometry constraints keep the model's weight (too few of them \
              or of loop closures to fit it)"
-        );
-        return false;
-    };
-    tracing::info!(
-        weight = fit.weight,
-        odometry_factor = fit.odometry.scale,
-        odometry_redundancy = fit.odometry.redundancy,
-        rest_factor = fit.rest.scale,
-        rest_redundancy = fit.rest.redundancy,
-        "last solve: the odometry constraints weighted by their variance factor against the \
-         front end's steps and the loop closures"
-    );
-    true
+        ),
+        OdometryFit::Weighted(fit) => tracing::info!(
+            weight = fit.weight,
+            odometry_factor = fit.odometry.scale,
+            odometry_redundancy = fit.odometry.redundancy,
+            rest_factor = fit.rest.scale,
+            rest_redundancy = fit.rest.redundancy,
+            "last solve: the odometry constraints weighted by their variance factor against \
+             the front end's steps and the loop closures"
+        ),
+    }
+    finished.solutions.pop().map(Solved::from)
 }
 
 /// One solve of the mapper's graph; a failure is logged.

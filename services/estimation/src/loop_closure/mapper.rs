@@ -121,6 +121,28 @@ pub struct OdometryWeight {
     pub weight: f64,
 }
 
+/// What became of the odometry constraints' weight at the end of the data
+/// ([`PoseGraphMapper::finish`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum OdometryFit {
+    /// `fit_odometry_at_end` is off: the model's weight.
+    Off,
+    /// Too few odometry constraints or loop closures to fit it: the model's weight.
+    Unfitted,
+    /// Weighted by its fit before the last solve.
+    Weighted(OdometryWeight),
+}
+
+/// What [`PoseGraphMapper::finish`] did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Finished {
+    /// The solves made, in order: one over the keyframes since the previous solve (when
+    /// any came), then one with the odometry's fitted weight (when it was fitted).
+    pub solutions: Vec<Solution>,
+    /// The odometry constraints' weight.
+    pub odometry: OdometryFit,
+}
+
 /// A keyframe as kept: what the graph, the submaps and the rendering need of it.
 #[derive(Debug, Clone)]
 pub(crate) struct Kept {
@@ -506,6 +528,40 @@ impl PoseGraphMapper {
             odometry,
             rest,
             weight,
+        })
+    }
+
+    /// The end of the data: a solve over the keyframes since the previous solve (its
+    /// robust rounds judge the newest closures), then, when `fit_odometry_at_end` asks
+    /// for it, the odometry constraints weighted by their fit to that solution
+    /// ([`fit_odometry_weight`](Self::fit_odometry_weight)) and the last solve.
+    ///
+    /// # Errors
+    /// As [`solve`](Self::solve); the solutions made before the error stay in the graph.
+    ///
+    /// # Performance
+    /// Up to two solves and one fit.
+    pub fn finish(&mut self) -> Result<Finished> {
+        let mut solutions = Vec::new();
+        if self.since_solve > 0 || self.pending > 0 {
+            solutions.push(self.solve()?);
+        }
+        if !self.config.fit_odometry_at_end {
+            return Ok(Finished {
+                solutions,
+                odometry: OdometryFit::Off,
+            });
+        }
+        let odometry = match self.fit_odometry_weight() {
+            Some(fit) => {
+                solutions.push(self.solve()?);
+                OdometryFit::Weighted(fit)
+            }
+            None => OdometryFit::Unfitted,
+        };
+        Ok(Finished {
+            solutions,
+            odometry,
         })
     }
 

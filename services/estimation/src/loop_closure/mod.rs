@@ -19,16 +19,18 @@
 //!   reweighted outside the solver (Cauchy on their χ²) and gated; the result is every
 //!   keyframe's pose and the correction `optimised ∘ front-end⁻¹` of the newest keyframe
 //!   (map → front-end map).
-//! - **The last solve** ([`PoseGraphMapper::fit_odometry_weight`]): at the end of the
-//!   data the odometry constraints are weighted by their variance factor against the
-//!   other constraints' before the graph is solved a last time.
+//! - **The last solve** ([`PoseGraphMapper::finish`]): at the end of the data the
+//!   odometry constraints are weighted by their variance factor against the other
+//!   constraints' ([`PoseGraphMapper::fit_odometry_weight`]) before the graph is solved
+//!   a last time.
 //! - **Map** ([`PoseGraphMapper::render`]): every keyframe's beams at its optimised pose.
 //! - **Trajectory** ([`place_scans`]): every scan between two optimised keyframes,
 //!   carrying the share of their correction that the odometry noise up to it holds.
 //!
 //! A caller adds keyframes ([`PoseGraphMapper::add_keyframe`]), solves when
 //! [`PoseGraphMapper::solve_due`] says so, publishes `correction ∘ front-end pose` as the
-//! real-time pose and renders the map when it wants one.
+//! real-time pose, renders the map when it wants one, and calls
+//! [`PoseGraphMapper::finish`] when the data ends.
 //!
 //! # Determinism
 //! Matching runs on rayon's threads one submap per task, each sequential, and the
@@ -51,7 +53,8 @@ mod trajectory;
 
 pub use config::{LoopClosureConfig, MAX_DEPTH};
 pub use mapper::{
-    Keyframe, KeyframeReport, LoopClosure, Odometry, OdometryWeight, PoseGraphMapper, Solution,
+    Finished, Keyframe, KeyframeReport, LoopClosure, Odometry, OdometryFit, OdometryWeight,
+    PoseGraphMapper, Solution,
 };
 pub use matcher::{ScanMatch, SearchWindow};
 pub use probability::{FULL, ProbabilityGrid};

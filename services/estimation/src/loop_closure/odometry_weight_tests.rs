@@ -1,8 +1,8 @@
 //! The odometry constraints' weight fitted at the end of the data
-//! ([`PoseGraphMapper::fit_odometry_weight`]), on a simulated ring whose odometry is more
-//! precise than its model says.
+//! ([`PoseGraphMapper::fit_odometry_weight`], [`PoseGraphMapper::finish`]), on a
+//! simulated ring whose odometry is more precise than its model says.
 
-use super::{Keyframe, LoopClosure, LoopClosureConfig, Odometry, PoseGraphMapper};
+use super::{Keyframe, LoopClosure, LoopClosureConfig, Odometry, OdometryFit, PoseGraphMapper};
 use crate::pose::Pose2;
 use crate::rng::SimRng;
 use nalgebra::Matrix3;
@@ -137,4 +137,37 @@ fn without_odometry_constraints_nothing_is_fitted() {
     );
     let empty = PoseGraphMapper::new(LoopClosureConfig::default());
     assert!(empty.unwrap().fit_odometry_weight().is_none());
+}
+
+#[test]
+fn finish_solves_what_came_since_then_weights_the_odometry_and_solves_again() {
+    let (mut mapper, truth) = ring(1, true);
+    let (k, submap) = (KEYFRAMES - 1, 0);
+    let anchor = mapper.submaps()[submap].anchor();
+    let closure = LoopClosure {
+        keyframe: k,
+        submap,
+        pose: truth[anchor].inverse().compose(&truth[k]),
+        score: 0.9,
+        lever: 5.0,
+        curvature: None,
+    };
+    mapper.add_loop_closure(closure).unwrap();
+    let finished = mapper.finish().unwrap();
+    assert_eq!(
+        finished.solutions.len(),
+        2,
+        "the closure's solve, then the last"
+    );
+    assert!(matches!(finished.odometry, OdometryFit::Weighted(_)));
+
+    mapper.config.fit_odometry_at_end = false;
+    let finished = mapper.finish().unwrap();
+    assert!(finished.solutions.is_empty(), "nothing came since");
+    assert_eq!(finished.odometry, OdometryFit::Off);
+
+    let (mut without, _) = ring(1, false);
+    let finished = without.finish().unwrap();
+    assert!(finished.solutions.is_empty(), "nothing came since");
+    assert_eq!(finished.odometry, OdometryFit::Unfitted);
 }
