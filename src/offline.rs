@@ -15,7 +15,7 @@ use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use fastslam_client::metrics::{AlignMode, ScoreAt, fit_alignment, scored_at};
 use fastslam_client::occupancy::OCCUPIED_THRESH;
 use fastslam_client::reference::NoiseModel;
-use fastslam_client::relations::{Relation, RelationErrors, read_relations};
+use fastslam_client::relations::{Relation, RelationErrors, RelationsFrame, read_relations};
 use fastslam_client::{Metrics, Recording};
 use fastslam_estimation::fastslam::Proposal;
 use fastslam_estimation::moves::{MoveCorrection, MoveStats};
@@ -133,6 +133,8 @@ pub struct Replay {
     /// [`fastslam_client::relations`]; times on the data set's clock, whose epoch is
     /// [`DataSet::epoch_s`]); empty without a relations file.
     pub relations: Vec<Relation>,
+    /// Whose motions the relations are: the data set's laser or its base.
+    pub relations_frame: RelationsFrame,
 }
 
 impl Source {
@@ -175,20 +177,26 @@ impl Source {
             align: scoring.align,
             score_at: scoring.score_at,
             relations: Vec::new(),
+            relations_frame: RelationsFrame::default(),
         })))
     }
 
     /// The same source, its trajectories also scored against the relations file at
-    /// `path` (times on the data set's clock).
+    /// `path` (times on the data set's clock, motions of `frame`).
     ///
     /// # Errors
     /// A simulated scenario (its clock is no data set's), or a relations file that cannot
     /// be read or holds no relation.
-    pub fn with_relations(self, path: &std::path::Path) -> anyhow::Result<Self> {
+    pub fn with_relations(
+        self,
+        path: &std::path::Path,
+        frame: RelationsFrame,
+    ) -> anyhow::Result<Self> {
         let Self::Replay(mut replay) = self else {
             anyhow::bail!("relations need a recorded data set: --relations goes with --replay");
         };
         replay.relations = read_relations(path)?;
+        replay.relations_frame = frame;
         anyhow::ensure!(
             !replay.relations.is_empty(),
             "{}: no relation in the file",
@@ -426,7 +434,8 @@ pub fn run_in_process(
     if let Source::Replay(r) = source
         && !r.relations.is_empty()
     {
-        metrics = metrics.with_relations(&recording, &r.relations, r.data.epoch_s);
+        let body = r.relations_frame.body(r.data.laser_mount.into());
+        metrics = metrics.with_relations(&recording, &r.relations, r.data.epoch_s, &body);
     }
     let metrics = metrics.with_reference(&mut recording, &NoiseModel::of(&config.filter_config()));
     Ok(RunOutcome {

@@ -6,6 +6,7 @@
 mod common;
 
 use common::*;
+use fastslam_estimation::Pose2;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -193,4 +194,70 @@ fn broken_recordings_are_one_line_each() {
         &["mrclam", "--relations", garbage.to_str().unwrap()],
         "--relations",
     );
+}
+
+/// MIT CSAIL's log rewritten with its laser off the base: every FLASER line becomes a
+/// ROBOTLASER1 line with the scan and the laser's pose as recorded and the base at
+/// `laser ∘ mount⁻¹`, so the odometry is the base's.
+fn mounted_log(mount: &Pose2, path: &Path) {
+    let gz = std::fs::File::open(data("freiburg/mit-csail/mit-csail.clf.gz")).unwrap();
+    let text = std::io::read_to_string(flate2::read::MultiGzDecoder::new(gz)).unwrap();
+    let mut out = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
+    for fields in text
+        .lines()
+        .map(|l| l.split_whitespace().collect::<Vec<_>>())
+    {
+        if fields.first() != Some(&"FLASER") {
+            continue;
+        }
+        let n: usize = fields[1].parse().unwrap();
+        let number = |i: usize| -> f64 { fields[2 + n + i].parse().unwrap() };
+        let laser = Pose2::new(number(0), number(1), number(2));
+        let base = laser.compose(&mount.inverse());
+        let (ranges, stamps) = (fields[2..2 + n].join(" "), fields[8 + n..].join(" "));
+        let fov = std::f64::consts::PI;
+        writeln!(
+            out,
+            "ROBOTLASER1 0 {:?} {fov:?} {:?} 81.91 0.01 0 {n} {ranges} 0 {:?} {:?} {:?} {:?} {:?} \
+             {:?} 0 0 0.5 0.1 0 {stamps}",
+            -fov / 2.0,
+            fov / (n - 1) as f64,
+            laser.x,
+            laser.y,
+            laser.theta,
+            base.x,
+            base.y,
+            base.theta,
+        )
+        .unwrap();
+    }
+}
+
+#[test]
+fn a_laser_off_the_base_is_scored_by_the_laser_s_motions() {
+    let dir = folder(&prefix("mountedlog"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("mit-csail-mounted.clf");
+    mounted_log(&Pose2::new(0.35, -0.12, 0.14), &log);
+    let relations = data("freiburg/mit-csail/mit-csail.relations");
+    let args = [
+        "carmen",
+        log.to_str().unwrap(),
+        "--relations",
+        relations.to_str().unwrap(),
+        "--particles",
+        "10",
+    ];
+    // The base's raw odometry moved onto the laser is the log's laser poses: the
+    // published raw-odometry figure again, and the estimates as good as without a mount.
+    // (Ten particles: with five, seed 1 slips on this log, the laser's position being
+    // the more uncertain for its lever on the base's heading.)
+    let (out, m, _) = replay_recording("mounted", &args);
+    assert_mit_dead_reckoning(&m);
+    let client = std::fs::read_to_string(out.join("logs/client.log")).unwrap();
+    let x_m = (client.split("x_m=").nth(1))
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|x| x.parse::<f64>().ok());
+    assert!(x_m.is_some_and(|x| (x - 0.35).abs() < 1e-6), "{client}");
+    std::fs::remove_dir_all(&dir).unwrap();
 }

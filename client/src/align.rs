@@ -157,6 +157,17 @@ pub fn umeyama_se2(estimate: &[(f64, f64)], truth: &[(f64, f64)]) -> Option<Se2>
     })
 }
 
+impl From<fastslam_estimation::Pose2> for Se2 {
+    /// The same transform: a pose of the estimation crate (a sensor's mount, say).
+    fn from(p: fastslam_estimation::Pose2) -> Self {
+        Self {
+            x: p.x,
+            y: p.y,
+            theta: p.theta,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -341,10 +341,16 @@ impl Metrics {
     /// Adds the errors of the estimate, dead reckoning (sampled at the estimate stamps,
     /// as it is scored against truth) and the smoothed trajectory of `rec` (call it after
     /// [`Metrics::with_smoothed`]) against `relations`, whose times are on a clock where
-    /// stamp 0 is `epoch_s` (see [`crate::relations`]). A trajectory none of whose
-    /// relations can be scored gets none.
-    pub fn with_relations(mut self, rec: &Recording, relations: &[Relation], epoch_s: f64) -> Self {
-        let score = |poses: &[StampedPose]| score_stamped(relations, poses, epoch_s, MAX_GAP_S);
+    /// stamp 0 is `epoch_s` and whose motions are of `body`, posed on the base (see
+    /// [`crate::relations`]). A trajectory none of whose relations can be scored gets none.
+    pub fn with_relations(
+        mut self,
+        rec: &Recording,
+        relations: &[Relation],
+        epoch_s: f64,
+        body: &Se2,
+    ) -> Self {
+        let score = |p: &[StampedPose]| score_stamped(relations, p, epoch_s, body, MAX_GAP_S);
         let estimates: Vec<StampedPose> = rec.estimates.iter().map(|e| e.pose).collect();
         self.estimate.relations = score(&estimates);
         self.dead_reckoning.relations = score(&sampled_at(&rec.dead_reckoning, &estimates));

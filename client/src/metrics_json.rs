@@ -320,7 +320,7 @@ mod tests {
         let mut m = Metrics::compute(&rec, true, Alignment::default(), ScoreAt::default())
             .with_smoothed(&mut rec);
         if let Some(relations) = relations {
-            m = m.with_relations(&rec, relations, 1000.0);
+            m = m.with_relations(&rec, relations, 1000.0, &Se2::IDENTITY);
         }
         let text = serde_json::to_string_pretty(&m).unwrap();
         (m, serde_json::from_str(&text).unwrap(), text)

@@ -2,6 +2,7 @@
 //! (or, marked incomplete, on SIGINT/SIGTERM). While it records, it prints a progress
 //! line on stdout a few times a second (see [`crate::progress`]).
 
+use crate::align::Se2;
 use crate::expect::{Expectations, JudgeArgs};
 use crate::inputs::{Ends, Inputs, Opening, TRUTH_WAIT_S, TruthWait};
 use crate::journal::{self, Journal, Start};
@@ -69,6 +70,12 @@ pub struct Args {
     /// nanoseconds since it.
     #[arg(long, default_value_t = 0.0, value_name = "SECONDS")]
     pub relations_epoch_s: f64,
+    /// The pose on the base (x m, y m, θ rad) of the body whose motions the relations
+    /// are: the laser's mount for relations measured by aligning scans, as the Freiburg
+    /// benchmark's. Every pose is scored as `pose ∘ mount`. Default: the base itself.
+    #[arg(long, value_name = "X,Y,THETA", default_value = "0,0,0", value_parser = mount,
+          allow_hyphen_values = true)]
+    pub relations_mount: Se2,
     /// Align the estimate with the truth before scoring: none (simulation: the map frame
     /// is the true frame) or se2 (external data: least-squares rigid alignment).
     #[arg(long, value_enum, default_value_t = AlignMode::None)]
@@ -105,6 +112,16 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let expectations = args.judge.expectations()?;
     let relations = args.relations.as_deref().map(load_relations).transpose()?;
+    if let Some(relations) = &relations {
+        let body = args.relations_mount;
+        tracing::info!(
+            relations = relations.len(),
+            x_m = body.x,
+            y_m = body.y,
+            theta_rad = body.theta,
+            "relations read: scored on the body at this pose on the base"
+        );
+    }
     let noise = (args.service_config.as_deref())
         .map(|path| {
             anyhow::Ok(NoiseModel::of(
@@ -411,7 +428,8 @@ fn score(
     let mut metrics =
         Metrics::compute(&rec, complete, alignment, args.score_at).with_smoothed(&mut rec);
     if let Some(relations) = &relations {
-        metrics = metrics.with_relations(&rec, relations, args.relations_epoch_s);
+        let (epoch_s, body) = (args.relations_epoch_s, &args.relations_mount);
+        metrics = metrics.with_relations(&rec, relations, epoch_s, body);
         if metrics.estimate.relations.is_none() && !rec.estimates.is_empty() {
             tracing::warn!(
                 relations = relations.len(),
@@ -459,6 +477,17 @@ fn judge(args: &Args, expectations: &Expectations, metrics: &Metrics) -> anyhow:
         verdict.write_junit(junit, &suite)?;
     }
     verdict.into_result()
+}
+
+/// A pose given as `x,y,θ` (m, m, rad), three finite numbers.
+fn mount(text: &str) -> Result<Se2, String> {
+    let values: Vec<f64> = (text.split(','))
+        .map(|v| v.trim().parse::<f64>().map_err(|e| format!("`{v}`: {e}")))
+        .collect::<Result<_, _>>()?;
+    match values[..] {
+        [x, y, theta] if values.iter().all(|v| v.is_finite()) => Ok(Se2 { x, y, theta }),
+        _ => Err(format!("expected three finite numbers x,y,θ, got `{text}`")),
+    }
 }
 
 /// The relations of the file at `path`, checked before the run starts.

@@ -10,6 +10,13 @@
 //! error `|Δθ|` (°). The errors and their squares are summarised by their mean and sample
 //! standard deviation (N − 1). Relations without a pose near one of their times are not
 //! scored. Scoring needs no alignment: relative motions do not depend on the frame.
+//!
+//! **Which body's poses.** A relation is the motion of the body whose poses it was
+//! measured on. The benchmark's relations come from aligning laser scans, so they are the
+//! laser's motions; a trajectory of the robot's base is moved onto the laser first
+//! (`pose ∘ mount`, [`score_stamped`]'s `body`). Where the laser sits at the base the two
+//! are the same; where it does not, the base's motion differs from the laser's by the
+//! mount's lever turned through each relation's rotation.
 
 use crate::align::Se2;
 use crate::recording::StampedPose;
@@ -20,6 +27,27 @@ use std::path::{Path, PathBuf};
 
 /// The largest time between a relation's time and the trajectory pose taken for it (s).
 pub const MAX_GAP_S: f64 = 0.1;
+
+/// Whose motions a relations file holds, when a recording says where its laser sits on
+/// the base.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum RelationsFrame {
+    /// The laser's: relations measured by aligning scans, as the benchmark's.
+    #[default]
+    Laser,
+    /// The base's, as the trajectories are published.
+    Base,
+}
+
+impl RelationsFrame {
+    /// The body to score on ([`score_stamped`]'s `body`) for a laser mounted at `mount`.
+    pub fn body(self, mount: Se2) -> Se2 {
+        match self {
+            Self::Laser => mount,
+            Self::Base => Se2::IDENTITY,
+        }
+    }
+}
 
 /// The reference motion between the poses at two times.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -174,15 +202,18 @@ pub fn score(
 }
 
 /// [`score`] for poses stamped in nanoseconds since a data set's epoch `epoch_s` (s on
-/// the relations' clock): pose `p` is at `epoch_s + p.stamp_ns · 10⁻⁹`.
+/// the relations' clock): pose `p` is at `epoch_s + p.stamp_ns · 10⁻⁹`. The relations
+/// are of `body`, given by its pose on the trajectory's frame (the laser's mount on the
+/// base; [`Se2::IDENTITY`]: the trajectory's own): each pose is scored as `p ∘ body`.
 pub fn score_stamped(
     relations: &[Relation],
     poses: &[StampedPose],
     epoch_s: f64,
+    body: &Se2,
     max_gap_s: f64,
 ) -> Option<RelationErrors> {
     let trajectory: Vec<(f64, Se2)> = (poses.iter())
-        .map(|p| (epoch_s + p.stamp_ns as f64 * 1e-9, Se2::of(p)))
+        .map(|p| (epoch_s + p.stamp_ns as f64 * 1e-9, Se2::of(p).compose(body)))
         .collect();
     score(relations, &trajectory, max_gap_s)
 }
@@ -323,8 +354,39 @@ mod tests {
             .collect();
         let mut r = exact(&trajectory, 3, 20);
         r.dy += 0.25;
-        let e = score_stamped(&[r], &poses, 90.0, MAX_GAP_S).unwrap();
+        let e = score_stamped(&[r], &poses, 90.0, &Se2::IDENTITY, MAX_GAP_S).unwrap();
         assert!((e.trans_mean_m - 0.25).abs() < 1e-9, "{e:?}");
+    }
+
+    #[test]
+    fn a_base_trajectory_is_scored_on_the_relations_of_its_laser() {
+        // The base drives the circle; the laser sits 0.4 m ahead and 0.1 m to the left,
+        // turned by 0.3 rad. Relations measured on the laser's poses are met exactly by
+        // the base's poses moved onto the laser, and missed by the base's own.
+        let mount = Se2 {
+            x: 0.4,
+            y: 0.1,
+            theta: 0.3,
+        };
+        let base = circle(30);
+        let laser: Vec<(f64, Se2)> = base.iter().map(|(t, p)| (*t, p.compose(&mount))).collect();
+        let relations: Vec<Relation> = (0..10).map(|i| exact(&laser, i, i + 20)).collect();
+        let poses: Vec<StampedPose> = (base.iter())
+            .map(|(t, p)| StampedPose {
+                stamp_ns: (t * 1e9).round() as u64,
+                x: p.x,
+                y: p.y,
+                theta: p.theta,
+            })
+            .collect();
+        let on_laser = score_stamped(&relations, &poses, 0.0, &mount, MAX_GAP_S).unwrap();
+        assert!(on_laser.trans_mean_m < 1e-9, "{on_laser:?}");
+        let on_base = score_stamped(&relations, &poses, 0.0, &Se2::IDENTITY, MAX_GAP_S).unwrap();
+        assert!(on_base.trans_mean_m > 0.05, "{on_base:?}");
+        assert!(
+            on_base.rot_mean_deg < 1e-9,
+            "rotations do not depend on the body"
+        );
     }
 
     #[test]

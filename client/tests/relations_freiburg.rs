@@ -27,7 +27,8 @@ fn raw_odometry_errors(set: &str) -> (usize, RelationErrors) {
             theta: o.theta,
         })
         .collect();
-    let errors = relations::score_stamped(&relations, &poses, log.data.epoch_s, MAX_GAP_S);
+    let laser = log.data.laser_mount.into();
+    let errors = relations::score_stamped(&relations, &poses, log.data.epoch_s, &laser, MAX_GAP_S);
     (relations.len(), errors.unwrap())
 }
 

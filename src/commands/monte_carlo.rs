@@ -4,6 +4,7 @@
 //! this parses flags and prints.
 
 use anyhow::Context;
+use fastslam_client::relations::RelationsFrame;
 use fastslam_estimation::optimise::OptimiserKind;
 use fastslam_estimation::stats::Summary;
 use fastslam_replay::dataset::Association;
@@ -43,6 +44,11 @@ pub struct MonteCarloArgs {
     /// relative motions against it (the relation columns).
     #[arg(long, value_name = "FILE", requires = "replay")]
     pub relations: Option<PathBuf>,
+    /// Whose motions the relations are: the data set's laser (relations measured by
+    /// aligning scans, as the Freiburg benchmark's; the estimate is moved onto the laser's
+    /// mount before scoring) or its base.
+    #[arg(long, value_enum, default_value_t, requires = "relations")]
+    pub relations_frame: RelationsFrame,
     /// Estimators, particle counts and seeds.
     #[command(flatten)]
     pub comparison: Comparison,
@@ -145,7 +151,7 @@ fn source(args: &MonteCarloArgs) -> anyhow::Result<Source> {
         )?,
     };
     match &args.relations {
-        Some(path) => source.with_relations(path),
+        Some(path) => source.with_relations(path, args.relations_frame),
         None => Ok(source),
     }
 }

@@ -6,6 +6,7 @@ use crate::commands::launch::{Ended, LaunchArgs, Place, conclude, prepare};
 use crate::supervisor::{Supervisor, stop_flag};
 use anyhow::Context;
 use clap::Args;
+use fastslam_client::relations::RelationsFrame;
 use fastslam_replay::profile::Profile;
 use fastslam_replay::recording::{Recording, merge_tables, planar_laser_settings};
 use fastslam_replay::registry::{self, DataSetKind};
@@ -86,6 +87,11 @@ pub struct ReplayRunArgs {
     /// format: `t1 t2 x y z roll pitch yaw`); a bag or a log only.
     #[arg(long)]
     pub relations: Option<PathBuf>,
+    /// Whose motions the relations are: the recording's laser (relations measured by
+    /// aligning scans, as the Freiburg benchmark's; each trajectory is moved onto the
+    /// laser's mount before scoring) or its base. The same where the laser sits at the base.
+    #[arg(long, value_enum, default_value_t, requires = "relations")]
+    pub relations_frame: RelationsFrame,
     /// Run folder (default: <runs-dir>/<data>_<method>_seed<seed>, the method as `run`
     /// names it).
     #[arg(long)]
@@ -185,6 +191,11 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
                 "--relations-epoch-s".into(),
                 format!("{:?}", loaded.data.epoch_s),
             ]);
+            let body = args.relations_frame.body(loaded.data.laser_mount.into());
+            client.push(format!(
+                "--relations-mount={:?},{:?},{:?}",
+                body.x, body.y, body.theta
+            ));
         }
     }
     client.extend(args.launch.judge.flags());
