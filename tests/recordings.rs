@@ -96,18 +96,27 @@ fn assert_mit_dead_reckoning(m: &serde_json::Value) {
     assert!(num(m, "/smoothed/solves") > 1.0, "{m}");
 }
 
+/// The flags of `replay carmen LOG`, scored on MIT CSAIL's relations, with `particles`.
+fn carmen_on_mit_relations(log: &Path, particles: usize) -> Vec<String> {
+    let relations = data("freiburg/mit-csail/mit-csail.relations");
+    let (log, relations) = (log.display().to_string(), relations.display().to_string());
+    let particles = particles.to_string();
+    [
+        "carmen",
+        &log,
+        "--relations",
+        &relations,
+        "--particles",
+        &particles,
+    ]
+    .map(String::from)
+    .to_vec()
+}
+
 #[test]
 fn a_carmen_log_replays_without_truth_and_is_scored_on_its_relations() {
-    let log = data("freiburg/mit-csail/mit-csail.clf.gz");
-    let relations = data("freiburg/mit-csail/mit-csail.relations");
-    let args = [
-        "carmen",
-        log.to_str().unwrap(),
-        "--relations",
-        relations.to_str().unwrap(),
-        "--particles",
-        "5",
-    ];
+    let args = carmen_on_mit_relations(&data("freiburg/mit-csail/mit-csail.clf.gz"), 5);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
     // The same log on one rayon thread and on two, side by side: loop closure runs on a
     // thread of its own, and what it publishes must not depend on how fast it is.
     let ((one, m, stdout), (two, _, _)) = std::thread::scope(|s| {
@@ -239,15 +248,8 @@ fn a_laser_off_the_base_is_scored_by_the_laser_s_motions() {
     std::fs::create_dir_all(&dir).unwrap();
     let log = dir.join("mit-csail-mounted.clf");
     mounted_log(&Pose2::new(0.35, -0.12, 0.14), &log);
-    let relations = data("freiburg/mit-csail/mit-csail.relations");
-    let args = [
-        "carmen",
-        log.to_str().unwrap(),
-        "--relations",
-        relations.to_str().unwrap(),
-        "--particles",
-        "10",
-    ];
+    let args = carmen_on_mit_relations(&log, 10);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
     // The base's raw odometry moved onto the laser is the log's laser poses: the
     // published raw-odometry figure again, and the estimates as good as without a mount.
     // (Ten particles: with five, seed 1 slips on this log, the laser's position being

@@ -6,14 +6,18 @@
 //! white space, `#` lines are comments, blank lines are ignored):
 //! - `FLASER n r1…rn x y θ odom_x odom_y odom_θ ipc_timestamp hostname logger_timestamp`:
 //!   a scan of `n` ranges spread evenly from −90° to +90° (`angle_min` −π/2, increment
-//!   π/(n−1)), the laser at the robot's origin; the odometry pose
-//!   (`odom_x odom_y odom_θ`) is the robot's pose at the scan.
+//!   π/(n−1)); the odometry pose (`odom_x odom_y odom_θ`) is the robot's pose at the scan
+//!   and `x y θ` the laser's, so the laser's mount is `odom⁻¹ ⊕ laser`. When that mount
+//!   varies over a log of FLASER lines beyond [`MOUNT_TOLERANCE_M`] or
+//!   [`MOUNT_TOLERANCE_RAD`], the laser poses are another trajectory (a corrected one,
+//!   say), not a mount: the laser is taken at the robot's origin and the log's
+//!   [`CarmenLog::warnings`] say so.
 //! - `ROBOTLASER1 laser_type start_angle fov angular_res max_range accuracy remission_mode
 //!   n r1…rn m rem1…remm laser_x laser_y laser_θ robot_x robot_y robot_θ tv rv
 //!   forward_safety side_safety turn_axis ipc_timestamp hostname logger_timestamp`: beam `i`
 //!   points at `start_angle + i·angular_res`; the laser's mount is `robot⁻¹ ⊕ laser`, which
-//!   must stay within [`MOUNT_TOLERANCE_M`] and [`MOUNT_TOLERANCE_RAD`] of the first
-//!   line's over the whole log (FLASER lines count as the identity mount).
+//!   must stay within [`MOUNT_TOLERANCE_M`] and [`MOUNT_TOLERANCE_RAD`] of the first laser
+//!   line's over the whole log (else the log is refused).
 //! - `ODOM x y θ tv rv accel ipc_timestamp hostname logger_timestamp`: an odometry pose.
 //! - Every other message type (`PARAM`, `SYNC`, `RAWLASER1`, `TRUEPOS`, …) is counted by
 //!   name and skipped. A first field that is not an upper-case message name is an error.
@@ -101,6 +105,8 @@ pub struct CarmenLog {
     pub flaser_max_range_m: Option<f64>,
     /// From the first to the last time of the log's laser and odometry lines (s).
     pub duration_s: f64,
+    /// What the reader noticed and the user should know (a FLASER mount that varies).
+    pub warnings: Vec<String>,
 }
 
 impl fmt::Display for CarmenLog {
@@ -342,11 +348,12 @@ fn flaser(line: &Line) -> Result<(LaserRecord, PoseRecord)> {
     let n = line.count(1, "the beam count", 2, MAX_SCAN_BEAMS)?;
     line.expect_fields(n + 11, &format!("FLASER with {n} beams"))?;
     let ranges = line.ranges(2, n)?;
-    line.numbers(2 + n, ["laser x", "laser y", "laser θ"])?;
+    let [lx, ly, lt] = line.numbers(2 + n, ["laser x", "laser y", "laser θ"])?;
     let odometry = line.numbers(5 + n, ["odom_x", "odom_y", "odom_θ"])?;
     let [t_s] = line.numbers(8 + n, ["ipc_timestamp"])?;
     line.numbers(10 + n, ["logger_timestamp"])?;
-    let laser = line.laser(t_s, [-FRAC_PI_2, PI / (n - 1) as f64], ranges);
+    let mut laser = line.laser(t_s, [-FRAC_PI_2, PI / (n - 1) as f64], ranges);
+    laser.mount = mount_on(odometry, [lx, ly, lt]);
     Ok((laser, pose(t_s, odometry, [0.0; 2])))
 }
 
@@ -374,9 +381,19 @@ fn robotlaser1(line: &Line) -> Result<(LaserRecord, PoseRecord)> {
     let [t_s] = line.numbers(tail + 11, ["ipc_timestamp"])?;
     line.numbers(tail + 13, ["logger_timestamp"])?;
     let mut laser = line.laser(t_s, [start, step], ranges);
-    laser.mount = (Pose2::new(x, y, theta).inverse()).compose(&Pose2::new(lx, ly, lt));
+    laser.mount = mount_on([x, y, theta], [lx, ly, lt]);
     laser.max_range = Some(max_range);
     Ok((laser, pose(t_s, [x, y, theta], rates)))
+}
+
+/// The laser's pose `laser` on the robot at `robot` (both as written): `robot⁻¹ ⊕ laser`,
+/// exactly the identity where the line writes the same pose twice.
+fn mount_on(robot: [f64; 3], laser: [f64; 3]) -> Pose2 {
+    if robot == laser {
+        return Pose2::default();
+    }
+    let pose = |[x, y, theta]: [f64; 3]| Pose2::new(x, y, theta);
+    pose(robot).inverse().compose(&pose(laser))
 }
 
 /// An ODOM line's pose and velocities.
@@ -388,10 +405,11 @@ fn odom(line: &Line) -> Result<PoseRecord> {
     Ok(pose(t_s, [x, y, theta], [tv, rv]))
 }
 
-/// The laser's mount: the first laser line's, checked against every other line's.
-fn mount(path: &Path, lasers: &[LaserRecord]) -> Result<Pose2> {
+/// The laser's mount: the first laser line's, checked against every other line's; with
+/// a warning, the identity for FLASER lines whose laser poses are no fixed mount.
+fn mount(path: &Path, lasers: &[LaserRecord]) -> Result<(Pose2, Option<String>)> {
     let Some(first) = lasers.first() else {
-        return Ok(Pose2::default());
+        return Ok((Pose2::default(), None));
     };
     let differs = |l: &&LaserRecord| {
         let (a, b) = (first.mount, l.mount);
@@ -400,13 +418,23 @@ fn mount(path: &Path, lasers: &[LaserRecord]) -> Result<Pose2> {
     };
     let varying: Vec<&LaserRecord> = lasers.iter().filter(differs).collect();
     let Some(other) = varying.first() else {
-        return Ok(first.mount);
+        return Ok((first.mount, None));
     };
     let show = |l: &LaserRecord| {
         let (x, y, deg, line) = (l.mount.x, l.mount.y, l.mount.theta.to_degrees(), l.line);
         format!("line {line}: ({x:.3}, {y:.3}) m, {deg:.2}°")
     };
     let (path, a, b, count) = (path.display(), show(first), show(other), varying.len());
+    // FLASER lines (no maximum range of their own) whose laser poses are not the odometry
+    // moved by one mount carry another trajectory: the laser is taken at the origin.
+    if lasers.iter().all(|l| l.max_range.is_none()) {
+        let warning = format!(
+            "{path}: the FLASER lines' laser poses are not the odometry poses moved by one \
+             mount ({a} vs {b}; {count} lines differ from the first by more than 1 mm or \
+             0.1°): taken as another trajectory, the laser at the robot's origin"
+        );
+        return Ok((Pose2::default(), Some(warning)));
+    }
     Err(DataError::Unusable(format!(
         "{path}: the laser's mount on the robot varies ({a} vs {b}; {count} lines differ \
          from the first by more than 1 mm or 0.1°), so no fixed mount describes it"
@@ -454,7 +482,7 @@ fn build(path: &Path, records: Records) -> Result<CarmenLog> {
     if lasers.is_empty() {
         return unusable("no laser line (FLASER or ROBOTLASER1) in the log");
     }
-    let laser_mount = mount(path, &lasers)?;
+    let (laser_mount, mount_warning) = mount(path, &lasers)?;
     let flaser_max_range_m = (lasers.iter().filter(|l| l.max_range.is_none()))
         .flat_map(|l| l.scan.items.iter().copied().filter(|r| !r.is_nan()))
         .map(f64::from)
@@ -522,235 +550,11 @@ fn build(path: &Path, records: Records) -> Result<CarmenLog> {
         scan_repairs,
         flaser_max_range_m,
         duration_s,
+        warnings: mount_warning.into_iter().collect(),
     };
     tracing::info!(summary = %log, "CARMEN log read");
     Ok(log)
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use fastslam_protocol::validate;
-    use std::io::Write;
-
-    /// Writes `bytes` to a fresh file `name` in the temp dir.
-    fn file(name: &str, bytes: &[u8]) -> PathBuf {
-        let path = std::env::temp_dir().join(format!("carmen-{}-{name}", std::process::id()));
-        std::fs::write(&path, bytes).unwrap();
-        path
-    }
-
-    fn gzip(text: &str) -> Vec<u8> {
-        let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
-        gz.write_all(text.as_bytes()).unwrap();
-        gz.finish().unwrap()
-    }
-
-    fn load_bytes(name: &str, bytes: &[u8]) -> Result<CarmenLog> {
-        let path = file(name, bytes);
-        let log = load(&path);
-        std::fs::remove_file(path).unwrap();
-        log
-    }
-
-    fn load_text(name: &str, text: &str) -> Result<CarmenLog> {
-        load_bytes(name, text.as_bytes())
-    }
-
-    fn join(values: &[f64]) -> String {
-        values.iter().map(|v| format!(" {v}")).collect()
-    }
-
-    fn flaser(ranges: &[f64], [x, y, th]: [f64; 3], t: f64) -> String {
-        let (n, r) = (ranges.len(), join(ranges));
-        format!("FLASER {n}{r} {x} {y} {th} {x} {y} {th} {t} host 0.5\n")
-    }
-
-    fn odom([x, y, th]: [f64; 3], tv: f64, rv: f64, t: f64) -> String {
-        format!("ODOM {x} {y} {th} {tv} {rv} 0 {t} host 0.5\n")
-    }
-
-    fn robotlaser(ranges: &[f64], laser: [f64; 3], robot: [f64; 3], t: f64) -> String {
-        let (n, r, l, p) = (ranges.len(), join(ranges), join(&laser), join(&robot));
-        format!("ROBOTLASER1 0 -1.5 3.0 0.75 40 0.01 0 {n}{r} 2 7 8{l}{p} 0.4 0.1 0 0 0 {t} h 1\n")
-    }
-
-    fn close(a: Pose2, b: [f64; 3]) -> bool {
-        (a.x - b[0]).abs() < 1e-12 && (a.y - b[1]).abs() < 1e-12 && (a.theta - b[2]).abs() < 1e-12
-    }
-
-    #[test]
-    fn flaser_and_odom_lines_become_scans_and_poses() {
-        let text = "# a comment\n\n".to_owned()
-            + &odom([0.0; 3], 0.3, 0.05, 100.0)
-            + &flaser(&[1.0, 2.0, 81.83], [1.0, 2.0, 0.5], 100.25)
-            + &odom([1.5, 2.0, 0.5], 0.2, -0.1, 100.5);
-        let log = load_text("kinds.clf", &text).unwrap();
-        let d = &log.data;
-        // Stamp 0 is the first published record's time: the laser line's.
-        assert_eq!((d.epoch_s, log.duration_s), (100.25, 0.0));
-        let row = |o: &Odometry| (o.header.stamp_ns, o.header.seq, o.x, o.theta, o.v, o.omega);
-        let odo: Vec<_> = d.odometry.iter().map(row).collect();
-        // The laser line's pose is the odometry; ODOM lines are read, not published.
-        assert_eq!(odo, [(0, 0, 1.0, 0.5, 0.0, 0.0)]);
-        let (s, h) = (&d.raw_scans[0], &d.raw_scans[0].header);
-        assert_eq!((h.header.stamp_ns, h.header.seq), (0, 0));
-        assert!((f64::from(h.angle_min) + FRAC_PI_2).abs() < 1e-7);
-        assert!((h.angle_max() - FRAC_PI_2).abs() < 1e-6);
-        assert_eq!(s.items, [1.0, 2.0, f32::INFINITY]);
-        validate::laser_scan(h, &s.items).unwrap();
-        assert_eq!(d.laser_mount, Pose2::default());
-        assert!(d.truth.is_empty() && d.landmarks.is_empty() && d.scans.is_empty());
-        let m = &log.messages;
-        assert_eq!((m.flaser, m.robotlaser1, m.odom), (1, 0, 2));
-    }
-
-    #[test]
-    fn robotlaser1_lines_carry_angles_range_and_mount() {
-        let ranges = [3.0, 39.995, 5.0, 0.0, 6.0];
-        let text = robotlaser(&ranges, [1.2, 0.1, 0.05], [1.0, 0.0, 0.0], 7.0);
-        let log = load_text("robotlaser.log", &text).unwrap();
-        let (s, h) = (&log.data.raw_scans[0], log.data.raw_scans[0].header);
-        assert_eq!((h.angle_min, h.angle_increment), (-1.5, 0.75));
-        assert_eq!((h.range_max, h.ranges), (39.99, 5));
-        let r = &s.items;
-        assert!(r[1].is_infinite() && r[3].is_nan() && r[4] == 6.0, "{r:?}");
-        let o = log.data.odometry[0];
-        assert_eq!((o.x, o.v, o.omega), (1.0, 0.4, 0.1));
-        assert!(close(log.data.laser_mount, [0.2, 0.1, 0.05]));
-        assert_eq!(log.messages.robotlaser1, 1);
-        // The mount is robot⁻¹ ⊕ laser: 0.3 m ahead of a robot facing +y, turned 0.1 rad.
-        let (laser, robot) = ([2.0, 1.3, FRAC_PI_2 + 0.1], [2.0, 1.0, FRAC_PI_2]);
-        let turned = robotlaser(&[1.0; 4], laser, robot, 1.0);
-        let same = robotlaser(&[1.0; 4], [5.3, 1.0, 0.1], [5.0, 1.0, 0.0], 2.0);
-        let mount = load_text("mount.log", &(turned.clone() + &same))
-            .unwrap()
-            .data
-            .laser_mount;
-        assert!(close(mount, [0.3, 0.0, 0.1]), "{mount:?}");
-        let aside = robotlaser(&[1.0; 4], [5.0, 1.3, 0.1], [5.0, 1.0, 0.0], 2.0);
-        let err = load_text("mount.log", &(turned + &aside)).unwrap_err();
-        let err = err.to_string();
-        assert!(err.contains("mount.log") && err.contains("varies"), "{err}");
-        assert!(err.contains("line 1:") && err.contains("line 2:"), "{err}");
-    }
-
-    #[test]
-    fn gzipped_and_plain_logs_read_the_same_whatever_their_name() {
-        let text = odom([0.0; 3], 0.0, 0.0, 5.0) + &flaser(&[1.0, 50.0], [0.1, 0.0, 0.0], 5.5);
-        let plain = load_text("same.clf.gz", &text).unwrap();
-        let gzipped = load_bytes("same.clf", &gzip(&text)).unwrap();
-        assert_eq!(plain.data, gzipped.data);
-        assert_eq!(plain.messages, gzipped.messages);
-        let cut = gzip(&flaser(&[1.0; 90], [0.0; 3], 1.0).repeat(50));
-        let err = load_bytes("cut.clf.gz", &cut[..cut.len() / 2]).unwrap_err();
-        assert!(matches!(err, DataError::Io { .. }), "{err}");
-        assert!(err.to_string().contains("cut.clf.gz"), "{err}");
-    }
-
-    #[test]
-    fn other_message_types_are_counted_by_name() {
-        let text = "PARAM robot_x 1 host 0\nSYNC 1 host 0\nPARAM a b c\nRAWLASER1 1 2\n".to_owned()
-            + &flaser(&[1.0, 2.0], [0.0; 3], 1.0);
-        let log = load_text("skip.clf", &text).unwrap();
-        let skipped = &log.messages.skipped;
-        let count = |name: &str| skipped.get(name).copied();
-        assert_eq!(skipped.len(), 3);
-        assert_eq!(
-            (count("PARAM"), count("RAWLASER1"), count("SYNC")),
-            (Some(2), Some(1), Some(1))
-        );
-        let summary = log.to_string();
-        assert!(summary.contains("1 scans") && summary.contains("PARAM 2, RAWLASER1 1"));
-    }
-
-    #[test]
-    fn bad_lines_name_file_and_line() {
-        let good = flaser(&[1.0, 2.0], [0.0; 3], 1.0);
-        let cases = [
-            (
-                "FLASER 2 1.0 x 0 0 0 0 0 0 1 h 0",
-                "field 4 is not a number",
-            ),
-            (
-                "FLASER 3 1 2 0 0 0 0 0 0 1 h 0",
-                "expected 14 fields, found 13",
-            ),
-            ("FLASER 2 1 2 0 0 0 0 nan 0 1 h 0", "odom_y is not finite"),
-            ("FLASER -2 1 2", "the beam count is not from 2"),
-            ("ODOM 1 2 3 4 5 6 inf h 0", "ipc_timestamp is not finite"),
-            ("ODOM 1 2 3", "ODOM: expected 10 fields, found 4"),
-            (
-                "ROBOTLASER1 0 0 3 0.1 40 0 0 2 1 1 999",
-                "the remission count",
-            ),
-            ("12.5 3 4", "`12.5` is not a message type"),
-        ];
-        for (bad, expected) in cases {
-            let err = load_text("bad.clf", &format!("{good}\n{bad}\n")).unwrap_err();
-            let text = err.to_string();
-            assert!(
-                matches!(err, DataError::Malformed { line: 3, .. }),
-                "{text}"
-            );
-            assert!(
-                text.contains("bad.clf:3:") && text.contains(expected),
-                "{text}"
-            );
-        }
-        let err = load_text("laserless.clf", &odom([0.0; 3], 0.0, 0.0, 1.0)).unwrap_err();
-        let err = err.to_string();
-        assert!(err.contains("laserless.clf: no laser line"), "{err}");
-    }
-
-    #[test]
-    fn the_longest_reading_means_no_return_and_bad_readings_are_nan() {
-        let ranges = [81.83, 81.825, 81.8, 5.0, 0.0, -1.0, f64::NAN, f64::INFINITY];
-        let text = flaser(&ranges, [0.0; 3], 1.0) + &flaser(&[3.0, 4.0], [0.0; 3], 2.0);
-        let log = load_text("noreturn.clf", &text).unwrap();
-        assert!((log.flaser_max_range_m.unwrap() - 81.83).abs() < 1e-5);
-        let (s, last) = (&log.data.raw_scans[0], &log.data.raw_scans[1]);
-        assert!((s.header.range_max - 81.82).abs() < 1e-5, "{:?}", s.header);
-        assert_eq!(
-            last.header.range_max, s.header.range_max,
-            "one maximum per log"
-        );
-        assert_eq!(s.items[..4], [f32::INFINITY, f32::INFINITY, 81.8, 5.0]);
-        assert!(s.items[4..].iter().all(|r| r.is_nan()), "{:?}", s.items);
-        let none = load_text("noreading.clf", &flaser(&[0.0, f64::NAN], [0.0; 3], 1.0));
-        let err = none.unwrap_err().to_string();
-        assert!(err.contains("no maximum range"), "{err}");
-    }
-
-    #[test]
-    fn bursts_of_equal_or_backward_stamps_are_dropped_or_nudged() {
-        let (p, q) = ([1.0, 2.0, 0.3], [1.3, 2.0, 0.3]);
-        let text = [
-            flaser(&[1.0, 2.0], [0.9, 2.0, 0.3], 9.5),
-            flaser(&[1.0, 2.0], p, 10.0),
-            flaser(&[1.0, 2.0], p, 10.0), // the same pose and beams, same time: dropped
-            flaser(&[1.0, 3.0], [1.1, 2.0, 0.3], 10.0), // another pose: nudged
-            flaser(&[1.0, 4.0], q, 8.0),  // out of order: sorted first
-            odom([5.0, 5.0, 0.0], 0.0, 0.0, 10.0), // read, not published
-        ];
-        let log = load_text("burst.clf", &text.concat()).unwrap();
-        let row = |o: &Odometry| (o.header.stamp_ns, o.x);
-        let odo: Vec<_> = log.data.odometry.iter().map(row).collect();
-        let s = 500_000_000;
-        assert_eq!(
-            odo,
-            [(0, 1.3), (3 * s, 0.9), (4 * s, 1.0), (4 * s + 1, 1.1)]
-        );
-        let repairs = |r: StampRepairs| (r.nudged, r.dropped);
-        assert_eq!(repairs(log.odometry_repairs), (1, 1));
-        let stamp = |r: &RawScan| r.header.header.stamp_ns;
-        let scans: Vec<u64> = log.data.raw_scans.iter().map(stamp).collect();
-        assert_eq!(scans, [0, 3 * s, 4 * s, 4 * s + 1]);
-        assert_eq!(repairs(log.scan_repairs), (1, 1));
-        assert_eq!(log.messages.odom, 1);
-        let mut check = validate::StreamCheck::new(u64::MAX);
-        for o in &log.data.odometry {
-            check.accept(o.header).unwrap();
-        }
-    }
-}
+mod tests;

@@ -60,7 +60,7 @@ impl Recording {
                 let log = crate::carmen::load(path)?;
                 Loaded {
                     summary: log.to_string(),
-                    warnings: Vec::new(),
+                    warnings: log.warnings,
                     data: log.data,
                 }
             }
