@@ -212,8 +212,13 @@ pub fn score_stamped(
     body: &Se2,
     max_gap_s: f64,
 ) -> Option<RelationErrors> {
+    // `p ∘ identity` is `p` exactly, without the rounding of composing.
+    let on_body = |p: &StampedPose| match *body == Se2::IDENTITY {
+        true => Se2::of(p),
+        false => Se2::of(p).compose(body),
+    };
     let trajectory: Vec<(f64, Se2)> = (poses.iter())
-        .map(|p| (epoch_s + p.stamp_ns as f64 * 1e-9, Se2::of(p).compose(body)))
+        .map(|p| (epoch_s + p.stamp_ns as f64 * 1e-9, on_body(p)))
         .collect();
     score(relations, &trajectory, max_gap_s)
 }
