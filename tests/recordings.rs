@@ -205,9 +205,9 @@ fn broken_recordings_are_one_line_each() {
     );
 }
 
-/// MIT CSAIL's log rewritten with its laser off the base: every FLASER line becomes a
-/// ROBOTLASER1 line with the scan and the laser's pose as recorded and the base at
-/// `laser ∘ mount⁻¹`, so the odometry is the base's.
+/// MIT CSAIL's log rewritten with its laser off the base: only its FLASER lines are
+/// kept, each as a ROBOTLASER1 line with the scan and the laser's pose as recorded and the
+/// base at `laser ∘ mount⁻¹`, so the odometry is the base's.
 fn mounted_log(mount: &Pose2, path: &Path) {
     let gz = std::fs::File::open(data("freiburg/mit-csail/mit-csail.clf.gz")).unwrap();
     let text = std::io::read_to_string(flate2::read::MultiGzDecoder::new(gz)).unwrap();
@@ -251,7 +251,7 @@ fn a_laser_off_the_base_is_scored_by_the_laser_s_motions() {
     let args = carmen_on_mit_relations(&log, 10);
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     // The base's raw odometry moved onto the laser is the log's laser poses: the
-    // published raw-odometry figure again, and the estimates as good as without a mount.
+    // published raw-odometry figure, and the estimates as good as without a mount.
     // (Ten particles: with five, seed 1 slips on this log, the laser's position being
     // the more uncertain for its lever on the base's heading.)
     let (out, m, _) = replay_recording("mounted", &args);

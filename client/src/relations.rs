@@ -14,9 +14,10 @@
 //! **Which body's poses.** A relation is the motion of the body whose poses it was
 //! measured on. The benchmark's relations come from aligning laser scans, so they are the
 //! laser's motions; a trajectory of the robot's base is moved onto the laser first
-//! (`pose ∘ mount`, [`score_stamped`]'s `body`). Where the laser sits at the base the two
-//! are the same; where it does not, the base's motion differs from the laser's by the
-//! mount's lever turned through each relation's rotation.
+//! (`pose ∘ mount`, [`score_stamped`]'s `body`). The laser's motion is
+//! `mount⁻¹ ∘ δ ∘ mount` of the base's motion `δ`: the same only where the mount is the
+//! identity; otherwise it differs by the mount's lever turned through the relation's
+//! rotation, seen along the mount's heading.
 
 use crate::align::Se2;
 use crate::recording::StampedPose;
@@ -213,9 +214,12 @@ pub fn score_stamped(
     max_gap_s: f64,
 ) -> Option<RelationErrors> {
     // `p ∘ identity` is `p` exactly, without the rounding of composing.
-    let on_body = |p: &StampedPose| match *body == Se2::IDENTITY {
-        true => Se2::of(p),
-        false => Se2::of(p).compose(body),
+    let on_body = |p: &StampedPose| {
+        if *body == Se2::IDENTITY {
+            Se2::of(p)
+        } else {
+            Se2::of(p).compose(body)
+        }
     };
     let trajectory: Vec<(f64, Se2)> = (poses.iter())
         .map(|p| (epoch_s + p.stamp_ns as f64 * 1e-9, on_body(p)))

@@ -101,6 +101,9 @@ fn main() -> anyhow::Result<()> {
     );
     let log = fastslam_replay::carmen::load(&path)?;
     println!("{log}");
+    for warning in &log.warnings {
+        println!("warning: {warning}");
+    }
     let data = &log.data;
     let odometry: Vec<(u64, Pose2)> = (data.odometry.iter())
         .map(|o| (o.header.stamp_ns, Pose2::new(o.x, o.y, o.theta)))
@@ -223,7 +226,10 @@ fn main() -> anyhow::Result<()> {
         }
     }
     // The last solve, with the odometry's weight fitted to the solution, as the service's.
-    let finished = mapper.finish()?;
+    let finished = mapper.finish();
+    if let Some(e) = finished.failed {
+        return Err(e.into());
+    }
     match finished.odometry {
         OdometryFit::Weighted(fit) => println!(
             "last solve: odometry constraints weighted ×{:.2} (variance factors: \

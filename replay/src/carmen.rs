@@ -148,7 +148,8 @@ impl fmt::Display for CarmenLog {
 /// too); [`DataError::Malformed`] with file and line for a line with missing or extra
 /// fields, a field that is not a number, a non-finite pose or time, a beam count that
 /// does not match; [`DataError::Unusable`] for a log without laser lines, whose laser
-/// mount varies, or whose FLASER lines have no valid reading.
+/// mount varies (beyond FLASER laser poses taken as another trajectory, see the module
+/// doc), or whose FLASER lines have no valid reading.
 pub fn load(path: &Path) -> Result<CarmenLog> {
     let io = |e: std::io::Error| DataError::Io {
         path: path.to_path_buf(),
@@ -181,6 +182,8 @@ pub fn load(path: &Path) -> Result<CarmenLog> {
 struct LaserRecord {
     t_s: f64,
     line: usize,
+    /// A FLASER line: its laser pose may be another trajectory's rather than a mount.
+    flaser: bool,
     mount: Pose2,
     /// The line's maximum range; `None` for FLASER (the log's largest reading).
     max_range: Option<f64>,
@@ -336,6 +339,7 @@ impl Line<'_> {
         LaserRecord {
             t_s,
             line,
+            flaser: false,
             mount,
             max_range,
             scan,
@@ -354,6 +358,7 @@ fn flaser(line: &Line) -> Result<(LaserRecord, PoseRecord)> {
     line.numbers(10 + n, ["logger_timestamp"])?;
     let mut laser = line.laser(t_s, [-FRAC_PI_2, PI / (n - 1) as f64], ranges);
     laser.mount = mount_on(odometry, [lx, ly, lt]);
+    laser.flaser = true;
     Ok((laser, pose(t_s, odometry, [0.0; 2])))
 }
 
@@ -405,40 +410,52 @@ fn odom(line: &Line) -> Result<PoseRecord> {
     Ok(pose(t_s, [x, y, theta], [tv, rv]))
 }
 
-/// The laser's mount: the first laser line's, checked against every other line's; with
-/// a warning, the identity for FLASER lines whose laser poses are no fixed mount.
-fn mount(path: &Path, lasers: &[LaserRecord]) -> Result<(Pose2, Option<String>)> {
-    let Some(first) = lasers.first() else {
-        return Ok((Pose2::default(), None));
-    };
-    let differs = |l: &&LaserRecord| {
-        let (a, b) = (first.mount, l.mount);
+/// The laser's mount: the first laser line's, checked against every other line's. FLASER
+/// lines whose laser poses are no fixed mount are first taken at the identity, with a
+/// warning (see the module doc); a mount that varies after that refuses the log.
+fn mount(path: &Path, lasers: &mut [LaserRecord]) -> Result<(Pose2, Option<String>)> {
+    let path = path.display();
+    let mut flaser: Vec<&mut LaserRecord> = lasers.iter_mut().filter(|l| l.flaser).collect();
+    let flaser_mounts: Vec<(usize, Pose2)> = flaser.iter().map(|l| (l.line, l.mount)).collect();
+    let warning = varying(&flaser_mounts).map(|how| {
+        flaser.iter_mut().for_each(|l| l.mount = Pose2::default());
+        format!(
+            "{path}: the FLASER lines' laser poses are not the odometry poses moved by one \
+             mount ({how}): taken as another trajectory, the laser at the robot's origin"
+        )
+    });
+    let mounts: Vec<(usize, Pose2)> = lasers.iter().map(|l| (l.line, l.mount)).collect();
+    if let Some(how) = varying(&mounts) {
+        return Err(DataError::Unusable(format!(
+            "{path}: the laser's mount on the robot varies ({how}), so no fixed mount \
+             describes it"
+        )));
+    }
+    let first = mounts.first().map_or_else(Pose2::default, |m| m.1);
+    Ok((first, warning))
+}
+
+/// How `mounts` (line, mount) vary: the first against the first that differs from it by
+/// more than [`MOUNT_TOLERANCE_M`] or [`MOUNT_TOLERANCE_RAD`], and how many do; `None`
+/// when none does.
+fn varying(mounts: &[(usize, Pose2)]) -> Option<String> {
+    let &(_, a) = mounts.first()?;
+    let differs = |(_, b): &&(usize, Pose2)| {
         (a.x - b.x).hypot(a.y - b.y) > MOUNT_TOLERANCE_M
             || wrap_angle(a.theta - b.theta).abs() > MOUNT_TOLERANCE_RAD
     };
-    let varying: Vec<&LaserRecord> = lasers.iter().filter(differs).collect();
-    let Some(other) = varying.first() else {
-        return Ok((first.mount, None));
-    };
-    let show = |l: &LaserRecord| {
-        let (x, y, deg, line) = (l.mount.x, l.mount.y, l.mount.theta.to_degrees(), l.line);
+    let count = mounts.iter().filter(differs).count();
+    let other = mounts.iter().find(differs)?;
+    let show = |(line, m): &(usize, Pose2)| {
+        let (x, y, deg) = (m.x, m.y, m.theta.to_degrees());
         format!("line {line}: ({x:.3}, {y:.3}) m, {deg:.2}°")
     };
-    let (path, a, b, count) = (path.display(), show(first), show(other), varying.len());
-    // FLASER lines (no maximum range of their own) whose laser poses are not the odometry
-    // moved by one mount carry another trajectory: the laser is taken at the origin.
-    if lasers.iter().all(|l| l.max_range.is_none()) {
-        let warning = format!(
-            "{path}: the FLASER lines' laser poses are not the odometry poses moved by one \
-             mount ({a} vs {b}; {count} lines differ from the first by more than 1 mm or \
-             0.1°): taken as another trajectory, the laser at the robot's origin"
-        );
-        return Ok((Pose2::default(), Some(warning)));
-    }
-    Err(DataError::Unusable(format!(
-        "{path}: the laser's mount on the robot varies ({a} vs {b}; {count} lines differ \
-         from the first by more than 1 mm or 0.1°), so no fixed mount describes it"
-    )))
+    let (mm, deg) = (MOUNT_TOLERANCE_M * 1e3, MOUNT_TOLERANCE_RAD.to_degrees());
+    Some(format!(
+        "{} vs {}; {count} lines differ from the first by more than {mm} mm or {deg:.1}°",
+        show(&mounts[0]),
+        show(other)
+    ))
 }
 
 /// Stamps strictly increasing over records sorted by stamp: a record not later than the
@@ -482,8 +499,8 @@ fn build(path: &Path, records: Records) -> Result<CarmenLog> {
     if lasers.is_empty() {
         return unusable("no laser line (FLASER or ROBOTLASER1) in the log");
     }
-    let (laser_mount, mount_warning) = mount(path, &lasers)?;
-    let flaser_max_range_m = (lasers.iter().filter(|l| l.max_range.is_none()))
+    let (laser_mount, mount_warning) = mount(path, &mut lasers)?;
+    let flaser_max_range_m = (lasers.iter().filter(|l| l.flaser))
         .flat_map(|l| l.scan.items.iter().copied().filter(|r| !r.is_nan()))
         .map(f64::from)
         .reduce(f64::max);

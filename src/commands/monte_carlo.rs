@@ -45,8 +45,8 @@ pub struct MonteCarloArgs {
     #[arg(long, value_name = "FILE", requires = "replay")]
     pub relations: Option<PathBuf>,
     /// Whose motions the relations are: the data set's laser (relations measured by
-    /// aligning scans, as the Freiburg benchmark's; the estimate is moved onto the laser's
-    /// mount before scoring) or its base.
+    /// aligning scans, as the Freiburg benchmark's; each trajectory is moved onto the
+    /// laser's mount before scoring) or its base.
     #[arg(long, value_enum, default_value_t, requires = "relations")]
     pub relations_frame: RelationsFrame,
     /// Estimators, particle counts and seeds.

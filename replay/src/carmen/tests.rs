@@ -141,6 +141,12 @@ fn flaser_laser_poses_give_the_mount_or_a_warning() {
         warning.contains("flaser-corrected.clf") && warning.contains("line 2:"),
         "{warning}"
     );
+    // Beside ROBOTLASER1 lines at the origin, such FLASER lines are at the origin too.
+    let at_origin = robotlaser(&[1.0; 4], [7.0, 1.0, 0.0], [7.0, 1.0, 0.0], 3.0);
+    let first = flaser_at(&[1.0; 4], [2.0, 1.3, 0.1], [2.0, 1.0, 0.0], 1.0);
+    let log = load_text("flaser-mixed.clf", &(first + &wandered + &at_origin)).unwrap();
+    assert_eq!(log.data.laser_mount, Pose2::default());
+    assert_eq!(log.warnings.len(), 1, "{:?}", log.warnings);
 }
 
 #[test]

@@ -491,13 +491,7 @@ fn add(mapper: &mut PoseGraphMapper, keyframe: Keyframe) -> Result<Option<Solved
 
 /// The mapper's last solve ([`PoseGraphMapper::finish`]), logged; its newest solution.
 fn finish(mapper: &mut PoseGraphMapper) -> Option<Solved> {
-    let mut finished = match mapper.finish() {
-        Ok(finished) => finished,
-        Err(e) => {
-            tracing::warn!("last loop-closure solve failed, the previous solution stands: {e}");
-            return None;
-        }
-    };
+    let mut finished = mapper.finish();
     match finished.odometry {
         OdometryFit::Off => {}
         OdometryFit::Unfitted => tracing::info!(
@@ -513,6 +507,9 @@ fn finish(mapper: &mut PoseGraphMapper) -> Option<Solved> {
             "last solve: the odometry constraints weighted by their variance factor against \
              the front end's steps and the loop closures"
         ),
+    }
+    if let Some(e) = &finished.failed {
+        tracing::warn!("loop-closure solve at the end failed, the solution before it stands: {e}");
     }
     finished.solutions.pop().map(Solved::from)
 }

@@ -127,7 +127,8 @@ pub struct OdometryWeight {
 pub enum OdometryFit {
     /// `fit_odometry_at_end` is off: the model's weight.
     Off,
-    /// Too few odometry constraints or loop closures to fit it: the model's weight.
+    /// Not fitted, the model's weight: no odometry constraints or loop closures, a
+    /// redundancy under [`MIN_REDUNDANCY`], or components that cannot be computed.
     Unfitted,
     /// Weighted by its fit before the last solve.
     Weighted(OdometryWeight),
@@ -141,6 +142,8 @@ pub struct Finished {
     pub solutions: Vec<Solution>,
     /// The odometry constraints' weight.
     pub odometry: OdometryFit,
+    /// The solve that failed, which ended the sequence; the solutions before it stand.
+    pub failed: Option<Error>,
 }
 
 /// A keyframe as kept: what the graph, the submaps and the rendering need of it.
@@ -534,35 +537,40 @@ impl PoseGraphMapper {
     /// The end of the data: a solve over the keyframes since the previous solve (its
     /// robust rounds judge the newest closures), then, when `fit_odometry_at_end` asks
     /// for it, the odometry constraints weighted by their fit to that solution
-    /// ([`fit_odometry_weight`](Self::fit_odometry_weight)) and the last solve.
-    ///
-    /// # Errors
-    /// As [`solve`](Self::solve); the solutions made before the error stay in the graph.
+    /// ([`fit_odometry_weight`](Self::fit_odometry_weight)) and the last solve. A solve
+    /// that fails ends the sequence ([`Finished::failed`]): the solutions before it are
+    /// returned, the graph keeps their poses, and a weight fitted before it stays.
     ///
     /// # Performance
     /// Up to two solves and one fit.
-    pub fn finish(&mut self) -> Result<Finished> {
-        let mut solutions = Vec::new();
+    pub fn finish(&mut self) -> Finished {
+        let mut finished = Finished {
+            solutions: Vec::new(),
+            odometry: OdometryFit::Off,
+            failed: None,
+        };
         if self.since_solve > 0 || self.pending > 0 {
-            solutions.push(self.solve()?);
+            match self.solve() {
+                Ok(solution) => finished.solutions.push(solution),
+                Err(e) => {
+                    finished.failed = Some(e);
+                    return finished;
+                }
+            }
         }
         if !self.config.fit_odometry_at_end {
-            return Ok(Finished {
-                solutions,
-                odometry: OdometryFit::Off,
-            });
+            return finished;
         }
-        let odometry = match self.fit_odometry_weight() {
-            Some(fit) => {
-                solutions.push(self.solve()?);
-                OdometryFit::Weighted(fit)
-            }
-            None => OdometryFit::Unfitted,
+        let Some(fit) = self.fit_odometry_weight() else {
+            finished.odometry = OdometryFit::Unfitted;
+            return finished;
         };
-        Ok(Finished {
-            solutions,
-            odometry,
-        })
+        finished.odometry = OdometryFit::Weighted(fit);
+        match self.solve() {
+            Ok(solution) => finished.solutions.push(solution),
+            Err(e) => finished.failed = Some(e),
+        }
+        finished
     }
 
     /// The map → front-end-map correction of the last solve (the identity before one):

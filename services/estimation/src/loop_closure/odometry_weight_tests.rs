@@ -153,7 +153,7 @@ fn finish_solves_what_came_since_then_weights_the_odometry_and_solves_again() {
         curvature: None,
     };
     mapper.add_loop_closure(closure).unwrap();
-    let finished = mapper.finish().unwrap();
+    let finished = mapper.finish();
     assert_eq!(
         finished.solutions.len(),
         2,
@@ -162,12 +162,12 @@ fn finish_solves_what_came_since_then_weights_the_odometry_and_solves_again() {
     assert!(matches!(finished.odometry, OdometryFit::Weighted(_)));
 
     mapper.config.fit_odometry_at_end = false;
-    let finished = mapper.finish().unwrap();
+    let finished = mapper.finish();
     assert!(finished.solutions.is_empty(), "nothing came since");
     assert_eq!(finished.odometry, OdometryFit::Off);
 
     let (mut without, _) = ring(1, false);
-    let finished = without.finish().unwrap();
+    let finished = without.finish();
     assert!(finished.solutions.is_empty(), "nothing came since");
     assert_eq!(finished.odometry, OdometryFit::Unfitted);
 }
