@@ -415,16 +415,20 @@ fn odom(line: &Line) -> Result<PoseRecord> {
 /// warning (see the module doc); a mount that varies after that refuses the log.
 fn mount(path: &Path, lasers: &mut [LaserRecord]) -> Result<(Pose2, Option<String>)> {
     let path = path.display();
-    let mut flaser: Vec<&mut LaserRecord> = lasers.iter_mut().filter(|l| l.flaser).collect();
-    let flaser_mounts: Vec<(usize, Pose2)> = flaser.iter().map(|l| (l.line, l.mount)).collect();
-    let warning = varying(&flaser_mounts).map(|how| {
-        flaser.iter_mut().for_each(|l| l.mount = Pose2::default());
+    let line_mount = |l: &LaserRecord| (l.line, l.mount);
+    let flaser: Vec<(usize, Pose2)> = lasers.iter().filter(|l| l.flaser).map(line_mount).collect();
+    let warning = varying(&flaser).map(|how| {
         format!(
             "{path}: the FLASER lines' laser poses are not the odometry poses moved by one \
              mount ({how}): taken as another trajectory, the laser at the robot's origin"
         )
     });
-    let mounts: Vec<(usize, Pose2)> = lasers.iter().map(|l| (l.line, l.mount)).collect();
+    if warning.is_some() {
+        for l in lasers.iter_mut().filter(|l| l.flaser) {
+            l.mount = Pose2::default();
+        }
+    }
+    let mounts: Vec<(usize, Pose2)> = lasers.iter().map(line_mount).collect();
     if let Some(how) = varying(&mounts) {
         return Err(DataError::Unusable(format!(
             "{path}: the laser's mount on the robot varies ({how}), so no fixed mount \
