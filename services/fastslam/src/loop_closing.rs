@@ -496,7 +496,7 @@ fn finish(mapper: &mut PoseGraphMapper) -> Option<Solved> {
         OdometryFit::Off => {}
         OdometryFit::Unfitted => tracing::info!(
             "last solve: the odometry constraints keep the model's weight (too few of them \
-             or of loop closures to fit it)"
+             or of loop closures, or no variance components, to fit it)"
         ),
         OdometryFit::Weighted(fit) => tracing::info!(
             weight = fit.weight,
