@@ -172,17 +172,23 @@ struct Run {
 }
 
 fn ring_run() -> Run {
+    drifting_ring(0.05, 0.1)
+}
+
+/// The ring loop driven with a heading bias of `bias_deg` (degrees per keyframe), each
+/// keyframe's heading σ `sigma_deg` plus 5 % of its turn.
+fn drifting_ring(bias_deg: f64, sigma_deg: f64) -> Run {
     let world = corridor_world();
     let truth = loop_path(16);
-    let front_end = drifting_front_end(&truth, 0.05f64.to_radians(), 0.02, 7);
+    let front_end = drifting_front_end(&truth, bias_deg.to_radians(), 0.02, 7);
     let keyframes = (truth.iter().zip(&front_end).enumerate())
         .map(|(k, (t, f))| {
             let (beams, points) = beams_and_points(&scan(&world, t, 0.01, 100 + k as u64));
-            // Odometry's heading uncertainty grows with the turn: 5 % of it, plus 0.1°.
+            // Odometry's heading uncertainty grows with the turn: 5 % of it, plus σ.
             let turned = k.checked_sub(1).map_or(0.0, |p| {
                 fastslam_estimation::wrap_angle(front_end[k].theta - front_end[p].theta)
             });
-            let sigma_theta = 0.1f64.to_radians() + 0.05 * turned.abs();
+            let sigma_theta = sigma_deg.to_radians() + 0.05 * turned.abs();
             Keyframe {
                 stamp_ns: k as u64 * 1_000_000_000,
                 pose: *f,
@@ -453,6 +459,43 @@ fn a_drifting_loop_closes_and_its_map_has_single_walls() {
     let (_, raw_spread) = wall_spread(&raw.occupancy(), -1.0, (2.0, 3.9));
     println!("front end: farthest {raw_spread:.3} m from the wall");
     assert!(raw_spread > 0.2);
+}
+
+#[test]
+fn a_loop_drifting_beyond_the_usual_window_closes_in_the_wide_search() {
+    let run = drifting_ring(0.3, 1.0);
+    let last = run.truth.len() - 1;
+    let turn = (run.front_end[last].theta - run.truth[last].theta).abs();
+    let drift = distance(&run.front_end[last], &run.truth[last]);
+    let config = test_config();
+    assert!(
+        turn > config.max_angular_window && turn < config.wide_angular_window,
+        "{} °",
+        turn.to_degrees()
+    );
+    let end_error = |config: LoopClosureConfig| {
+        let mapper = drive(config, &run.keyframes, |_, _| {});
+        let accepted = (mapper.loop_edges().iter())
+            .filter(|e| e.weight > 0.0)
+            .count();
+        (distance(&mapper.poses()[last], &run.truth[last]), accepted)
+    };
+    let (narrow, narrow_accepted) = end_error(LoopClosureConfig {
+        wide_search_every: 0,
+        ..test_config()
+    });
+    let (wide, wide_accepted) = end_error(test_config());
+    println!(
+        "front end off by {drift:.2} m, {:.1}° at the end; usual window only: end error \
+         {narrow:.3} m, {narrow_accepted} closures; with the wide search: {wide:.3} m, \
+         {wide_accepted} closures",
+        turn.to_degrees()
+    );
+    assert!(
+        narrow > drift / 2.0,
+        "the usual window alone closed it: {narrow} m"
+    );
+    assert!(wide < drift / 10.0, "end keyframe {wide} m off");
 }
 
 #[test]

@@ -469,6 +469,15 @@ fn add(mapper: &mut PoseGraphMapper, keyframe: Keyframe) -> Result<Option<Solved
     let index = mapper.keyframes();
     match mapper.add_keyframe(keyframe) {
         Ok(report) => {
+            if report.wide > 0 {
+                tracing::info!(
+                    keyframe = report.index,
+                    submaps = report.wide,
+                    found = report.closures.len(),
+                    "wide loop-closure search: no match over the last keyframes, so the \
+                     submaps beyond the usual window were searched in the wide one"
+                );
+            }
             for c in &report.closures {
                 tracing::debug!(
                     keyframe = c.keyframe,

@@ -64,6 +64,22 @@ pub struct LoopClosureConfig {
     pub min_angular_window: f64,
     /// … and at most this (rad). Default 0.349 (20°).
     pub max_angular_window: f64,
+    /// A keyframe whose index is a multiple of this, when no match was found at any of
+    /// the last `wide_search_every` keyframes, also searches wide: the finished submaps
+    /// whose chain uncertainty exceeds the window's clamps, within `3σ` clamped to
+    /// `wide_linear_window` and `wide_angular_window`, with `wide_min_score` (count; 0:
+    /// never). A loop longer than the clamps allow then still closes, at a cost paid
+    /// only while nothing matches. Default 20 (about 10 m at 0.5 m keyframes).
+    pub wide_search_every: usize,
+    /// The wide search's linear half width is `3σ`, at most this (m), and it reaches
+    /// submaps whose origin lies within `max_search_distance` plus the window of the
+    /// keyframe. Default 10.
+    pub wide_linear_window: f64,
+    /// … its angular half width, at most this (rad). Default 0.785 (45°).
+    pub wide_angular_window: f64,
+    /// A wide match is accepted at this score (in [0, 1]); a wider window offers more
+    /// places a wrong match can score at. Default 0.65.
+    pub wide_min_score: f64,
     /// Levels of the max-pooled grids for branch and bound (count, 1..=12): the coarsest
     /// pools `2^(depth−1)` cells a side. Default 7 (64 cells, 3.2 m at 5 cm).
     pub depth: usize,
@@ -128,6 +144,10 @@ impl Default for LoopClosureConfig {
             max_linear_window: 3.0,
             min_angular_window: 3f64.to_radians(),
             max_angular_window: 20f64.to_radians(),
+            wide_search_every: 20,
+            wide_linear_window: 10.0,
+            wide_angular_window: 45f64.to_radians(),
+            wide_min_score: 0.65,
             depth: 7,
             min_score: 0.6,
             min_points: 20,
@@ -185,6 +205,19 @@ impl LoopClosureConfig {
             std::f64::consts::PI,
         )?;
         require(
+            self.wide_linear_window.is_finite()
+                && self.wide_linear_window >= self.max_linear_window,
+            "loop_closure.wide_linear_window",
+            || "must be finite and at least max_linear_window".into(),
+        )?;
+        in_range(
+            "loop_closure.wide_angular_window",
+            self.wide_angular_window,
+            self.max_angular_window,
+            std::f64::consts::PI,
+        )?;
+        in_range("loop_closure.wide_min_score", self.wide_min_score, 0.0, 1.0)?;
+        require(
             (1..=MAX_DEPTH).contains(&self.depth),
             "loop_closure.depth",
             || format!("must lie in 1..={MAX_DEPTH}, got {}", self.depth),
@@ -229,6 +262,18 @@ mod tests {
             err,
             Error::InvalidParameter {
                 name: "loop_closure.min_linear_window",
+                ..
+            }
+        ));
+        let narrow = LoopClosureConfig {
+            wide_linear_window: 2.0,
+            ..LoopClosureConfig::default()
+        };
+        let err = narrow.validate().unwrap_err();
+        assert!(matches!(
+            err,
+            Error::InvalidParameter {
+                name: "loop_closure.wide_linear_window",
                 ..
             }
         ));

@@ -77,8 +77,12 @@ pub struct KeyframeReport {
     /// Matches tried: the finished submaps it was matched against, and the earlier
     /// keyframes matched against the submap it finished.
     pub searched: usize,
-    /// The matches that reached `min_score`, now loop-closure constraints: its own,
-    /// then the earlier keyframes' in the submap it finished.
+    /// Of those, the finished submaps searched wide as well
+    /// ([`LoopClosureConfig::wide_search_every`]).
+    pub wide: usize,
+    /// The matches that reached `min_score` (`wide_min_score` for a wide one), now
+    /// loop-closure constraints: its own, then the earlier keyframes' in the submap it
+    /// finished.
     pub closures: Vec<LoopClosure>,
     /// A solve is due ([`PoseGraphMapper::solve_due`]).
     pub solve_due: bool,
@@ -179,6 +183,9 @@ pub struct PoseGraphMapper {
     correction: Pose2,
     since_solve: usize,
     pending: usize,
+    /// The newest keyframe whose matching closed a long loop
+    /// ([`Self::closes_a_long_loop`]).
+    matched_at: Option<usize>,
     /// The odometry constraints' indices among the graph's betweens, ascending.
     odometry_edges: Vec<usize>,
 }
@@ -200,6 +207,7 @@ impl PoseGraphMapper {
             correction: Pose2::default(),
             since_solve: 0,
             pending: 0,
+            matched_at: None,
             odometry_edges: Vec::new(),
         })
     }
@@ -303,6 +311,16 @@ impl PoseGraphMapper {
             searched += earlier;
             closures.extend(found);
         }
+        let mut wide = 0;
+        if closures.is_empty() && self.wide_due(index, self.matched_at) {
+            let found;
+            (wide, found) = self.search_wide(index);
+            searched += wide;
+            closures.extend(found);
+        }
+        if closures.iter().any(|c| self.closes_a_long_loop(c)) {
+            self.matched_at = Some(index);
+        }
         let match_seconds = started.elapsed().as_secs_f64();
         for closure in &closures {
             self.add_loop_closure(*closure)?;
@@ -311,6 +329,7 @@ impl PoseGraphMapper {
         Ok(KeyframeReport {
             index,
             searched,
+            wide,
             closures,
             solve_due: self.solve_due(),
             match_seconds,

@@ -13,10 +13,25 @@
 //!
 //! When a submap is finished, earlier keyframes near its origin are matched against it
 //! the same way, so that both passes through a place search the other's submaps.
+//!
+//! A loop whose drift exceeds the clamps cannot close in that window. So every
+//! `wide_search_every`-th keyframe, when none of the last `wide_search_every` keyframes
+//! found a match, also searches wide: the finished submaps whose `3σ` exceeds a clamp,
+//! and whose origin lies within `max_search_distance` plus the wide window, in `3σ`
+//! clamped to the wide window, accepting `wide_min_score`.
 
 use super::mapper::{LoopClosure, Matchable, PoseGraphMapper};
 use super::matcher::SearchWindow;
 use rayon::prelude::*;
+
+/// How far a search reaches: its window's clamps and the score it accepts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Reach {
+    /// The window's half widths at most (m, rad).
+    most: SearchWindow,
+    /// The least score accepted.
+    min_score: f64,
+}
 
 impl PoseGraphMapper {
     /// `points` (base frame) as they are matched: those within `max_range` of the base
@@ -37,9 +52,77 @@ impl PoseGraphMapper {
     /// Whether finished submap `submap`'s origin lies within `max_search_distance` of
     /// keyframe `index`'s estimate.
     fn near(&self, submap: usize, index: usize) -> bool {
+        self.distance(submap, index) <= self.config.max_search_distance
+    }
+
+    /// Distance from finished submap `submap`'s origin to keyframe `index`'s estimate (m).
+    fn distance(&self, submap: usize, index: usize) -> f64 {
         let origin = self.graph.poses[self.submaps[submap].anchor()];
         let here = self.graph.poses[index];
-        (origin.x - here.x).hypot(origin.y - here.y) <= self.config.max_search_distance
+        (origin.x - here.x).hypot(origin.y - here.y)
+    }
+
+    /// The regular search's reach: `max_linear_window`, `max_angular_window`, `min_score`.
+    fn regular(&self) -> Reach {
+        Reach {
+            most: SearchWindow {
+                linear: self.config.max_linear_window,
+                angular: self.config.max_angular_window,
+            },
+            min_score: self.config.min_score,
+        }
+    }
+
+    /// The wide search's reach: `wide_linear_window`, `wide_angular_window`,
+    /// `wide_min_score`.
+    fn wide(&self) -> Reach {
+        Reach {
+            most: SearchWindow {
+                linear: self.config.wide_linear_window,
+                angular: self.config.wide_angular_window,
+            },
+            min_score: self.config.wide_min_score,
+        }
+    }
+
+    /// Whether `closure` tied two keyframes whose chain's `3σ` exceeds a clamp of the
+    /// window: a long loop closed.
+    pub(crate) fn closes_a_long_loop(&self, closure: &LoopClosure) -> bool {
+        let anchor = self.submaps[closure.submap].anchor();
+        let (a, b) = (anchor.min(closure.keyframe), anchor.max(closure.keyframe));
+        self.window(a, b, &self.wide()) != self.window(a, b, &self.regular())
+    }
+
+    /// Whether keyframe `index` searches wide: it is matchable, its index is a multiple
+    /// of `wide_search_every` (not 0), and the newest keyframe that closed a long loop
+    /// ([`Self::closes_a_long_loop`]), if any, lies `wide_search_every` or more
+    /// keyframes back (`matched_at`).
+    pub(crate) fn wide_due(&self, index: usize, matched_at: Option<usize>) -> bool {
+        let every = self.config.wide_search_every;
+        every > 0
+            && index.is_multiple_of(every)
+            && self.keyframes[index].matchable.is_some()
+            && matched_at.is_none_or(|m| m + every <= index)
+    }
+
+    /// Matches keyframe `index` wide (see the module documentation): how many submaps
+    /// were searched, and the matches that reached `wide_min_score`, in submap order.
+    pub(crate) fn search_wide(&self, index: usize) -> (usize, Vec<LoopClosure>) {
+        let wide = self.wide();
+        let pairs: Vec<(usize, usize)> = (0..self.submaps.len())
+            .filter(|&s| {
+                let anchor = self.submaps[s].anchor();
+                if self.submaps[s].grid().is_none() || anchor == index {
+                    return false;
+                }
+                let (a, b) = (anchor.min(index), anchor.max(index));
+                let widened = self.window(a, b, &wide);
+                widened != self.window(a, b, &self.regular())
+                    && self.distance(s, index) <= self.config.max_search_distance + widened.linear
+            })
+            .map(|s| (s, index))
+            .collect();
+        (pairs.len(), self.match_pairs(&pairs, &wide))
     }
 
     /// Matches keyframe `index` against the finished submaps near it: how many were
@@ -55,7 +138,7 @@ impl PoseGraphMapper {
             })
             .map(|s| (s, index))
             .collect();
-        (pairs.len(), self.match_pairs(&pairs))
+        (pairs.len(), self.match_pairs(&pairs, &self.regular()))
     }
 
     /// Matches earlier keyframes against the just finished `submap`: of the matchable
@@ -77,23 +160,22 @@ impl PoseGraphMapper {
         let pairs: Vec<(usize, usize)> = (0..take)
             .map(|i| (submap, eligible[i * eligible.len() / take]))
             .collect();
-        (pairs.len(), self.match_pairs(&pairs))
+        (pairs.len(), self.match_pairs(&pairs, &self.regular()))
     }
 
     /// Matches each `(submap, keyframe)` pair, in parallel, one pair per task; the
-    /// matches that reached `min_score`, in the pairs' order. The window is centred on
-    /// the keyframe's estimate seen from the submap's origin.
-    fn match_pairs(&self, pairs: &[(usize, usize)]) -> Vec<LoopClosure> {
-        let config = &self.config;
+    /// matches that reached `reach`'s score, in the pairs' order. The window is centred
+    /// on the keyframe's estimate seen from the submap's origin.
+    fn match_pairs(&self, pairs: &[(usize, usize)], reach: &Reach) -> Vec<LoopClosure> {
         let matched = |&(s, k): &(usize, usize)| -> Option<LoopClosure> {
             let anchor = self.submaps[s].anchor();
             let scan = self.keyframes[k].matchable.as_ref()?;
             let initial = self.graph.poses[anchor]
                 .inverse()
                 .compose(&self.graph.poses[k]);
-            let window = self.window(anchor.min(k), anchor.max(k));
+            let window = self.window(anchor.min(k), anchor.max(k), reach);
             let grid = self.submaps[s].grid()?;
-            let m = grid.match_scan(&scan.points, &initial, &window, config.min_score)?;
+            let m = grid.match_scan(&scan.points, &initial, &window, reach.min_score)?;
             (m.score > 0.0).then_some(LoopClosure {
                 keyframe: k,
                 submap: s,
@@ -113,9 +195,9 @@ impl PoseGraphMapper {
         .collect()
     }
 
-    /// The search window between keyframes `anchor` and `index` (the later); see the
-    /// module documentation.
-    pub(crate) fn window(&self, anchor: usize, index: usize) -> SearchWindow {
+    /// The search window between keyframes `anchor` and `index` (the later), clamped to
+    /// `reach`; see the module documentation.
+    fn window(&self, anchor: usize, index: usize, reach: &Reach) -> SearchWindow {
         let (a, b) = (self.accumulated[anchor], self.accumulated[index]);
         let var_xy = (b[0] - a[0]).max(0.0);
         let var_theta = (b[1] - a[1]).max(0.0);
@@ -123,9 +205,8 @@ impl PoseGraphMapper {
         let linear = (var_xy + var_theta * travelled * travelled / 3.0).sqrt();
         let config = &self.config;
         SearchWindow {
-            linear: (3.0 * linear).clamp(config.min_linear_window, config.max_linear_window),
-            angular: (3.0 * var_theta.sqrt())
-                .clamp(config.min_angular_window, config.max_angular_window),
+            linear: (3.0 * linear).clamp(config.min_linear_window, reach.most.linear),
+            angular: (3.0 * var_theta.sqrt()).clamp(config.min_angular_window, reach.most.angular),
         }
     }
 }
