@@ -467,20 +467,32 @@ impl From<&KeyframeState> for Keyframe {
 /// it would no longer line up with the front end's.
 fn add(mapper: &mut PoseGraphMapper, keyframe: Keyframe) -> Result<Option<Solved>, ()> {
     let index = mapper.keyframes();
+    let stamp_s = keyframe.stamp_ns as f64 * 1e-9;
     match mapper.add_keyframe(keyframe) {
         Ok(report) => {
-            if report.wide > 0 {
+            if report.wide_found > 0 {
                 tracing::info!(
                     keyframe = report.index,
+                    stamp_s,
                     submaps = report.wide,
-                    found = report.closures.len(),
-                    "wide loop-closure search: no match over the last keyframes, so the \
-                     submaps beyond the usual window were searched in the wide one"
+                    closures = report.wide_found,
+                    "wide loop-closure search matched: no long loop had closed over the last \
+                     keyframes, so the submaps beyond the usual window were searched in the \
+                     wide one"
+                );
+            } else if report.wide > 0 {
+                tracing::debug!(
+                    keyframe = report.index,
+                    stamp_s,
+                    submaps = report.wide,
+                    "wide loop-closure search found nothing"
                 );
             }
             for c in &report.closures {
                 tracing::debug!(
                     keyframe = c.keyframe,
+                    at = report.index,
+                    stamp_s,
                     submap = c.submap,
                     score = c.score,
                     "loop closure found"

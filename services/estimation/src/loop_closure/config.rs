@@ -64,22 +64,29 @@ pub struct LoopClosureConfig {
     pub min_angular_window: f64,
     /// … and at most this (rad). Default 0.349 (20°).
     pub max_angular_window: f64,
-    /// A keyframe whose index is a multiple of this, when no match was found at any of
-    /// the last `wide_search_every` keyframes, also searches wide: the finished submaps
-    /// whose chain uncertainty exceeds the window's clamps, within `3σ` clamped to
-    /// `wide_linear_window` and `wide_angular_window`, with `wide_min_score` (count; 0:
-    /// never). A loop longer than the clamps allow then still closes, at a cost paid
-    /// only while nothing matches. Default 20 (about 10 m at 0.5 m keyframes).
+    /// A keyframe whose index is a multiple of this, when none of the last
+    /// `wide_search_every` keyframes closed a long loop (matched a submap whose chain
+    /// uncertainty exceeds the window's clamps), also searches wide: those submaps,
+    /// within `3σ` clamped to `wide_linear_window` and `wide_angular_window`, accepting
+    /// `wide_min_score` (count; 0: never). A loop longer than the clamps allow then still
+    /// closes, at a cost paid only while no long loop closes. Default 20 (about 10 m at
+    /// 0.5 m keyframes).
     pub wide_search_every: usize,
-    /// The wide search's linear half width is `3σ`, at most this (m), and it reaches
-    /// submaps whose origin lies within `max_search_distance` plus the window of the
-    /// keyframe. Default 10.
+    /// The wide search's linear half width is `3σ`, at most this (m, at least
+    /// `max_linear_window`); it reaches submaps whose origin lies within
+    /// `max_search_distance` plus the window of the keyframe. Default 10.
     pub wide_linear_window: f64,
-    /// … its angular half width, at most this (rad). Default 0.785 (45°).
+    /// … its angular half width, at most this (rad, at least `max_angular_window`).
+    /// Default 0.785 (45°).
     pub wide_angular_window: f64,
-    /// A wide match is accepted at this score (in [0, 1]); a wider window offers more
-    /// places a wrong match can score at. Default 0.65.
+    /// A wide match is accepted at this score (in [0, 1]). Default 0.6, as `min_score`:
+    /// docs/ALGORITHMS.md §9.1 ("Loops longer than the window") has what a higher one
+    /// cost.
     pub wide_min_score: f64,
+    /// A wide match is kept only when this many matchable keyframes before it also match
+    /// the same submap, in the smallest window around where the wide match puts them
+    /// (count). Default 2.
+    pub wide_confirmations: usize,
     /// Levels of the max-pooled grids for branch and bound (count, 1..=12): the coarsest
     /// pools `2^(depth−1)` cells a side. Default 7 (64 cells, 3.2 m at 5 cm).
     pub depth: usize,
@@ -147,7 +154,8 @@ impl Default for LoopClosureConfig {
             wide_search_every: 20,
             wide_linear_window: 10.0,
             wide_angular_window: 45f64.to_radians(),
-            wide_min_score: 0.65,
+            wide_min_score: 0.6,
+            wide_confirmations: 2,
             depth: 7,
             min_score: 0.6,
             min_points: 20,
@@ -250,6 +258,14 @@ mod tests {
     use super::*;
     use crate::Error;
 
+    /// The name `config`'s validation refuses it for.
+    fn refused(config: LoopClosureConfig) -> &'static str {
+        match config.validate() {
+            Err(Error::InvalidParameter { name, .. }) => name,
+            other => panic!("{other:?}"),
+        }
+    }
+
     #[test]
     fn defaults_are_valid_and_bad_values_are_named() {
         LoopClosureConfig::default().validate().unwrap();
@@ -257,26 +273,12 @@ mod tests {
             min_linear_window: 4.0,
             ..LoopClosureConfig::default()
         };
-        let err = bad.validate().unwrap_err();
-        assert!(matches!(
-            err,
-            Error::InvalidParameter {
-                name: "loop_closure.min_linear_window",
-                ..
-            }
-        ));
+        assert_eq!(refused(bad), "loop_closure.min_linear_window");
         let narrow = LoopClosureConfig {
             wide_linear_window: 2.0,
             ..LoopClosureConfig::default()
         };
-        let err = narrow.validate().unwrap_err();
-        assert!(matches!(
-            err,
-            Error::InvalidParameter {
-                name: "loop_closure.wide_linear_window",
-                ..
-            }
-        ));
+        assert_eq!(refused(narrow), "loop_closure.wide_linear_window");
         let bad = LoopClosureConfig {
             depth: 0,
             ..LoopClosureConfig::default()

@@ -80,6 +80,8 @@ pub struct KeyframeReport {
     /// Of those, the finished submaps searched wide as well
     /// ([`LoopClosureConfig::wide_search_every`]).
     pub wide: usize,
+    /// Of the matches, those the wide search found (with their confirmations).
+    pub wide_found: usize,
     /// The matches that reached `min_score` (`wide_min_score` for a wide one), now
     /// loop-closure constraints: its own, then the earlier keyframes' in the submap it
     /// finished.
@@ -183,9 +185,6 @@ pub struct PoseGraphMapper {
     correction: Pose2,
     since_solve: usize,
     pending: usize,
-    /// The newest keyframe whose matching closed a long loop
-    /// ([`Self::closes_a_long_loop`]).
-    matched_at: Option<usize>,
     /// The odometry constraints' indices among the graph's betweens, ascending.
     odometry_edges: Vec<usize>,
 }
@@ -207,7 +206,6 @@ impl PoseGraphMapper {
             correction: Pose2::default(),
             since_solve: 0,
             pending: 0,
-            matched_at: None,
             odometry_edges: Vec::new(),
         })
     }
@@ -220,7 +218,9 @@ impl PoseGraphMapper {
     /// Adds a keyframe: a pose in the graph tied to the previous one by the front end's
     /// relative motion, its scan inserted into the active submap, and (every
     /// `search_every`-th keyframe) its scan matched against the finished submaps nearby,
-    /// each accepted match becoming a loop-closure constraint. Does not solve.
+    /// and every `wide_search_every`-th while no long loop is closing, in the wide window
+    /// (`search.rs`), each accepted match becoming a loop-closure constraint. Does not
+    /// solve.
     ///
     /// The consecutive constraint is `prev⁻¹ ∘ pose` of the front end's poses with
     /// covariance `Rᵀ Σ R + diag(f_xy², f_xy², f_θ²)`: the front end's covariance turned
@@ -233,7 +233,9 @@ impl PoseGraphMapper {
     ///
     /// # Performance
     /// One insertion (`O(beams · range / resolution)`), a branch-and-bound match per
-    /// finished submap within `max_search_distance` (a few ms each, in parallel), and
+    /// finished submap within `max_search_distance` (a few ms each, in parallel), one
+    /// per submap beyond the window's clamps when the wide search is due (tens of ms
+    /// each), and
     /// `O(cells · depth)` when the keyframe finishes its submap.
     pub fn add_keyframe(&mut self, keyframe: Keyframe) -> Result<KeyframeReport> {
         self.check(&keyframe)?;
@@ -311,15 +313,13 @@ impl PoseGraphMapper {
             searched += earlier;
             closures.extend(found);
         }
-        let mut wide = 0;
-        if closures.is_empty() && self.wide_due(index, self.matched_at) {
+        let (mut wide, mut wide_found) = (0, 0);
+        if self.wide_due(index, &closures) {
             let found;
             (wide, found) = self.search_wide(index);
             searched += wide;
+            wide_found = found.len();
             closures.extend(found);
-        }
-        if closures.iter().any(|c| self.closes_a_long_loop(c)) {
-            self.matched_at = Some(index);
         }
         let match_seconds = started.elapsed().as_secs_f64();
         for closure in &closures {
@@ -330,6 +330,7 @@ impl PoseGraphMapper {
             index,
             searched,
             wide,
+            wide_found,
             closures,
             solve_due: self.solve_due(),
             match_seconds,

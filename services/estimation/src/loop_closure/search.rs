@@ -15,13 +15,18 @@
 //! the same way, so that both passes through a place search the other's submaps.
 //!
 //! A loop whose drift exceeds the clamps cannot close in that window. So every
-//! `wide_search_every`-th keyframe, when none of the last `wide_search_every` keyframes
-//! found a match, also searches wide: the finished submaps whose `3σ` exceeds a clamp,
-//! and whose origin lies within `max_search_distance` plus the wide window, in `3σ`
-//! clamped to the wide window, accepting `wide_min_score`.
+//! `wide_search_every`-th keyframe, when no long loop closure in use ties any of the last
+//! `wide_search_every` keyframes, also searches wide: the finished submaps whose `3σ`
+//! exceeds a clamp, and whose origin lies within `max_search_distance` plus the wide
+//! window, in `3σ` clamped to the wide window, accepting `wide_min_score`. A wide match
+//! counts only when the `wide_confirmations` keyframes before it match the same submap
+//! where it puts them, in the smallest window: a wide window holds more places where a
+//! similar corridor scores well, and the scans of a few metres of travel rarely agree on
+//! a wrong one.
 
 use super::mapper::{LoopClosure, Matchable, PoseGraphMapper};
 use super::matcher::SearchWindow;
+use crate::pose::Pose2;
 use rayon::prelude::*;
 
 /// How far a search reaches: its window's clamps and the score it accepts.
@@ -85,24 +90,34 @@ impl PoseGraphMapper {
         }
     }
 
-    /// Whether `closure` tied two keyframes whose chain's `3σ` exceeds a clamp of the
-    /// window: a long loop closed.
-    pub(crate) fn closes_a_long_loop(&self, closure: &LoopClosure) -> bool {
+    /// Whether `closure` ties two keyframes whose chain's `3σ` exceeds a clamp of the
+    /// window: a long loop.
+    fn closes_a_long_loop(&self, closure: &LoopClosure) -> bool {
         let anchor = self.submaps[closure.submap].anchor();
         let (a, b) = (anchor.min(closure.keyframe), anchor.max(closure.keyframe));
         self.window(a, b, &self.wide()) != self.window(a, b, &self.regular())
     }
 
     /// Whether keyframe `index` searches wide: it is matchable, its index is a multiple
-    /// of `wide_search_every` (not 0), and the newest keyframe that closed a long loop
-    /// ([`Self::closes_a_long_loop`]), if any, lies `wide_search_every` or more
-    /// keyframes back (`matched_at`).
-    pub(crate) fn wide_due(&self, index: usize, matched_at: Option<usize>) -> bool {
+    /// of `wide_search_every` (not 0), none of its own `found` matches closes a long loop
+    /// ([`Self::closes_a_long_loop`]), and no long loop closure in use (weight > 0 after
+    /// the last solve, or not yet judged) has its later end within the last
+    /// `wide_search_every` keyframes.
+    pub(crate) fn wide_due(&self, index: usize, found: &[LoopClosure]) -> bool {
         let every = self.config.wide_search_every;
-        every > 0
-            && index.is_multiple_of(every)
-            && self.keyframes[index].matchable.is_some()
-            && matched_at.is_none_or(|m| m + every <= index)
+        if every == 0
+            || !index.is_multiple_of(every)
+            || self.keyframes[index].matchable.is_none()
+            || found.iter().any(|c| self.closes_a_long_loop(c))
+        {
+            return false;
+        }
+        let later_end = |c: &LoopClosure| c.keyframe.max(self.submaps[c.submap].anchor());
+        !(self.loops.iter()).any(|e| {
+            e.weight > 0.0
+                && later_end(&e.closure) + every > index
+                && self.closes_a_long_loop(&e.closure)
+        })
     }
 
     /// Matches keyframe `index` wide (see the module documentation): how many submaps
@@ -122,7 +137,9 @@ impl PoseGraphMapper {
             })
             .map(|s| (s, index))
             .collect();
-        (pairs.len(), self.match_pairs(&pairs, &wide))
+        let found = self.match_pairs(&pairs, &wide);
+        let confirmed = found.into_iter().flat_map(|c| self.confirmed(c)).collect();
+        (pairs.len(), confirmed)
     }
 
     /// Matches keyframe `index` against the finished submaps near it: how many were
@@ -169,21 +186,11 @@ impl PoseGraphMapper {
     fn match_pairs(&self, pairs: &[(usize, usize)], reach: &Reach) -> Vec<LoopClosure> {
         let matched = |&(s, k): &(usize, usize)| -> Option<LoopClosure> {
             let anchor = self.submaps[s].anchor();
-            let scan = self.keyframes[k].matchable.as_ref()?;
             let initial = self.graph.poses[anchor]
                 .inverse()
                 .compose(&self.graph.poses[k]);
             let window = self.window(anchor.min(k), anchor.max(k), reach);
-            let grid = self.submaps[s].grid()?;
-            let m = grid.match_scan(&scan.points, &initial, &window, reach.min_score)?;
-            (m.score > 0.0).then_some(LoopClosure {
-                keyframe: k,
-                submap: s,
-                pose: m.pose,
-                score: m.score,
-                lever: scan.lever,
-                curvature: Some(m.curvature.fixed_view::<2, 2>(0, 0).into_owned()),
-            })
+            self.match_at(s, k, &initial, &window, reach.min_score)
         };
         if pairs.len() > 1 {
             pairs.par_iter().map(matched).collect::<Vec<_>>()
@@ -193,6 +200,62 @@ impl PoseGraphMapper {
         .into_iter()
         .flatten()
         .collect()
+    }
+
+    /// Matches keyframe `k`'s scan against submap `s` in `window` around `initial` (its
+    /// pose in the submap's frame); the match when it reaches `min_score`.
+    fn match_at(
+        &self,
+        s: usize,
+        k: usize,
+        initial: &Pose2,
+        window: &SearchWindow,
+        min_score: f64,
+    ) -> Option<LoopClosure> {
+        let scan = self.keyframes[k].matchable.as_ref()?;
+        let grid = self.submaps[s].grid()?;
+        let m = grid.match_scan(&scan.points, initial, window, min_score)?;
+        (m.score > 0.0).then_some(LoopClosure {
+            keyframe: k,
+            submap: s,
+            pose: m.pose,
+            score: m.score,
+            lever: scan.lever,
+            curvature: Some(m.curvature.fixed_view::<2, 2>(0, 0).into_owned()),
+        })
+    }
+
+    /// A wide match with its confirmations: each of the `wide_confirmations` matchable
+    /// keyframes before `found`'s (not the submap's first) matched against the same
+    /// submap in the smallest window (`min_linear_window`, `min_angular_window`) around
+    /// where `found` puts it — the chain's motion between the two applied to
+    /// `found.pose` — at `wide_min_score`. Empty when one of them does not match.
+    fn confirmed(&self, found: LoopClosure) -> Vec<LoopClosure> {
+        let config = &self.config;
+        let (k, s) = (found.keyframe, found.submap);
+        let anchor = self.submaps[s].anchor();
+        let earlier: Vec<usize> = (0..k)
+            .rev()
+            .filter(|&j| j != anchor && self.keyframes[j].matchable.is_some())
+            .take(config.wide_confirmations)
+            .collect();
+        if earlier.len() < config.wide_confirmations {
+            return Vec::new();
+        }
+        let smallest = SearchWindow {
+            linear: config.min_linear_window,
+            angular: config.min_angular_window,
+        };
+        let here = self.graph.poses[k].inverse();
+        let mut all = vec![found];
+        for j in earlier {
+            let initial = found.pose.compose(&here.compose(&self.graph.poses[j]));
+            match self.match_at(s, j, &initial, &smallest, config.wide_min_score) {
+                Some(c) => all.push(c),
+                None => return Vec::new(),
+            }
+        }
+        all
     }
 
     /// The search window between keyframes `anchor` and `index` (the later), clamped to
