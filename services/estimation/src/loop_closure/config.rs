@@ -64,13 +64,14 @@ pub struct LoopClosureConfig {
     pub min_angular_window: f64,
     /// … and at most this (rad). Default 0.349 (20°).
     pub max_angular_window: f64,
-    /// A keyframe whose index is a multiple of this, when none of the last
-    /// `wide_search_every` keyframes closed a long loop (matched a submap whose chain
-    /// uncertainty exceeds the window's clamps), also searches wide: those submaps,
-    /// within `3σ` clamped to `wide_linear_window` and `wide_angular_window`, accepting
-    /// `wide_min_score` (count; 0: never). A loop longer than the clamps allow then still
-    /// closes, at a cost paid only while no long loop closes. Default 20 (about 10 m at
-    /// 0.5 m keyframes).
+    /// A keyframe whose index is a multiple of this (count; 0: never), when no long loop
+    /// closure in use (one tying a submap whose chain uncertainty exceeds the window's
+    /// clamps) was found at any of the last `wide_search_every` keyframes, also searches
+    /// wide: those submaps, within `3σ` clamped to `wide_linear_window` and
+    /// `wide_angular_window`, accepting `wide_min_score`, and keeping a match only when
+    /// `wide_confirmations` keyframes before it agree. A loop longer than the clamps allow
+    /// then still closes, at a cost paid only while no long loop closes. Default 20
+    /// (about 10 m at 0.5 m keyframes).
     pub wide_search_every: usize,
     /// The wide search's linear half width is `3σ`, at most this (m, at least
     /// `max_linear_window`); it reaches submaps whose origin lies within
@@ -83,9 +84,9 @@ pub struct LoopClosureConfig {
     /// docs/ALGORITHMS.md §9.1 ("Loops longer than the window") has what a higher one
     /// cost.
     pub wide_min_score: f64,
-    /// A wide match is kept only when this many matchable keyframes before it also match
-    /// the same submap, in the smallest window around where the wide match puts them
-    /// (count). Default 2.
+    /// A wide match is kept only when this many matchable keyframes before it, among its
+    /// last `wide_search_every`, also match the same submap, in the smallest window around
+    /// where the wide match puts them (count). Default 2.
     pub wide_confirmations: usize,
     /// Levels of the max-pooled grids for branch and bound (count, 1..=12): the coarsest
     /// pools `2^(depth−1)` cells a side. Default 7 (64 cells, 3.2 m at 5 cm).

@@ -75,7 +75,8 @@ pub struct KeyframeReport {
     /// The keyframe's index (its pose's index in the graph).
     pub index: usize,
     /// Matches tried: the finished submaps it was matched against, and the earlier
-    /// keyframes matched against the submap it finished.
+    /// keyframes matched against the submap it finished (a wide match's confirmations
+    /// not counted).
     pub searched: usize,
     /// Of those, the finished submaps searched wide as well
     /// ([`LoopClosureConfig::wide_search_every`]).
@@ -466,6 +467,7 @@ impl PoseGraphMapper {
             chi2: 0.0,
             between: self.graph.betweens.len(),
             information,
+            found_at: self.keyframes.len() - 1,
         });
         self.graph.betweens.push(Between {
             from: anchor,

@@ -43,6 +43,8 @@ pub struct LoopEdge {
     pub(crate) between: usize,
     /// Its nominal information.
     pub(crate) information: Matrix3<f64>,
+    /// The newest keyframe when it was added: where it was found.
+    pub(crate) found_at: usize,
 }
 
 /// What [`solve`] did.

@@ -98,36 +98,41 @@ impl PoseGraphMapper {
         self.window(a, b, &self.wide()) != self.window(a, b, &self.regular())
     }
 
-    /// Whether keyframe `index` searches wide: it is matchable, its index is a multiple
-    /// of `wide_search_every` (not 0), none of its own `found` matches closes a long loop
-    /// ([`Self::closes_a_long_loop`]), and no long loop closure in use (weight > 0 after
-    /// the last solve, or not yet judged) has its later end within the last
+    /// Whether keyframe `index` searches wide: it is matchable, its index is a positive
+    /// multiple of `wide_search_every` (not 0), none of its own `found` matches closes a
+    /// long loop ([`Self::closes_a_long_loop`]), and no long loop closure in use (weight
+    /// above 0 after the last solve, or not yet judged) was found at any of the last
     /// `wide_search_every` keyframes.
     pub(crate) fn wide_due(&self, index: usize, found: &[LoopClosure]) -> bool {
         let every = self.config.wide_search_every;
         if every == 0
+            || index == 0
             || !index.is_multiple_of(every)
             || self.keyframes[index].matchable.is_none()
             || found.iter().any(|c| self.closes_a_long_loop(c))
         {
             return false;
         }
-        let later_end = |c: &LoopClosure| c.keyframe.max(self.submaps[c.submap].anchor());
         !(self.loops.iter()).any(|e| {
-            e.weight > 0.0
-                && later_end(&e.closure) + every > index
-                && self.closes_a_long_loop(&e.closure)
+            e.weight > 0.0 && e.found_at + every > index && self.closes_a_long_loop(&e.closure)
         })
     }
 
-    /// Matches keyframe `index` wide (see the module documentation): how many submaps
-    /// were searched, and the matches that reached `wide_min_score`, in submap order.
+    /// Whether keyframe `index` is one of submap `s`'s own.
+    fn within(&self, s: usize, index: usize) -> bool {
+        let submap = &self.submaps[s];
+        (submap.anchor()..submap.anchor() + submap.keyframes()).contains(&index)
+    }
+
+    /// Matches keyframe `index` wide (see the module documentation) against the submaps
+    /// beyond the window's clamps, not its own: how many were searched, and the
+    /// confirmed matches, in submap order, each followed by its confirmations.
     pub(crate) fn search_wide(&self, index: usize) -> (usize, Vec<LoopClosure>) {
         let wide = self.wide();
         let pairs: Vec<(usize, usize)> = (0..self.submaps.len())
             .filter(|&s| {
                 let anchor = self.submaps[s].anchor();
-                if self.submaps[s].grid().is_none() || anchor == index {
+                if self.submaps[s].grid().is_none() || self.within(s, index) {
                     return false;
                 }
                 let (a, b) = (anchor.min(index), anchor.max(index));
@@ -226,17 +231,17 @@ impl PoseGraphMapper {
     }
 
     /// A wide match with its confirmations: each of the `wide_confirmations` matchable
-    /// keyframes before `found`'s (not the submap's first) matched against the same
-    /// submap in the smallest window (`min_linear_window`, `min_angular_window`) around
-    /// where `found` puts it — the chain's motion between the two applied to
-    /// `found.pose` — at `wide_min_score`. Empty when one of them does not match.
+    /// keyframes before `found`'s, among its last `wide_search_every` and not the
+    /// submap's own, matched against the same submap in the smallest window
+    /// (`min_linear_window`, `min_angular_window`) around where `found` puts it — the
+    /// chain's motion between the two applied to `found.pose` — at `wide_min_score`.
+    /// Empty when one of them does not match or there are too few.
     fn confirmed(&self, found: LoopClosure) -> Vec<LoopClosure> {
         let config = &self.config;
         let (k, s) = (found.keyframe, found.submap);
-        let anchor = self.submaps[s].anchor();
-        let earlier: Vec<usize> = (0..k)
+        let earlier: Vec<usize> = (k.saturating_sub(config.wide_search_every)..k)
             .rev()
-            .filter(|&j| j != anchor && self.keyframes[j].matchable.is_some())
+            .filter(|&j| !self.within(s, j) && self.keyframes[j].matchable.is_some())
             .take(config.wide_confirmations)
             .collect();
         if earlier.len() < config.wide_confirmations {
