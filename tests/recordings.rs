@@ -206,12 +206,17 @@ fn broken_recordings_are_one_line_each() {
     );
 }
 
+/// The text of the gzipped data file at `relative` (under `data/`).
+fn gzipped_text(relative: &str) -> String {
+    let gz = std::fs::File::open(data(relative)).unwrap();
+    std::io::read_to_string(flate2::read::MultiGzDecoder::new(gz)).unwrap()
+}
+
 /// MIT CSAIL's log rewritten with its laser off the base: only its FLASER lines are
 /// kept, each as a ROBOTLASER1 line with the scan and the laser's pose as recorded and the
 /// base at `laser ∘ mount⁻¹`, so the odometry is the base's.
 fn mounted_log(mount: &Pose2, path: &Path) {
-    let gz = std::fs::File::open(data("freiburg/mit-csail/mit-csail.clf.gz")).unwrap();
-    let text = std::io::read_to_string(flate2::read::MultiGzDecoder::new(gz)).unwrap();
+    let text = gzipped_text("freiburg/mit-csail/mit-csail.clf.gz");
     let mut out = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
     for fields in text
         .lines()
@@ -274,8 +279,7 @@ fn slipped_aces(path: &Path) {
     const SLIP_START_S: f64 = 730.0;
     const SLIP_S: f64 = 60.0;
     const SLIP_DEG: f64 = 30.0;
-    let gz = std::fs::File::open(data("freiburg/aces/aces.clf.gz")).unwrap();
-    let text = std::io::read_to_string(flate2::read::MultiGzDecoder::new(gz)).unwrap();
+    let text = gzipped_text("freiburg/aces/aces.clf.gz");
     let mut out = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
     let (mut first, mut pivot) = (None, None);
     for line in text.lines() {

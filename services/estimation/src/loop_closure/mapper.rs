@@ -235,9 +235,8 @@ impl PoseGraphMapper {
     /// # Performance
     /// One insertion (`O(beams · range / resolution)`), a branch-and-bound match per
     /// finished submap within `max_search_distance` (a few ms each, in parallel), one
-    /// per submap beyond the window's clamps when the wide search is due (tens of ms
-    /// each), and
-    /// `O(cells · depth)` when the keyframe finishes its submap.
+    /// per submap beyond the window's clamps in the larger wide window when the wide
+    /// search is due, and `O(cells · depth)` when the keyframe finishes its submap.
     pub fn add_keyframe(&mut self, keyframe: Keyframe) -> Result<KeyframeReport> {
         self.check(&keyframe)?;
         let index = self.keyframes.len();
@@ -316,10 +315,9 @@ impl PoseGraphMapper {
         }
         let (mut wide, mut wide_found) = (0, 0);
         if self.wide_due(index, &closures) {
-            let found;
-            (wide, found) = self.search_wide(index);
-            searched += wide;
-            wide_found = found.len();
+            let (submaps, found) = self.search_wide(index);
+            (wide, wide_found) = (submaps, found.len());
+            searched += submaps;
             closures.extend(found);
         }
         let match_seconds = started.elapsed().as_secs_f64();

@@ -90,12 +90,19 @@ impl PoseGraphMapper {
         }
     }
 
+    /// The wide window between keyframes `a` and `b` (either order) when the chain's `3σ`
+    /// between them exceeds a clamp of the usual window; `None` when it does not.
+    fn widened(&self, a: usize, b: usize) -> Option<SearchWindow> {
+        let (a, b) = (a.min(b), a.max(b));
+        let wide = self.window(a, b, &self.wide());
+        (wide != self.window(a, b, &self.regular())).then_some(wide)
+    }
+
     /// Whether `closure` ties two keyframes whose chain's `3σ` exceeds a clamp of the
     /// window: a long loop.
     fn closes_a_long_loop(&self, closure: &LoopClosure) -> bool {
         let anchor = self.submaps[closure.submap].anchor();
-        let (a, b) = (anchor.min(closure.keyframe), anchor.max(closure.keyframe));
-        self.window(a, b, &self.wide()) != self.window(a, b, &self.regular())
+        self.widened(anchor, closure.keyframe).is_some()
     }
 
     /// Whether keyframe `index` searches wide: it is matchable, its index is a positive
@@ -131,14 +138,11 @@ impl PoseGraphMapper {
         let wide = self.wide();
         let pairs: Vec<(usize, usize)> = (0..self.submaps.len())
             .filter(|&s| {
-                let anchor = self.submaps[s].anchor();
-                if self.submaps[s].grid().is_none() || self.within(s, index) {
-                    return false;
-                }
-                let (a, b) = (anchor.min(index), anchor.max(index));
-                let widened = self.window(a, b, &wide);
-                widened != self.window(a, b, &self.regular())
-                    && self.distance(s, index) <= self.config.max_search_distance + widened.linear
+                let reach = self.config.max_search_distance;
+                self.submaps[s].grid().is_some()
+                    && !self.within(s, index)
+                    && (self.widened(self.submaps[s].anchor(), index))
+                        .is_some_and(|w| self.distance(s, index) <= reach + w.linear)
             })
             .map(|s| (s, index))
             .collect();
