@@ -463,7 +463,7 @@ fn a_drifting_loop_closes_and_its_map_has_single_walls() {
 
 #[test]
 fn a_loop_drifting_beyond_the_usual_window_closes_in_the_wide_search() {
-    let run = drifting_ring(0.3, 1.0);
+    let run = drifting_ring(0.3, 0.5);
     let last = run.truth.len() - 1;
     let turn = (run.front_end[last].theta - run.truth[last].theta).abs();
     let drift = distance(&run.front_end[last], &run.truth[last]);

@@ -98,9 +98,10 @@ pub struct LoopClosureConfig {
     /// Fewest scan points a keyframe needs to be matched (count). Default 20.
     pub min_points: usize,
     /// Standard deviation added in quadrature to the front end's between-keyframe
-    /// covariance, position (m). Default 0.02.
+    /// covariance, position (m). Default 0.008: the chain's noise the variance components
+    /// of the three Freiburg logs' solved graphs measure (docs/ALGORITHMS.md §9.1).
     pub between_floor_xy: f64,
-    /// … heading (rad). Default 0.0087 (0.5°).
+    /// … heading (rad). Default 0.0035 (0.2°).
     pub between_floor_theta: f64,
     /// Consecutive keyframes are also tied by the odometry's own motion between them,
     /// with the motion model's covariance, unless it disagrees with the front end's
@@ -160,8 +161,8 @@ impl Default for LoopClosureConfig {
             depth: 7,
             min_score: 0.6,
             min_points: 20,
-            between_floor_xy: 0.02,
-            between_floor_theta: 0.5f64.to_radians(),
+            between_floor_xy: 0.008,
+            between_floor_theta: 0.2f64.to_radians(),
             odometry_constraints: true,
             fit_odometry_at_end: true,
             loop_sigma_cells: 1.0,
