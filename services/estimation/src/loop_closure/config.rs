@@ -54,6 +54,13 @@ pub struct LoopClosureConfig {
     /// estimates) are searched (m). Default 15: a submap reaches about its range limit
     /// around the path it was built along.
     pub max_search_distance: f64,
+    /// The search window's accumulated uncertainty adds this standard deviation in
+    /// quadrature to each consecutive step's front-end covariance, position (m). Default
+    /// 0.02: wider than the chain's floor (`between_floor_xy`), so that the window bounds
+    /// a front end drifting more than the graph's constraints are modelled with.
+    pub window_floor_xy: f64,
+    /// … heading (rad). Default 0.0087 (0.5°).
+    pub window_floor_theta: f64,
     /// The linear search window's half width is `3σ` of the accumulated uncertainty, but at
     /// least this (m). Default 0.3.
     pub min_linear_window: f64,
@@ -161,6 +168,8 @@ impl Default for LoopClosureConfig {
             depth: 7,
             min_score: 0.6,
             min_points: 20,
+            window_floor_xy: 0.02,
+            window_floor_theta: 0.5f64.to_radians(),
             between_floor_xy: 0.008,
             between_floor_theta: 0.2f64.to_radians(),
             odometry_constraints: true,
@@ -180,6 +189,17 @@ impl Default for LoopClosureConfig {
 pub const MAX_DEPTH: usize = 12;
 
 impl LoopClosureConfig {
+    /// `(between_floor_xy, between_floor_theta)`: the floor of the graph's consecutive
+    /// and odometry constraints.
+    pub(crate) fn chain_floor(&self) -> (f64, f64) {
+        (self.between_floor_xy, self.between_floor_theta)
+    }
+
+    /// `(window_floor_xy, window_floor_theta)`: the floor of the search window's steps.
+    pub(crate) fn window_floor(&self) -> (f64, f64) {
+        (self.window_floor_xy, self.window_floor_theta)
+    }
+
     /// Checks every value.
     ///
     /// # Errors
@@ -233,6 +253,8 @@ impl LoopClosureConfig {
             || format!("must lie in 1..={MAX_DEPTH}, got {}", self.depth),
         )?;
         in_range("loop_closure.min_score", self.min_score, 0.0, 1.0)?;
+        positive("loop_closure.window_floor_xy", self.window_floor_xy)?;
+        positive("loop_closure.window_floor_theta", self.window_floor_theta)?;
         positive("loop_closure.between_floor_xy", self.between_floor_xy)?;
         positive("loop_closure.between_floor_theta", self.between_floor_theta)?;
         positive("loop_closure.loop_sigma_cells", self.loop_sigma_cells)?;
@@ -281,6 +303,11 @@ mod tests {
             ..LoopClosureConfig::default()
         };
         assert_eq!(refused(narrow), "loop_closure.wide_linear_window");
+        let unbounded = LoopClosureConfig {
+            window_floor_theta: 0.0,
+            ..LoopClosureConfig::default()
+        };
+        assert_eq!(refused(unbounded), "loop_closure.window_floor_theta");
         let bad = LoopClosureConfig {
             depth: 0,
             ..LoopClosureConfig::default()

@@ -252,7 +252,8 @@ impl PoseGraphMapper {
             }
             Some(previous) => {
                 let delta = previous.front_end.inverse().compose(&keyframe.pose);
-                let covariance = self.floored(&keyframe.covariance, previous.front_end.theta);
+                let theta = previous.front_end.theta;
+                let covariance = floored(&keyframe.covariance, theta, self.config.chain_floor());
                 let information = covariance.cholesky().map(|c| c.inverse()).ok_or_else(|| {
                     Error::InvalidInput {
                         what: "keyframe covariance",
@@ -273,11 +274,12 @@ impl PoseGraphMapper {
                     self.odometry_edges.push(self.graph.betweens.len());
                     self.graph.betweens.push(between);
                 }
-                let xy = SymmetricEigen::new(covariance.fixed_view::<2, 2>(0, 0).into_owned());
+                let window = floored(&keyframe.covariance, theta, self.config.window_floor());
+                let xy = SymmetricEigen::new(window.fixed_view::<2, 2>(0, 0).into_owned());
                 let before = self.accumulated[index - 1];
                 self.accumulated.push([
                     before[0] + xy.eigenvalues.max(),
-                    before[1] + covariance[(2, 2)],
+                    before[1] + window[(2, 2)],
                     before[2] + delta.x.hypot(delta.y),
                 ]);
             }
@@ -383,7 +385,11 @@ impl PoseGraphMapper {
             .filter(|_| self.config.odometry_constraints)?;
         let previous = self.keyframes[index - 1].front_end;
         let moved = previous.inverse().compose(&odometry.predicted);
-        let spread = self.floored(&odometry.covariance, previous.theta);
+        let spread = floored(
+            &odometry.covariance,
+            previous.theta,
+            self.config.chain_floor(),
+        );
         let disagreement = Vector3::new(
             moved.x - delta.x,
             moved.y - delta.y,
@@ -401,21 +407,6 @@ impl PoseGraphMapper {
             information,
             residual: PoseResidual::Componentwise,
         })
-    }
-
-    /// The consecutive constraint's covariance: `covariance` (map axes) turned onto the
-    /// axes of a keyframe heading `theta`, made symmetric, plus the floor.
-    fn floored(&self, covariance: &Matrix3<f64>, theta: f64) -> Matrix3<f64> {
-        let (s, c) = theta.sin_cos();
-        // Map axes → the previous keyframe's axes.
-        let r = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0);
-        let turned = r * covariance * r.transpose();
-        let symmetric = 0.5 * (turned + turned.transpose());
-        let (fxy, ft) = (
-            self.config.between_floor_xy,
-            self.config.between_floor_theta,
-        );
-        symmetric + Matrix3::from_diagonal(&Vector3::new(fxy * fxy, fxy * fxy, ft * ft))
     }
 
     /// Adds a loop-closure constraint from submap `closure.submap`'s first keyframe to
@@ -666,6 +657,18 @@ fn shaped(curvature: &Matrix2<f64>, floor: f64) -> Matrix2<f64> {
     eigen.eigenvectors
         * Matrix2::from_diagonal(&Vector2::new(scaled[0], scaled[1]))
         * eigen.eigenvectors.transpose()
+}
+
+/// `covariance` (map axes) turned onto the axes of a keyframe heading `theta`, made
+/// symmetric, plus the floor `(σ_xy, σ_θ)` in quadrature: a consecutive constraint's
+/// covariance, or a step of the search window's accumulated uncertainty.
+fn floored(covariance: &Matrix3<f64>, theta: f64, (fxy, ft): (f64, f64)) -> Matrix3<f64> {
+    let (s, c) = theta.sin_cos();
+    // Map axes → the previous keyframe's axes.
+    let r = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0);
+    let turned = r * covariance * r.transpose();
+    let symmetric = 0.5 * (turned + turned.transpose());
+    symmetric + Matrix3::from_diagonal(&Vector3::new(fxy * fxy, fxy * fxy, ft * ft))
 }
 
 #[cfg(test)]
