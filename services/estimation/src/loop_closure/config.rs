@@ -56,8 +56,9 @@ pub struct LoopClosureConfig {
     pub max_search_distance: f64,
     /// The search window's accumulated uncertainty adds this standard deviation in
     /// quadrature to each consecutive step's front-end covariance, position (m). Default
-    /// 0.02: wider than the chain's floor (`between_floor_xy`), so that the window bounds
-    /// a front end drifting more than the graph's constraints are modelled with.
+    /// 0.02: by default wider than the chain's floor (`between_floor_xy`), so that the
+    /// window bounds a front end drifting more than the graph's constraints are modelled
+    /// with.
     pub window_floor_xy: f64,
     /// … heading (rad). Default 0.0087 (0.5°).
     pub window_floor_theta: f64,
@@ -72,7 +73,7 @@ pub struct LoopClosureConfig {
     /// … and at most this (rad). Default 0.349 (20°).
     pub max_angular_window: f64,
     /// A keyframe whose index is a multiple of this (count; 0: never), when no long loop
-    /// closure in use (one tying a submap whose chain uncertainty exceeds the window's
+    /// closure in use (one tying a submap whose window uncertainty exceeds the window's
     /// clamps) was found at any of the last `wide_search_every` keyframes, also searches
     /// wide: those submaps, within `3σ` clamped to `wide_linear_window` and
     /// `wide_angular_window`, accepting `wide_min_score`, and keeping a match only when

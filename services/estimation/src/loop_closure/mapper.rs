@@ -178,8 +178,10 @@ pub struct PoseGraphMapper {
     pub(crate) config: LoopClosureConfig,
     pub(crate) graph: Graph,
     pub(crate) keyframes: Vec<Kept>,
-    /// Per keyframe, summed from the first: the consecutive constraints' largest position
-    /// variance (m²), heading variance (rad²) and travelled distance (m).
+    /// Per keyframe, summed from the first over each step's front-end covariance plus the
+    /// search window's floor (`window_floor_xy`, `window_floor_theta`): the largest
+    /// position variance (m²), the heading variance (rad²) and the travelled distance (m).
+    /// The search windows are `3σ` of it.
     pub(crate) accumulated: Vec<[f64; 3]>,
     pub(crate) submaps: Vec<Submap>,
     pub(crate) loops: Vec<LoopEdge>,
@@ -225,8 +227,10 @@ impl PoseGraphMapper {
     ///
     /// The consecutive constraint is `prev⁻¹ ∘ pose` of the front end's poses with
     /// covariance `Rᵀ Σ R + diag(f_xy², f_xy², f_θ²)`: the front end's covariance turned
-    /// onto the previous keyframe's axes plus the floor (`between_floor_xy`,
-    /// `between_floor_theta`), so it is never singular nor tighter than the floor.
+    /// onto the previous keyframe's axes plus the chain's floor (`between_floor_xy`,
+    /// `between_floor_theta`), so it is never singular nor tighter than the floor. The
+    /// search window accumulates the same step with its own, wider floor
+    /// (`window_floor_xy`, `window_floor_theta`).
     ///
     /// # Errors
     /// [`Error::InvalidInput`] for a non-finite pose, covariance, point, beam or sensor
@@ -368,7 +372,8 @@ impl PoseGraphMapper {
     /// The odometry's constraint from keyframe `index − 1` to `index`, from the
     /// keyframe's odometry ([`Keyframe::odometry`]): its motion `prev⁻¹ ∘ predicted`
     /// with the motion model's covariance turned onto the previous keyframe's axes plus
-    /// the floor. `None` when the keyframe has no odometry, `odometry_constraints` is
+    /// the chain's floor (`between_floor_xy`, `between_floor_theta`). `None` when the
+    /// keyframe has no odometry, `odometry_constraints` is
     /// off, or the odometry disagrees with the front end's motion `delta` (covariance
     /// `covariance`, the previous keyframe's axes) beyond `loop_chi2_gate` in χ² of both
     /// covariances — a lag or a glitch, where the front end believed the scan — or that

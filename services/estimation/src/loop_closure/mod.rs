@@ -12,7 +12,8 @@
 //!   levels ([`MatchGrid`]).
 //! - **Matching** ([`MatchGrid::match_scan`]): a keyframe's scan against every finished
 //!   submap nearby, by branch and bound over `(x, y, θ)` in a window of `3σ` of the
-//!   chain's accumulated uncertainty ([`SearchWindow`]), then refined off the lattice. A
+//!   uncertainty accumulated along the keyframes ([`SearchWindow`]), then refined off the
+//!   lattice. A
 //!   match scoring at least `min_score` becomes a loop-closure constraint from the
 //!   submap's first keyframe to the keyframe ([`LoopClosure`]).
 //! - **Solving** ([`PoseGraphMapper::solve`]): Levenberg–Marquardt with the loop closures

@@ -3,13 +3,16 @@
 //! A finished submap is searched when its origin (its first keyframe's estimate) lies
 //! within `max_search_distance` of the keyframe's estimate. The window is centred on the
 //! keyframe's estimate seen from the submap's origin and spans `3σ` of the uncertainty
-//! the graph's chain of consecutive constraints accumulates between the two, approximated
-//! without a marginal covariance: summed along the chain, the largest position variance
-//! of each constraint gives `σ²_xy`, the heading variances give `σ²_θ`, and a heading
-//! error anywhere along the `L` metres travelled moves the end by up to `L`, on average
-//! `L/√3` on a straight path, so `σ²_lin = σ²_xy + σ²_θ L² / 3`. Both are clamped to the
-//! configured windows. Loop closures already in the graph do not shrink the window: it
-//! is the chain's uncertainty, a bound the true one stays below.
+//! accumulated along the keyframes between the two, approximated without a marginal
+//! covariance: each step is the front end's covariance plus the window's floor
+//! (`window_floor_xy`, `window_floor_theta`; wider than the graph's chain floor, so that
+//! the window bounds a front end drifting more than the constraints are modelled with);
+//! summed along the steps, the largest position variance of each gives `σ²_xy`, the
+//! heading variances give `σ²_θ`, and a heading error anywhere along the `L` metres
+//! travelled moves the end by up to `L`, on average `L/√3` on a straight path, so
+//! `σ²_lin = σ²_xy + σ²_θ L² / 3`. Both are clamped to the configured windows. Loop
+//! closures already in the graph do not shrink the window: it is a bound the true
+//! uncertainty stays below.
 //!
 //! When a submap is finished, earlier keyframes near its origin are matched against it
 //! the same way, so that both passes through a place search the other's submaps.
@@ -90,7 +93,7 @@ impl PoseGraphMapper {
         }
     }
 
-    /// The wide window between keyframes `a` and `b` (either order) when the chain's `3σ`
+    /// The wide window between keyframes `a` and `b` (either order) when the window's `3σ`
     /// between them exceeds a clamp of the usual window; `None` when it does not.
     fn widened(&self, a: usize, b: usize) -> Option<SearchWindow> {
         let (a, b) = (a.min(b), a.max(b));
@@ -98,7 +101,7 @@ impl PoseGraphMapper {
         (wide != self.window(a, b, &self.regular())).then_some(wide)
     }
 
-    /// Whether `closure` ties two keyframes whose chain's `3σ` exceeds a clamp of the
+    /// Whether `closure` ties two keyframes whose window's `3σ` exceeds a clamp of the
     /// window: a long loop.
     fn closes_a_long_loop(&self, closure: &LoopClosure) -> bool {
         let anchor = self.submaps[closure.submap].anchor();
