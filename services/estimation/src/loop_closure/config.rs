@@ -56,9 +56,8 @@ pub struct LoopClosureConfig {
     pub max_search_distance: f64,
     /// The search window's accumulated uncertainty adds this standard deviation in
     /// quadrature to each consecutive step's front-end covariance, position (m). Default
-    /// 0.02: by default wider than the chain's floor (`between_floor_xy`), so that the
-    /// window bounds a front end drifting more than the graph's constraints are modelled
-    /// with.
+    /// 0.02, wider than the chain's default floor (`between_floor_xy`), so that the window
+    /// bounds a front end drifting more than the graph's constraints are modelled with.
     pub window_floor_xy: f64,
     /// … heading (rad). Default 0.0087 (0.5°).
     pub window_floor_theta: f64,

@@ -373,11 +373,11 @@ impl PoseGraphMapper {
     /// keyframe's odometry ([`Keyframe::odometry`]): its motion `prev⁻¹ ∘ predicted`
     /// with the motion model's covariance turned onto the previous keyframe's axes plus
     /// the chain's floor (`between_floor_xy`, `between_floor_theta`). `None` when the
-    /// keyframe has no odometry, `odometry_constraints` is
-    /// off, or the odometry disagrees with the front end's motion `delta` (covariance
-    /// `covariance`, the previous keyframe's axes) beyond `loop_chi2_gate` in χ² of both
-    /// covariances — a lag or a glitch, where the front end believed the scan — or that
-    /// χ² is not a number (a value not finite).
+    /// keyframe has no odometry, `odometry_constraints` is off, or the odometry disagrees
+    /// with the front end's motion `delta` (covariance `covariance`, the previous
+    /// keyframe's axes) beyond `loop_chi2_gate` in χ² of both covariances — a lag or a
+    /// glitch, where the front end believed the scan — or that χ² is not a number (a value
+    /// not finite).
     fn odometry_between(
         &self,
         index: usize,

@@ -13,9 +13,8 @@
 //! - **Matching** ([`MatchGrid::match_scan`]): a keyframe's scan against every finished
 //!   submap nearby, by branch and bound over `(x, y, θ)` in a window of `3σ` of the
 //!   uncertainty accumulated along the keyframes ([`SearchWindow`]), then refined off the
-//!   lattice. A
-//!   match scoring at least `min_score` becomes a loop-closure constraint from the
-//!   submap's first keyframe to the keyframe ([`LoopClosure`]).
+//!   lattice. A match scoring at least `min_score` becomes a loop-closure constraint from
+//!   the submap's first keyframe to the keyframe ([`LoopClosure`]).
 //! - **Solving** ([`PoseGraphMapper::solve`]): Levenberg–Marquardt with the loop closures
 //!   reweighted outside the solver (Cauchy on their χ²) and gated; the result is every
 //!   keyframe's pose and the correction `optimised ∘ front-end⁻¹` of the newest keyframe
