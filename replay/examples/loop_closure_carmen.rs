@@ -6,7 +6,8 @@
 //! and accepted, the time per keyframe and per solve, how much each solve changed the
 //! correction, and, when `<name>.relations` sits next to the log, the Freiburg relation
 //! errors of the front end, of the real-time pose the service would publish (the front
-//! end's moved by the correction `delay_keyframes` keyframes old) and of the back-end's
+//! end's moved by the correction `delay_keyframes` keyframes old, in the map frame's gauge
+//! `loop_closure::local_gauge`) and of the back-end's
 //! trajectory (every scan placed as the service places it, `loop_closure::place_scans`).
 //! Writes the back-end's map as a PGM image.
 //!
@@ -19,7 +20,8 @@ use fastslam_estimation::fastslam::FastSlamConfig;
 use fastslam_estimation::grid::GridConfig;
 use fastslam_estimation::gridslam::{GridFastSlam, ScanMatchConfig};
 use fastslam_estimation::loop_closure::{
-    Keyframe, LoopClosureConfig, Odometry, OdometryFit, PoseGraphMapper, Solution, place_scans,
+    Keyframe, LoopClosureConfig, Odometry, OdometryFit, PoseGraphMapper, Solution, local_gauge,
+    place_scans,
 };
 use fastslam_estimation::motion::{Control, Increment, MotionModel};
 use fastslam_estimation::moves::MoveConfig;
@@ -150,7 +152,13 @@ fn main() -> anyhow::Result<()> {
     // front end's moved by the correction of `delay_keyframes` keyframes before.
     let mut corrections: Vec<Pose2> = Vec::new();
     let mut real_time: Vec<(u64, Pose2)> = Vec::new();
+    // At each solve: the change of the correction, and the first keyframe's move in the
+    // map frame (the gauge's change), translation (m) and heading (°).
     let mut jumps: Vec<(f64, f64)> = Vec::new();
+    let mut moves: Vec<(f64, f64)> = Vec::new();
+    // The real-time pose at each keyframe, and the map frame's gauge of the newest solve.
+    let mut published: Vec<Pose2> = Vec::new();
+    let mut gauge = Pose2::default();
     let mut front_s = 0.0;
     let mut previous: Option<Pose2> = None;
     let started = Instant::now();
@@ -211,16 +219,29 @@ fn main() -> anyhow::Result<()> {
                 let solution = mapper.solve()?;
                 solves += 1;
                 solve_s += solution.seconds;
+                let previous = gauge;
+                let radius = config.gauge_radius;
+                gauge = local_gauge(&solution.poses, &published, radius).unwrap_or(gauge);
+                // The first keyframe, which its prior holds in the graph, moves with the gauge.
+                let first = solution.poses.first().copied().unwrap_or_default();
+                let (moved, was) = (gauge.compose(&first), previous.compose(&first));
+                let turn = wrap_angle(moved.theta - was.theta).abs().to_degrees();
+                moves.push(((moved.x - was.x).hypot(moved.y - was.y), turn));
                 let before = corrections.last().copied().unwrap_or_default();
-                let d = before.inverse().compose(&solution.correction);
+                let d = before
+                    .inverse()
+                    .compose(&gauge.compose(&solution.correction));
                 jumps.push((d.x.hypot(d.y), d.theta.abs().to_degrees()));
                 latest = Some(solution);
             }
-            corrections.push(mapper.correction());
+            corrections.push(gauge.compose(&mapper.correction()));
         }
         let in_force = (corrections.len().checked_sub(1 + config.delay_keyframes))
             .map_or_else(Pose2::default, |k| corrections[k]);
         real_time.push((stamp, in_force.compose(&estimate)));
+        if covariance.is_some() {
+            published.push(in_force.compose(&estimate));
+        }
         if let Some(k) = mapper.keyframes().checked_sub(1) {
             scans.push((stamp, estimate, k));
         }
@@ -291,13 +312,14 @@ fn main() -> anyhow::Result<()> {
         .map(|(&(stamp, _, _), pose)| (stamp, pose))
         .collect();
     let own: Vec<(u64, Pose2)> = scans.iter().map(|&(s, p, _)| (s, p)).collect();
-    jumps.sort_by(|a, b| a.1.total_cmp(&b.1));
-    if let Some(&(_, worst)) = jumps.last() {
-        let median = jumps[jumps.len() / 2].1;
-        let big = jumps.iter().filter(|j| j.1 > 0.5).count();
+    print_changes("correction changes", &mut jumps);
+    print_changes("the first keyframe's moves", &mut moves);
+    if let Some(first) = mapper.poses().first() {
+        let moved = gauge.compose(first);
         println!(
-            "correction changes at {} solves: heading median {median:.3}°, worst {worst:.2}°, {big} over 0.5°",
-            jumps.len()
+            "the first keyframe ends {:.2} m and {:.2}° from where the graph's prior holds it",
+            (moved.x - first.x).hypot(moved.y - first.y),
+            wrap_angle(moved.theta - first.theta).abs().to_degrees()
         );
     }
     if let Some(relations) = relations_of(&path) {
@@ -316,7 +338,7 @@ fn main() -> anyhow::Result<()> {
             }
         }
     }
-    if let Some(map) = mapper.render(&grid) {
+    if let Some(map) = mapper.render(&grid, &gauge) {
         let mut bytes = format!("P5\n{} {}\n255\n", map.width, map.height).into_bytes();
         for j in (0..map.height).rev() {
             for i in 0..map.width {
@@ -332,6 +354,26 @@ fn main() -> anyhow::Result<()> {
         println!("map written to {}", image.display());
     }
     Ok(())
+}
+
+/// Prints the median and worst of `changes` (translation in m, heading in °), each sorted
+/// on its own, with how many turn by more than 0.5°.
+fn print_changes(what: &str, changes: &mut [(f64, f64)]) {
+    let (mut moves, mut turns): (Vec<f64>, Vec<f64>) = changes.iter().copied().unzip();
+    if moves.is_empty() {
+        return;
+    }
+    moves.sort_by(f64::total_cmp);
+    turns.sort_by(f64::total_cmp);
+    let big = turns.iter().filter(|&&t| t > 0.5).count();
+    let (n, half) = (moves.len(), moves.len() / 2);
+    println!(
+        "{what} at {n} solves: median {:.3} m and {:.3}°, worst {:.2} m and {:.2}°, {big} over 0.5°",
+        moves[half],
+        turns[half],
+        moves[n - 1],
+        turns[n - 1]
+    );
 }
 
 /// The odometry pose at `stamp`, interpolated between the poses around it.

@@ -9,7 +9,7 @@ use fastslam_estimation::Pose2;
 use fastslam_estimation::grid::{GridConfig, KeptBeam, LogOddsGrid, OccupancyGrid};
 use fastslam_estimation::loop_closure::{
     Keyframe, LoopClosure, LoopClosureConfig, MatchGrid, PoseGraphMapper, ProbabilityGrid,
-    SearchWindow,
+    SearchWindow, local_gauge,
 };
 use fastslam_estimation::rng::seeded;
 use nalgebra::Matrix3;
@@ -116,18 +116,19 @@ fn beams_and_points(ranges: &[f64]) -> (Vec<KeptBeam>, Vec<[f64; 2]>) {
     (beams, points)
 }
 
-/// True keyframe poses around the ring: 0.5 m steps along each side, 30° turns at the
-/// corners, and `extra` steps along the first side again.
-fn loop_path(extra: usize) -> Vec<Pose2> {
+/// True keyframe poses `laps` times around the ring: 0.5 m steps along each side, 30°
+/// turns at the corners, and `extra` steps along the first side again.
+fn loop_path(laps: usize, extra: usize) -> Vec<Pose2> {
     let mut path = Vec::new();
     let mut pose = Pose2::default();
-    for side in 0..5 {
-        let steps = if side == 4 { extra } else { 20 };
+    let sides = 4 * laps;
+    for side in 0..=sides {
+        let steps = if side == sides { extra } else { 20 };
         for _ in 0..steps {
             path.push(pose);
             pose = pose.compose(&Pose2::new(0.5, 0.0, 0.0));
         }
-        if side < 4 {
+        if side < sides {
             for _ in 0..3 {
                 path.push(pose);
                 pose = pose.compose(&Pose2::new(0.0, 0.0, 30f64.to_radians()));
@@ -172,14 +173,14 @@ struct Run {
 }
 
 fn ring_run() -> Run {
-    drifting_ring(0.05, 0.1)
+    drifting_ring(0.05, 0.1, 1)
 }
 
-/// The ring loop driven with a heading bias of `bias_deg` (degrees per keyframe), each
-/// keyframe's heading σ `sigma_deg` plus 5 % of its turn.
-fn drifting_ring(bias_deg: f64, sigma_deg: f64) -> Run {
+/// The ring loop driven `laps` times with a heading bias of `bias_deg` (degrees per
+/// keyframe), each keyframe's heading σ `sigma_deg` plus 5 % of its turn.
+fn drifting_ring(bias_deg: f64, sigma_deg: f64, laps: usize) -> Run {
     let world = corridor_world();
-    let truth = loop_path(16);
+    let truth = loop_path(laps, 16);
     let front_end = drifting_front_end(&truth, bias_deg.to_radians(), 0.02, 7);
     let keyframes = (truth.iter().zip(&front_end).enumerate())
         .map(|(k, (t, f))| {
@@ -444,7 +445,7 @@ fn a_drifting_loop_closes_and_its_map_has_single_walls() {
         resolution: 0.05,
         ..GridConfig::default()
     };
-    let grid = mapper.render(&render).unwrap();
+    let grid = mapper.render(&render, &Pose2::default()).unwrap();
     let (count, spread) = wall_spread(&grid, -1.0, (2.0, 3.9));
     println!("optimised: {count} occupied cells, farthest {spread:.3} m from the wall");
     assert!(
@@ -463,7 +464,7 @@ fn a_drifting_loop_closes_and_its_map_has_single_walls() {
 
 #[test]
 fn a_loop_drifting_beyond_the_usual_window_closes_in_the_wide_search() {
-    let run = drifting_ring(0.3, 0.5);
+    let run = drifting_ring(0.3, 0.5, 1);
     let last = run.truth.len() - 1;
     let turn = (run.front_end[last].theta - run.truth[last].theta).abs();
     let drift = distance(&run.front_end[last], &run.truth[last]);
@@ -559,7 +560,10 @@ fn runs_are_identical_bit_for_bit_on_any_number_of_threads() {
     assert_eq!(bits(&one), bits(&four));
     assert_eq!(one.loop_edges(), four.loop_edges());
     let render = GridConfig::default();
-    assert_eq!(one.render(&render), four.render(&render));
+    assert_eq!(
+        one.render(&render, &Pose2::default()),
+        four.render(&render, &Pose2::default())
+    );
 }
 
 #[test]
@@ -654,4 +658,57 @@ fn a_match_in_a_featureless_corridor_is_held_across_it_not_along_it() {
         c[(0, 0)] > 0.1 * c[(1, 1)] && c[(1, 1)] > 0.1 * c[(0, 0)],
         "{c}"
     );
+}
+
+/// The real-time pose at each keyframe of `run` as the service publishes it: the front
+/// end's pose moved by the correction of the solve that followed keyframe `k − delay`, in
+/// that solve's gauge ([`local_gauge`] with `config.gauge_radius`).
+fn published_poses(config: &LoopClosureConfig, run: &Run) -> Vec<Pose2> {
+    let mut mapper = PoseGraphMapper::new(config.clone()).unwrap();
+    let (mut corrections, mut published) = (Vec::new(), Vec::new());
+    let mut gauge = Pose2::default();
+    for (k, keyframe) in run.keyframes.iter().enumerate() {
+        let report = mapper.add_keyframe(keyframe.clone()).unwrap();
+        if report.solve_due {
+            let solution = mapper.solve().unwrap();
+            let radius = config.gauge_radius;
+            gauge = local_gauge(&solution.poses, &published, radius).unwrap_or(gauge);
+        }
+        corrections.push(gauge.compose(&mapper.correction()));
+        let in_force = k
+            .checked_sub(config.delay_keyframes)
+            .map_or_else(Pose2::default, |due| corrections[due]);
+        published.push(in_force.compose(&run.front_end[k]));
+    }
+    published
+}
+
+#[test]
+fn a_place_passed_again_is_published_where_it_was_published_before() {
+    // Twice round the ring: the second lap passes every place of the first, which was
+    // published with the drift of its time.
+    let run = drifting_ring(0.05, 0.1, 2);
+    let lap = loop_path(1, 0).len() - 1;
+    // Over every place passed twice, how far the two published poses' relative motion is
+    // from the true one (m): what a relation between the two visits measures.
+    let revisit_error = |radius: f64| {
+        let config = LoopClosureConfig {
+            gauge_radius: radius,
+            ..test_config()
+        };
+        let p = published_poses(&config, &run);
+        let errors: Vec<f64> = (0..lap)
+            .map(|k| {
+                let (a, b) = (
+                    p[k].inverse().compose(&p[k + lap]),
+                    (run.truth[k].inverse()).compose(&run.truth[k + lap]),
+                );
+                distance(&a, &b)
+            })
+            .collect();
+        errors.iter().sum::<f64>() / errors.len() as f64
+    };
+    let (gauged, fixed) = (revisit_error(3.0), revisit_error(0.0));
+    println!("revisits: {gauged:.3} m in the gauge, {fixed:.3} m in the first keyframe's frame");
+    assert!(gauged < 0.5 * fixed, "{gauged} m against {fixed} m");
 }

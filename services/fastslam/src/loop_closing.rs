@@ -9,7 +9,10 @@
 //! ROS's map → odom) comes from the solve that followed keyframe `k − delay` and is
 //! applied at keyframe `k` ([`LoopClosureConfig::delay_keyframes`]). The filter waits for
 //! that report only when the worker is later than the delay, so the published poses
-//! depend on the data only.
+//! depend on the data only. Each solve is moved into the map frame's gauge
+//! ([`loop_closure::local_gauge`]): the keyframes near the robot land where the poses
+//! published for them were. The correction, the smoothed trajectory and the rendered map
+//! are all in that frame.
 //!
 //! When the input ends the worker solves a last time, the odometry constraints weighted
 //! by their fit to the data ([`PoseGraphMapper::finish`]); the real-time
@@ -43,8 +46,8 @@ use std::thread::JoinHandle;
 enum Request {
     /// Add this keyframe (and solve when due).
     Keyframe(Box<Keyframe>),
-    /// Render the map from every keyframe at its current pose.
-    Render(GridConfig),
+    /// Render the map from every keyframe at its current pose, moved by the gauge.
+    Render(GridConfig, Pose2),
 }
 
 /// What the worker sends back.
@@ -103,6 +106,12 @@ pub struct LoopClosing {
     scans: Vec<(u64, Pose2, usize)>,
     /// The correction in force: map → front-end map.
     correction: Pose2,
+    /// The pose published at each keyframe's scan, in keyframe order.
+    published: Vec<Pose2>,
+    /// [`LoopClosureConfig::gauge_radius`].
+    gauge_radius: f64,
+    /// The map frame's gauge of the solution in force ([`loop_closure::local_gauge`]).
+    gauge: Pose2,
     /// The newest applied solve not yet published.
     unpublished: Option<Solved>,
     solves: u32,
@@ -116,7 +125,7 @@ impl LoopClosing {
     /// # Errors
     /// When the configuration is invalid or the thread cannot be started.
     pub fn start(config: LoopClosureConfig, motion: MotionModel) -> anyhow::Result<Self> {
-        let delay = config.delay_keyframes;
+        let (delay, gauge_radius) = (config.delay_keyframes, config.gauge_radius);
         let mut mapper = PoseGraphMapper::new(config)?;
         let (to_worker, inbox) = channel::<Request>();
         let (outbox, from_worker) = channel::<Reply>();
@@ -140,7 +149,9 @@ impl LoopClosing {
                                 solved,
                             }
                         }
-                        Request::Render(grid) => Reply::Rendered(mapper.render(&grid)),
+                        Request::Render(grid, gauge) => {
+                            Reply::Rendered(mapper.render(&grid, &gauge))
+                        }
                     };
                     if outbox.send(reply).is_err() {
                         return;
@@ -160,6 +171,9 @@ impl LoopClosing {
             keyframes: Vec::new(),
             scans: Vec::new(),
             correction: Pose2::default(),
+            published: Vec::new(),
+            gauge_radius,
+            gauge: Pose2::default(),
             unpublished: None,
             solves: 0,
             motion,
@@ -171,6 +185,7 @@ impl LoopClosing {
     /// in the map frame (`correction ∘ estimate`) with the correction of keyframe
     /// `k − delay` applied at keyframe `k`.
     pub fn scan(&mut self, stamp_ns: u64, estimate: Pose2, keyframe: Option<Keyframe>) -> Pose2 {
+        let is_keyframe = keyframe.is_some();
         if let Some(keyframe) = keyframe {
             let index = self.keyframes.len();
             self.keyframes.push(keyframe.clone());
@@ -182,7 +197,11 @@ impl LoopClosing {
         if let Some(k) = self.keyframes.len().checked_sub(1) {
             self.scans.push((stamp_ns, estimate, k));
         }
-        self.correction.compose(&estimate)
+        let published = self.correction.compose(&estimate);
+        if is_keyframe {
+            self.published.push(published);
+        }
+        published
     }
 
     /// The correction in force (map → front-end map); the identity before the first solve.
@@ -194,7 +213,7 @@ impl LoopClosing {
     /// get through what it was given (`None` before the first keyframe or when the worker
     /// is gone).
     pub fn render(&mut self, grid: &GridConfig) -> Option<OccupancyGrid> {
-        self.send(Request::Render(grid.clone()));
+        self.send(Request::Render(grid.clone(), self.gauge));
         loop {
             match self.receive()? {
                 Reply::Rendered(grid) => return grid,
@@ -319,9 +338,18 @@ impl LoopClosing {
         }
     }
 
-    /// Makes `solved` the solution in force.
-    fn adopt(&mut self, solved: Solved) {
+    /// Makes `solved` the solution in force, moved into the map frame's gauge.
+    fn adopt(&mut self, mut solved: Solved) {
         self.solves += 1;
+        if let Some(gauge) =
+            loop_closure::local_gauge(&solved.poses, &self.published, self.gauge_radius)
+        {
+            self.gauge = gauge;
+        }
+        for pose in &mut solved.poses {
+            *pose = self.gauge.compose(pose);
+        }
+        solved.correction = self.gauge.compose(&solved.correction);
         self.correction = solved.correction;
         tracing::debug!(
             solve = self.solves,

@@ -19,6 +19,12 @@ pub struct LoopClosureConfig {
     /// counted in keyframes, never in time, so that runs repeat bit for bit. Default 2
     /// (about 1 m of travel at 0.5 m keyframes); 0 applies each solve at once.
     pub delay_keyframes: usize,
+    /// Where each solve's map frame is put (m): the rigid motion that lands the keyframes
+    /// near the robot, weighted by a Gaussian of this standard deviation in their distance
+    /// from it, where their poses were published ([`super::local_gauge`]). Default 3, a
+    /// room or a stretch of corridor: a place revisited is published where it was the
+    /// first time. 0 keeps the frame the graph's first keyframe fixes.
+    pub gauge_radius: f64,
     /// Side of a submap cell (m). Default 0.05: the range noise of an indoor lidar (1–3 cm)
     /// is below it, and a ±3 m window is 121 cells wide.
     pub resolution: f64,
@@ -147,6 +153,7 @@ impl Default for LoopClosureConfig {
         Self {
             enabled: false,
             delay_keyframes: 2,
+            gauge_radius: 3.0,
             resolution: 0.05,
             keyframes_per_submap: 30,
             max_range: 20.0,
@@ -206,6 +213,11 @@ impl LoopClosureConfig {
     /// [`crate::Error::InvalidParameter`] naming the first bad value.
     pub fn validate(&self) -> Result<()> {
         positive("loop_closure.resolution", self.resolution)?;
+        require(
+            self.gauge_radius >= 0.0 && self.gauge_radius.is_finite(),
+            "loop_closure.gauge_radius",
+            || format!("must be finite and >= 0, got {}", self.gauge_radius),
+        )?;
         at_least_one(
             "loop_closure.keyframes_per_submap",
             self.keyframes_per_submap,

@@ -23,13 +23,17 @@
 //!   odometry constraints are weighted by their variance factor against the other
 //!   constraints' ([`PoseGraphMapper::fit_odometry_weight`]) before the graph is solved
 //!   a last time.
-//! - **Map** ([`PoseGraphMapper::render`]): every keyframe's beams at its optimised pose.
+//! - **Gauge** ([`local_gauge`]): the rigid motion that puts a solve's keyframes near the
+//!   robot where their poses were published, so that the real-time pose of a place
+//!   revisited is where it was published before.
+//! - **Map** ([`PoseGraphMapper::render`]): every keyframe's beams at its optimised pose,
+//!   moved by the gauge.
 //! - **Trajectory** ([`place_scans`]): every scan between two optimised keyframes,
 //!   carrying the share of their correction that the odometry noise up to it holds.
 //!
 //! A caller adds keyframes ([`PoseGraphMapper::add_keyframe`]), solves when
-//! [`PoseGraphMapper::solve_due`] says so, publishes `correction ∘ front-end pose` as the
-//! real-time pose, renders the map when it wants one, and calls
+//! [`PoseGraphMapper::solve_due`] says so, publishes `gauge ∘ correction ∘ front-end
+//! pose` as the real-time pose, renders the map when it wants one, and calls
 //! [`PoseGraphMapper::finish`] when the data ends.
 //!
 //! # Determinism
@@ -38,6 +42,7 @@
 //! give the same poses, bit for bit, on any number of threads.
 
 mod config;
+mod gauge;
 mod mapper;
 mod matcher;
 #[cfg(test)]
@@ -52,6 +57,7 @@ mod submap;
 mod trajectory;
 
 pub use config::{LoopClosureConfig, MAX_DEPTH};
+pub use gauge::local_gauge;
 pub use mapper::{
     Finished, Keyframe, KeyframeReport, LoopClosure, Odometry, OdometryFit, OdometryWeight,
     PoseGraphMapper, Solution,

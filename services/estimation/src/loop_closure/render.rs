@@ -7,6 +7,7 @@
 //! resolution)`, is paid only when a map is asked for.
 
 use super::mapper::PoseGraphMapper;
+use crate::Pose2;
 use crate::grid::{GridConfig, LogOddsGrid, OccupancyGrid};
 
 /// Grid sides are multiples of this many cells.
@@ -14,13 +15,14 @@ const CHUNK: f64 = 64.0;
 
 impl PoseGraphMapper {
     /// The occupancy grid of every keyframe's beams at its current pose estimate
-    /// ([`poses`](Self::poses)), with `grid`'s resolution and inverse sensor model; `None`
-    /// before the first keyframe.
+    /// ([`poses`](Self::poses)) moved by `gauge` (the map frame's, [`super::local_gauge`];
+    /// the identity keeps the graph's), with `grid`'s resolution and inverse sensor model;
+    /// `None` before the first keyframe.
     ///
     /// # Performance
     /// See the module documentation; about 0.1 s for two thousand keyframes of 180 beams
     /// at 5 cm.
-    pub fn render(&self, grid: &GridConfig) -> Option<OccupancyGrid> {
+    pub fn render(&self, grid: &GridConfig, gauge: &Pose2) -> Option<OccupancyGrid> {
         if self.keyframes.is_empty() {
             return None;
         }
@@ -35,7 +37,7 @@ impl PoseGraphMapper {
         };
         let sensors: Vec<_> = (self.keyframes.iter())
             .zip(&self.graph.poses)
-            .map(|(k, pose)| pose.compose(&k.sensor))
+            .map(|(k, pose)| gauge.compose(pose).compose(&k.sensor))
             .collect();
         for (k, at) in self.keyframes.iter().zip(&sensors) {
             include(at.x, at.y);
