@@ -219,12 +219,12 @@ fn main() -> anyhow::Result<()> {
                 let solution = mapper.solve()?;
                 solves += 1;
                 solve_s += solution.seconds;
-                let previous = gauge;
+                let old_gauge = gauge;
                 let radius = config.gauge_radius;
                 gauge = local_gauge(&solution.poses, &published, radius).unwrap_or(gauge);
                 // The first keyframe, which its prior holds in the graph, moves with the gauge.
                 let first = solution.poses.first().copied().unwrap_or_default();
-                let (moved, was) = (gauge.compose(&first), previous.compose(&first));
+                let (moved, was) = (gauge.compose(&first), old_gauge.compose(&first));
                 let turn = wrap_angle(moved.theta - was.theta).abs().to_degrees();
                 moves.push(((moved.x - was.x).hypot(moved.y - was.y), turn));
                 let before = corrections.last().copied().unwrap_or_default();
@@ -238,9 +238,10 @@ fn main() -> anyhow::Result<()> {
         }
         let in_force = (corrections.len().checked_sub(1 + config.delay_keyframes))
             .map_or_else(Pose2::default, |k| corrections[k]);
-        real_time.push((stamp, in_force.compose(&estimate)));
+        let in_map = in_force.compose(&estimate);
+        real_time.push((stamp, in_map));
         if covariance.is_some() {
-            published.push(in_force.compose(&estimate));
+            published.push(in_map);
         }
         if let Some(k) = mapper.keyframes().checked_sub(1) {
             scans.push((stamp, estimate, k));

@@ -2,7 +2,7 @@
 //! units and the reasons for their defaults (docs/ALGORITHMS.md §9.1).
 
 use crate::Result;
-use crate::check::{in_range, positive, require};
+use crate::check::{in_range, non_negative, positive, require};
 use serde::{Deserialize, Serialize};
 
 /// Settings of [`super::PoseGraphMapper`]; defaults suit an indoor planar laser.
@@ -213,11 +213,7 @@ impl LoopClosureConfig {
     /// [`crate::Error::InvalidParameter`] naming the first bad value.
     pub fn validate(&self) -> Result<()> {
         positive("loop_closure.resolution", self.resolution)?;
-        require(
-            self.gauge_radius >= 0.0 && self.gauge_radius.is_finite(),
-            "loop_closure.gauge_radius",
-            || format!("must be finite and >= 0, got {}", self.gauge_radius),
-        )?;
+        non_negative("loop_closure.gauge_radius", self.gauge_radius)?;
         at_least_one(
             "loop_closure.keyframes_per_submap",
             self.keyframes_per_submap,
