@@ -27,24 +27,29 @@ fn estimate_only(json: &str) -> serde_json::Value {
     v
 }
 
-/// Runs `scenario` with `flags` (and their `overrides`) through the processes and in
-/// process, and asserts the metrics the estimate determines are equal.
+/// Runs `scenario` with `flags` (and their `overrides`, and the service's `config` file
+/// if any) through the processes and in process, and asserts the metrics the estimate
+/// determines are equal; `look` is shown the processes' run folder before it is removed.
 fn assert_in_process_equals_processes(
     name: &str,
     scenario: &str,
     flags: &[&str],
-    overrides: &Overrides,
+    (config, overrides): (Option<&Path>, &Overrides),
+    look: impl FnOnce(&Path),
 ) -> offline::RunOutcome {
     let prefix = prefix(name);
     let dir = folder(&prefix);
     let out = dir.join("run");
     let mut all = vec!["--scenario", scenario];
     all.extend(flags);
+    let file = config.map(|c| c.display().to_string());
+    all.extend(file.iter().flat_map(|f| ["--config", f.as_str()]));
     assert_success(&run_stack(&prefix, &out, &all));
     let through_processes = std::fs::read_to_string(out.join("metrics.json")).unwrap();
+    look(&out);
 
     let loaded = Scenario::load(scenario).unwrap();
-    let config = settings::service_config(&loaded, None, overrides).unwrap();
+    let config = settings::service_config(&loaded, config, overrides).unwrap();
     let source = offline::Source::Simulation(Box::new(loaded));
     let outcome = offline::run_in_process(&source, overrides.seed.unwrap(), &config).unwrap();
     let in_process = serde_json::to_string_pretty(&outcome.metrics).unwrap();
@@ -82,8 +87,13 @@ fn in_process_run_gives_the_metrics_of_the_run_through_the_processes() {
             map: None,
         },
     };
-    let outcome =
-        assert_in_process_equals_processes("offline_equal", "bailey-short", &flags, &overrides);
+    let outcome = assert_in_process_equals_processes(
+        "offline_equal",
+        "bailey-short",
+        &flags,
+        (None, &overrides),
+        |_| {},
+    );
     assert!(outcome.moves.is_some_and(|m| m.proposed > 0));
     assert!(outcome.metrics.estimate.poses > 200);
 }
@@ -96,8 +106,13 @@ fn in_process_raw_scans_give_the_metrics_of_the_run_through_the_processes() {
         ..Overrides::default()
     };
     let flags = ["--seed", "2", "--particles", "30"];
-    let outcome =
-        assert_in_process_equals_processes("offline_raw", "indoor-loop", &flags, &overrides);
+    let outcome = assert_in_process_equals_processes(
+        "offline_raw",
+        "indoor-loop",
+        &flags,
+        (None, &overrides),
+        |_| {},
+    );
     assert!(outcome.metrics.estimate.poses > 100);
 }
 
@@ -114,10 +129,67 @@ fn in_process_grid_fastslam_gives_the_metrics_of_the_run_through_the_processes()
     };
     let flags = overrides.flags();
     let flags: Vec<&str> = flags.iter().map(String::as_str).collect();
-    let outcome =
-        assert_in_process_equals_processes("offline_grid", "indoor-loop", &flags, &overrides);
+    let outcome = assert_in_process_equals_processes(
+        "offline_grid",
+        "indoor-loop",
+        &flags,
+        (None, &overrides),
+        |_| {},
+    );
     assert!(outcome.moves.is_some_and(|m| m.proposed > 0));
     assert!(outcome.metrics.estimate.ate_rmse_m < 0.5 * outcome.metrics.dead_reckoning.ate_rmse_m);
+}
+
+/// The first pose of a TUM trajectory file (`t x y …`): stamp, x, y.
+fn first_pose(path: &Path) -> [f64; 3] {
+    let text = std::fs::read_to_string(path).unwrap();
+    let line = text.lines().find(|l| !l.starts_with('#')).expect("a pose");
+    let mut fields = line.split_whitespace().map(|f| f.parse::<f64>().unwrap());
+    std::array::from_fn(|_| fields.next().unwrap())
+}
+
+#[test]
+fn grid_fastslam_with_loop_closing_gives_one_answer_and_ends_in_the_frame_it_started_in() {
+    // Grid FastSLAM on the indoor loop with the loop-closing back-end solving every 10
+    // keyframes: while it runs, each solve is moved into the map frame's gauge; the final
+    // trajectory is in the first keyframe's frame, so it starts where the run's first
+    // pose was published.
+    let loaded = Scenario::load("indoor-loop").unwrap();
+    let table = loaded.service.expect("indoor-loop has [service] settings");
+    let dir = folder(&prefix("offline_loop_files"));
+    let config = dir.join("service.toml");
+    let loop_closing =
+        "[loop_closure]\nenabled = true\nkeyframes_per_submap = 10\nsolve_every = 10\n";
+    std::fs::write(&config, toml::to_string(&table).unwrap() + loop_closing).unwrap();
+    let overrides = Overrides {
+        particles: Some(10),
+        seed: Some(4),
+        choice: EstimatorChoice {
+            map: Some("grid".into()),
+            ..EstimatorChoice::default()
+        },
+    };
+    let flags = overrides.flags();
+    let flags: Vec<&str> = flags.iter().map(String::as_str).collect();
+    let outcome = assert_in_process_equals_processes(
+        "offline_loop",
+        "indoor-loop",
+        &flags,
+        (Some(&config), &overrides),
+        |run| {
+            let published = first_pose(&run.join("estimate.tum"));
+            let smoothed = first_pose(&run.join("smoothed.tum"));
+            assert_eq!(published[0], smoothed[0], "both start at the first scan");
+            let off = (published[1] - smoothed[1]).hypot(published[2] - smoothed[2]);
+            assert!(
+                off < 1e-3,
+                "the final trajectory starts {off} m off the first pose"
+            );
+        },
+    );
+    let smoothed = outcome.metrics.smoothed.expect("the back-end's trajectory");
+    assert!(smoothed.solves > 5, "{} solves", smoothed.solves);
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// Replays data set `set` from `data` (robot 1, with `association` where the data set

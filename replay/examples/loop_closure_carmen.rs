@@ -339,7 +339,8 @@ fn main() -> anyhow::Result<()> {
             }
         }
     }
-    if let Some(map) = mapper.render(&grid, &gauge) {
+    // The final map, as the service renders it: in the first keyframe's frame.
+    if let Some(map) = mapper.render(&grid, &Pose2::default()) {
         let mut bytes = format!("P5\n{} {}\n255\n", map.width, map.height).into_bytes();
         for j in (0..map.height).rev() {
             for i in 0..map.width {

@@ -16,7 +16,9 @@
 //!
 //! When the input ends the worker solves a last time, the odometry constraints weighted
 //! by their fit to the data ([`PoseGraphMapper::finish`]); the real-time
-//! pose never sees that solve; the final trajectory comes from it.
+//! pose never sees that solve; the final trajectory comes from it. The final trajectory
+//! and the map rendered after it are in the frame of the first keyframe (where its pose
+//! was published), not in the gauge: a run's result starts where the run started.
 //!
 //! The smoothed trajectory has a pose for every scan: between two optimised keyframes,
 //! the front end's path with their correction shared out along it by the motion model's
@@ -48,6 +50,8 @@ enum Request {
     Keyframe(Box<Keyframe>),
     /// Render the map from every keyframe at its current pose, moved by the gauge.
     Render(GridConfig, Pose2),
+    /// The input ended: solve a last time.
+    Finish,
 }
 
 /// What the worker sends back.
@@ -60,7 +64,7 @@ enum Reply {
     },
     /// The map asked for.
     Rendered(Option<OccupancyGrid>),
-    /// The input ended: the last solve, when keyframes came after the previous one.
+    /// The last solve, when keyframes came after the previous one.
     Final(Option<Solved>),
 }
 
@@ -114,6 +118,9 @@ pub struct LoopClosing {
     gauge: Pose2,
     /// The newest applied solve not yet published.
     unpublished: Option<Solved>,
+    /// The newest applied solve as the graph solved it: in the frame of the first
+    /// keyframe, which the graph's prior holds where its pose was published.
+    in_force: Option<Solved>,
     solves: u32,
     /// The front end's motion model: how a correction is shared out between keyframes.
     motion: MotionModel,
@@ -152,14 +159,14 @@ impl LoopClosing {
                         Request::Render(grid, gauge) => {
                             Reply::Rendered(mapper.render(&grid, &gauge))
                         }
+                        Request::Finish => {
+                            Reply::Final(if refused { None } else { finish(&mut mapper) })
+                        }
                     };
                     if outbox.send(reply).is_err() {
                         return;
                     }
                 }
-                // The filter's side hung up: the last solve.
-                let solved = if refused { None } else { finish(&mut mapper) };
-                let _ = outbox.send(Reply::Final(solved));
             })?;
         Ok(Self {
             to_worker: Some(to_worker),
@@ -175,6 +182,7 @@ impl LoopClosing {
             gauge_radius,
             gauge: Pose2::default(),
             unpublished: None,
+            in_force: None,
             solves: 0,
             motion,
         })
@@ -230,10 +238,13 @@ impl LoopClosing {
         Some(self.trajectory(&solved))
     }
 
-    /// Ends the worker's input and waits for its last solve; every report not applied
-    /// yet is applied. The final trajectory (every scan), or `None` without a solve.
+    /// Asks the worker for its last solve and waits for it; every report not applied yet
+    /// is applied. The final trajectory (every scan), or `None` without a solve. The final
+    /// trajectory, the correction and the map rendered from then on are in the frame of
+    /// the first keyframe, where it was published, not in the map frame's gauge: a run's
+    /// result starts where the run started.
     pub fn finish(&mut self) -> Option<Solution> {
-        self.to_worker = None;
+        self.send(Request::Finish);
         let mut last = None;
         while let Some(reply) = self.receive() {
             match reply {
@@ -245,16 +256,14 @@ impl LoopClosing {
                 }
             }
         }
-        if let Some(worker) = self.worker.take()
-            && worker.join().is_err()
-        {
-            tracing::error!("the loop-closing back-end panicked");
-        }
         self.apply_until(usize::MAX);
         if let Some(solved) = last {
             self.adopt(solved);
         }
-        let solved = self.unpublished.take()?;
+        let solved = self.in_force.clone()?;
+        self.gauge = Pose2::default();
+        self.correction = solved.correction;
+        self.unpublished = None;
         Some(self.trajectory(&solved))
     }
 
@@ -341,6 +350,7 @@ impl LoopClosing {
     /// Makes `solved` the solution in force, moved into the map frame's gauge.
     fn adopt(&mut self, mut solved: Solved) {
         self.solves += 1;
+        self.in_force = Some(solved.clone());
         if let Some(gauge) =
             loop_closure::local_gauge(&solved.poses, &self.published, self.gauge_radius)
         {
@@ -413,8 +423,10 @@ impl LoopClosing {
 impl Drop for LoopClosing {
     fn drop(&mut self) {
         self.to_worker = None;
-        if let Some(worker) = self.worker.take() {
-            let _ = worker.join();
+        if let Some(worker) = self.worker.take()
+            && worker.join().is_err()
+        {
+            tracing::error!("the loop-closing back-end panicked");
         }
     }
 }

@@ -394,10 +394,11 @@ impl Service {
         core.persist.save_map(&core.slam)?;
         let last_ns = core.out.last_pose_ns();
         core.out.map(&core.slam, last_ns)?;
-        core.out.grid(&mut core.slam, last_ns)?;
         if let Some(solution) = core.slam.finish_smoothing() {
             core.out.smoothed(&solution)?;
         }
+        // After the last solve: grid FastSLAM's map is rendered from it.
+        core.out.grid(&mut core.slam, last_ns)?;
         core.health.log.flush_all();
         let status = core.health.final_status(&core.slam, &core.sequencer);
         core.out.status(status)?;
