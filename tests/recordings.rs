@@ -173,26 +173,52 @@ fn assert_refused(name: &str, args: &[&str], what: &str) {
 }
 
 #[test]
+fn a_log_with_a_bad_line_and_cut_short_replays_what_it_can_with_a_warning_for_each() {
+    let prefix = prefix("damaged");
+    let dir = folder(&prefix);
+    std::fs::create_dir_all(&dir).unwrap();
+    // MIT CSAIL's first 400 lines with a garbage line after line 100, gzipped, and the
+    // stream cut at two thirds.
+    let text = gzipped_text("freiburg/mit-csail/mit-csail.clf.gz");
+    let mut lines: Vec<&str> = text.lines().take(400).collect();
+    lines.insert(100, "FLASER 361 this is not a scan");
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    gz.write_all((lines.join("\n") + "\n").as_bytes()).unwrap();
+    let whole = gz.finish().unwrap();
+    let log = dir.join("damaged.clf.gz");
+    std::fs::write(&log, &whole[..whole.len() * 2 / 3]).unwrap();
+    let args = ["carmen", log.to_str().unwrap(), "--particles", "5"];
+    let result = replay(&prefix, &dir.join("run"), &args);
+    assert_success(&result);
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    let warnings: Vec<&str> = (stderr.lines())
+        .filter(|l| l.starts_with("warning:"))
+        .collect();
+    let [bad, cut] = warnings[..] else {
+        panic!("two warnings: {stderr}");
+    };
+    assert!(
+        bad.contains("1 malformed lines skipped") && bad.contains("damaged.clf.gz:101:"),
+        "{bad}"
+    );
+    assert!(cut.contains("ends early after line"), "{cut}");
+    let scans = num(&metrics(&dir.join("run")), "/estimate/poses");
+    assert!((150.0..399.0).contains(&scans), "{scans} scans scored");
+    assert_no_leftovers(&prefix);
+}
+
+#[test]
 fn broken_recordings_are_one_line_each() {
     let dir = folder(&prefix("broken"));
     std::fs::create_dir_all(&dir).unwrap();
-    // A log with a garbage line: named with its line number.
+    // A file with no CARMEN line: refused, with the first line that is not one.
     let garbage = dir.join("garbage.clf");
-    let mut f = std::fs::File::create(&garbage).unwrap();
-    let ranges = vec!["1.0"; 180].join(" ");
-    writeln!(f, "FLASER 180 {ranges} 0 0 0 0 0 0 1.0 host 1.0").unwrap();
-    writeln!(f, "FLASER 180 this is not a scan").unwrap();
-    drop(f);
+    std::fs::write(&garbage, "hello world\nFLASER 180 this is not a scan\n").unwrap();
     assert_refused(
         "garbage",
         &["carmen", garbage.to_str().unwrap()],
-        "garbage.clf:2:",
+        "garbage.clf:1:",
     );
-    // A gzipped log cut short.
-    let whole = std::fs::read(data("freiburg/mit-csail/mit-csail.clf.gz")).unwrap();
-    let cut = dir.join("cut.clf.gz");
-    std::fs::write(&cut, &whole[..whole.len() / 3]).unwrap();
-    assert_refused("cut", &["carmen", cut.to_str().unwrap()], "cut.clf.gz");
     // A bag cut short.
     let bag = std::fs::read(data("ros2/mit-csail/mit-csail_mcap.mcap")).unwrap();
     let cut_bag = dir.join("cut.mcap");

@@ -20,7 +20,15 @@
 //!   line's over the whole log (else the log is refused).
 //! - `ODOM x y θ tv rv accel ipc_timestamp hostname logger_timestamp`: an odometry pose.
 //! - Every other message type (`PARAM`, `SYNC`, `RAWLASER1`, `TRUEPOS`, …) is counted by
-//!   name and skipped. A first field that is not an upper-case message name is an error.
+//!   name and skipped.
+//!
+//! **Lines that cannot be read** — a first field that is not an upper-case message name,
+//! missing or extra fields, a field that is not a number, a non-finite pose or time, a
+//! beam count that does not match — are skipped and counted, and the log's
+//! [`CarmenLog::warnings`] give how many and the first few with file, line and reason: one
+//! corrupt line does not cost the whole recording. A file that ends early (a gzip stream
+//! cut short, a read error after the first line) keeps the lines before, with a warning.
+//! A log in which no laser line can be read is refused, with the first reasons.
 //!
 //! **Time** is `ipc_timestamp` (s on the log's clock, Unix time in most logs); stamp 0 is
 //! the earliest time of a laser or odometry line ([`DataSet::epoch_s`]).
@@ -86,6 +94,8 @@ pub struct MessageCounts {
     pub odom: usize,
     /// Lines of every other message type, by type name.
     pub skipped: BTreeMap<String, usize>,
+    /// Lines that could not be read (module doc), skipped.
+    pub malformed: usize,
 }
 
 /// A CARMEN log read into messages, with what was read, skipped and repaired.
@@ -105,7 +115,8 @@ pub struct CarmenLog {
     pub flaser_max_range_m: Option<f64>,
     /// From the first to the last time of the log's laser and odometry lines (s).
     pub duration_s: f64,
-    /// What the reader noticed and the user should know (a FLASER mount that varies).
+    /// What the reader noticed and the user should know: lines skipped as malformed, a
+    /// file that ends early, a FLASER mount that varies.
     pub warnings: Vec<String>,
 }
 
@@ -131,9 +142,11 @@ impl fmt::Display for CarmenLog {
                 max - NO_RETURN_MARGIN_M
             )?;
         }
-        let skipped: Vec<String> = (m.skipped.iter())
-            .map(|(k, n)| format!("{k} {n}"))
-            .collect();
+        let skipped: Vec<String> = ((m.malformed > 0)
+            .then(|| format!("malformed {}", m.malformed)))
+        .into_iter()
+        .chain(m.skipped.iter().map(|(k, n)| format!("{k} {n}")))
+        .collect();
         match skipped.is_empty() {
             true => write!(f, "; nothing skipped"),
             false => write!(f, "; skipped {}", skipped.join(", ")),
@@ -141,15 +154,15 @@ impl fmt::Display for CarmenLog {
     }
 }
 
-/// Reads the CARMEN log at `path`, plain or gzipped (see the module doc).
+/// Reads the CARMEN log at `path`, plain or gzipped (see the module doc); lines that
+/// cannot be read, and the end of a file cut short, are skipped with a warning.
 ///
 /// # Errors
-/// [`DataError::Io`] naming the file when it cannot be read (a truncated gzip stream
-/// too); [`DataError::Malformed`] with file and line for a line with missing or extra
-/// fields, a field that is not a number, a non-finite pose or time, a beam count that
-/// does not match; [`DataError::Unusable`] for a log without laser lines, whose laser
-/// mount varies (beyond FLASER laser poses taken as another trajectory, see the module
-/// doc), or whose FLASER lines have no valid reading.
+/// [`DataError::Io`] naming the file when it cannot be opened or its first line read;
+/// [`DataError::Unusable`] for a log without a readable laser line (with the first
+/// malformed lines' reasons), whose laser mount varies (beyond FLASER laser poses taken
+/// as another trajectory, see the module doc), or whose FLASER lines have no valid
+/// reading.
 pub fn load(path: &Path) -> Result<CarmenLog> {
     let io = |e: std::io::Error| DataError::Io {
         path: path.to_path_buf(),
@@ -163,19 +176,39 @@ pub fn load(path: &Path) -> Result<CarmenLog> {
     };
     let mut records = Records::default();
     let (mut buffer, mut number) = (Vec::new(), 0);
-    while reader.read_until(b'\n', &mut buffer).map_err(io)? > 0 {
+    let mut warnings = Vec::new();
+    loop {
+        match reader.read_until(b'\n', &mut buffer) {
+            Ok(0) => break,
+            Ok(_) => {}
+            Err(e) if number > 0 => {
+                warnings.push(format!(
+                    "{}: the file ends early after line {number} ({e}); the lines before \
+                     are replayed",
+                    path.display()
+                ));
+                break;
+            }
+            Err(e) => return Err(io(e)),
+        }
         number += 1;
         let text = String::from_utf8_lossy(&buffer);
         let fields = text.split_ascii_whitespace().collect();
-        records.add(&Line {
+        let line = Line {
             path,
             number,
             fields,
-        })?;
+        };
+        if let Err(e) = records.add(&line) {
+            records.reject(e);
+        }
         buffer.clear();
     }
-    build(path, records)
+    build(path, records, warnings)
 }
+
+/// How many malformed lines the warning and the refusal name.
+const MALFORMED_SHOWN: usize = 3;
 
 /// A laser line, before its stamp is known.
 #[derive(Debug, Clone, PartialEq)]
@@ -219,9 +252,35 @@ struct Records {
     lasers: Vec<LaserRecord>,
     poses: Vec<PoseRecord>,
     messages: MessageCounts,
+    /// The first [`MALFORMED_SHOWN`] malformed lines' errors.
+    malformed: Vec<String>,
 }
 
 impl Records {
+    /// Counts a line that could not be read, keeping the first few reasons.
+    fn reject(&mut self, error: DataError) {
+        self.messages.malformed += 1;
+        if self.malformed.len() < MALFORMED_SHOWN {
+            self.malformed.push(error.to_string());
+        }
+    }
+
+    /// The malformed lines in one phrase: how many, and the first few; `None` without.
+    fn malformed_lines(&self) -> Option<String> {
+        let n = self.messages.malformed;
+        let more = if n > self.malformed.len() {
+            "; …"
+        } else {
+            ""
+        };
+        (n > 0).then(|| {
+            format!(
+                "{n} malformed lines skipped ({}{more})",
+                self.malformed.join("; ")
+            )
+        })
+    }
+
     /// Takes in one line of the log.
     fn add(&mut self, line: &Line) -> Result<()> {
         let (laser, pose) = match line.fields.first() {
@@ -497,13 +556,21 @@ fn no_return(scan: &mut RawScan, max_range: f64) {
 }
 
 /// The messages from the records read.
-fn build(path: &Path, records: Records) -> Result<CarmenLog> {
+fn build(path: &Path, records: Records, mut warnings: Vec<String>) -> Result<CarmenLog> {
+    let malformed = records.malformed_lines();
     let (mut lasers, mut poses, messages) = (records.lasers, records.poses, records.messages);
     let unusable = |why: &str| Err(DataError::Unusable(format!("{}: {why}", path.display())));
     if lasers.is_empty() {
-        return unusable("no laser line (FLASER or ROBOTLASER1) in the log");
+        let why = malformed.map_or(String::new(), |m| format!("; {m}"));
+        return unusable(&format!(
+            "no laser line (FLASER or ROBOTLASER1) in the log{why}"
+        ));
+    }
+    if let Some(m) = malformed {
+        warnings.insert(0, format!("{}: {m}", path.display()));
     }
     let (laser_mount, mount_warning) = mount(path, &mut lasers)?;
+    warnings.extend(mount_warning);
     let flaser_max_range_m = (lasers.iter().filter(|l| l.flaser))
         .flat_map(|l| l.scan.items.iter().copied().filter(|r| !r.is_nan()))
         .map(f64::from)
@@ -571,7 +638,7 @@ fn build(path: &Path, records: Records) -> Result<CarmenLog> {
         scan_repairs,
         flaser_max_range_m,
         duration_s,
-        warnings: mount_warning.into_iter().collect(),
+        warnings,
     };
     tracing::info!(summary = %log, "CARMEN log read");
     Ok(log)

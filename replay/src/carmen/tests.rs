@@ -156,10 +156,34 @@ fn gzipped_and_plain_logs_read_the_same_whatever_their_name() {
     let gzipped = load_bytes("same.clf", &gzip(&text)).unwrap();
     assert_eq!(plain.data, gzipped.data);
     assert_eq!(plain.messages, gzipped.messages);
-    let cut = gzip(&flaser(&[1.0; 90], [0.0; 3], 1.0).repeat(50));
-    let err = load_bytes("cut.clf.gz", &cut[..cut.len() / 2]).unwrap_err();
+}
+
+#[test]
+fn a_log_cut_short_keeps_the_lines_before_with_a_warning() {
+    // Ranges that differ from line to line, so the compressed stream grows with the lines.
+    let text: String = (0..50)
+        .map(|i| {
+            let ranges: Vec<f64> = (0..90)
+                .map(|b| 1.0 + f64::from((i * 7 + b * 13) % 97) / 10.0)
+                .collect();
+            flaser(&ranges, [0.0; 3], f64::from(i + 1))
+        })
+        .collect();
+    let whole = gzip(&text);
+    let log = load_bytes("cut.clf.gz", &whole[..whole.len() / 2]).unwrap();
+    let scans = log.data.raw_scans.len();
+    assert!((1..50).contains(&scans), "{scans} of 50 scans read");
+    let [warning] = &log.warnings[..] else {
+        panic!("one warning: {:?}", log.warnings);
+    };
+    assert!(
+        warning.contains("cut.clf.gz") && warning.contains("ends early after line"),
+        "{warning}"
+    );
+    // Cut before its first line ends, nothing is read: refused, naming the file.
+    let err = load_bytes("stub.clf.gz", &whole[..30]).unwrap_err();
     assert!(matches!(err, DataError::Io { .. }), "{err}");
-    assert!(err.to_string().contains("cut.clf.gz"), "{err}");
+    assert!(err.to_string().contains("stub.clf.gz"), "{err}");
 }
 
 #[test]
@@ -179,7 +203,7 @@ fn other_message_types_are_counted_by_name() {
 }
 
 #[test]
-fn bad_lines_name_file_and_line() {
+fn bad_lines_are_skipped_and_named_with_file_and_line() {
     let good = flaser(&[1.0, 2.0], [0.0; 3], 1.0);
     let cases = [
         (
@@ -201,20 +225,43 @@ fn bad_lines_name_file_and_line() {
         ("12.5 3 4", "`12.5` is not a message type"),
     ];
     for (bad, expected) in cases {
-        let err = load_text("bad.clf", &format!("{good}\n{bad}\n")).unwrap_err();
-        let text = err.to_string();
+        let later = flaser(&[3.0, 4.0], [0.0; 3], 2.0);
+        let log = load_text("bad.clf", &format!("{good}\n{bad}\n{later}")).unwrap();
+        assert_eq!(log.data.raw_scans.len(), 2, "the lines around it are read");
+        assert_eq!(log.messages.malformed, 1);
+        let [warning] = &log.warnings[..] else {
+            panic!("one warning: {:?}", log.warnings);
+        };
         assert!(
-            matches!(err, DataError::Malformed { line: 3, .. }),
-            "{text}"
+            warning.contains("1 malformed lines skipped")
+                && warning.contains("bad.clf:3:")
+                && warning.contains(expected),
+            "{warning}"
         );
-        assert!(
-            text.contains("bad.clf:3:") && text.contains(expected),
-            "{text}"
-        );
+        assert!(log.to_string().contains("skipped malformed 1"), "{log}");
     }
+    // Five bad lines: the warning names the first three.
+    let bad = "FLASER 2 1 2\n".repeat(5);
+    let log = load_text("bad5.clf", &format!("{good}{bad}")).unwrap();
+    assert_eq!(log.messages.malformed, 5);
+    let warning = &log.warnings[0];
+    assert!(
+        warning.contains("bad5.clf:4:")
+            && !warning.contains("bad5.clf:5:")
+            && warning.ends_with("; …)"),
+        "{warning}"
+    );
     let err = load_text("laserless.clf", &odom([0.0; 3], 0.0, 0.0, 1.0)).unwrap_err();
     let err = err.to_string();
     assert!(err.contains("laserless.clf: no laser line"), "{err}");
+    // A file with no readable line at all (not a CARMEN log): refused with the reasons.
+    let err = load_text("notes.clf", "hello world\nFLASER x\n").unwrap_err();
+    assert!(matches!(err, DataError::Unusable(_)), "{err}");
+    let err = err.to_string();
+    assert!(
+        err.contains("no laser line") && err.contains("notes.clf:1: `hello` is not a message type"),
+        "{err}"
+    );
 }
 
 #[test]
