@@ -187,24 +187,50 @@ fn a_log_with_a_bad_line_and_cut_short_replays_what_it_can_with_a_warning_for_ea
     let whole = gz.finish().unwrap();
     let log = dir.join("damaged.clf.gz");
     std::fs::write(&log, &whole[..whole.len() * 2 / 3]).unwrap();
-    let args = ["carmen", log.to_str().unwrap(), "--particles", "5"];
-    let result = replay(&prefix, &dir.join("run"), &args);
-    assert_success(&result);
-    let stderr = String::from_utf8_lossy(&result.stderr);
-    let warnings: Vec<&str> = (stderr.lines())
-        .filter(|l| l.starts_with("warning:"))
-        .collect();
-    let [bad, cut] = warnings[..] else {
-        panic!("two warnings: {stderr}");
+    let (warnings, scans) = replay_damaged(&prefix, &dir, &["carmen", log.to_str().unwrap()]);
+    let [bad, cut] = &warnings[..] else {
+        panic!("two warnings: {warnings:?}");
     };
     assert!(
         bad.contains("1 malformed lines skipped") && bad.contains("damaged.clf.gz:101:"),
         "{bad}"
     );
     assert!(cut.contains("ends early after line"), "{cut}");
-    let scans = num(&metrics(&dir.join("run")), "/estimate/poses");
     assert!((150.0..399.0).contains(&scans), "{scans} scans scored");
-    assert_no_leftovers(&prefix);
+}
+
+#[test]
+fn a_bag_cut_short_replays_the_messages_before_the_cut_with_a_warning() {
+    let prefix = prefix("cutbag");
+    let dir = folder(&prefix);
+    std::fs::create_dir_all(&dir).unwrap();
+    let bag = std::fs::read(data("ros2/mit-csail/mit-csail_mcap.mcap")).unwrap();
+    let cut = dir.join("cut.mcap");
+    std::fs::write(&cut, &bag[..bag.len() / 4]).unwrap();
+    let (warnings, scans) = replay_damaged(&prefix, &dir, &["rosbag", cut.to_str().unwrap()]);
+    let [warning] = &warnings[..] else {
+        panic!("one warning: {warnings:?}");
+    };
+    assert!(
+        warning.contains("cut.mcap: cut short inside a record"),
+        "{warning}"
+    );
+    assert!((100.0..1000.0).contains(&scans), "{scans} scans scored");
+}
+
+/// Replays the damaged recording `args` names (5 particles) into `dir`, which must
+/// succeed: its `warning:` lines and the number of poses scored.
+fn replay_damaged(prefix: &str, dir: &Path, args: &[&str]) -> (Vec<String>, f64) {
+    let args = [args, &["--particles", "5"]].concat();
+    let result = replay(prefix, &dir.join("run"), &args);
+    assert_success(&result);
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    let warnings = (stderr.lines())
+        .filter(|l| l.starts_with("warning:"))
+        .map(str::to_owned)
+        .collect();
+    assert_no_leftovers(prefix);
+    (warnings, num(&metrics(&dir.join("run")), "/estimate/poses"))
 }
 
 #[test]
@@ -219,11 +245,15 @@ fn broken_recordings_are_one_line_each() {
         &["carmen", garbage.to_str().unwrap()],
         "garbage.clf:1:",
     );
-    // A bag cut short.
+    // A bag cut short before its first message.
     let bag = std::fs::read(data("ros2/mit-csail/mit-csail_mcap.mcap")).unwrap();
-    let cut_bag = dir.join("cut.mcap");
-    std::fs::write(&cut_bag, &bag[..bag.len() / 2]).unwrap();
-    assert_refused("cutbag", &["rosbag", cut_bag.to_str().unwrap()], "cut.mcap");
+    let cut_bag = dir.join("stub.mcap");
+    std::fs::write(&cut_bag, &bag[..3000]).unwrap();
+    assert_refused(
+        "stubbag",
+        &["rosbag", cut_bag.to_str().unwrap()],
+        "stub.mcap",
+    );
     // Relations need a recording's clock.
     assert_refused(
         "relnotrec",

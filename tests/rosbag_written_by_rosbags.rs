@@ -235,19 +235,31 @@ mod written_by_rosbags {
     }
 
     #[test]
-    fn a_truncated_mcap_file_is_an_error_not_a_panic() {
+    fn a_truncated_mcap_file_is_read_up_to_the_cut_or_refused_never_a_panic() {
         let source = bags().0.join("mcap/mcap.mcap");
         let bytes = std::fs::read(&source).unwrap();
         let dir = bags().0.join("cut");
         std::fs::create_dir_all(&dir).unwrap();
         let cut = dir.join("cut.mcap");
-        std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+        // Cut before its first message: refused, naming the file.
+        std::fs::write(&cut, &bytes[..bytes.len() / 64]).unwrap();
         let err = rosbag::load(&cut, &TopicChoice::default())
             .unwrap_err()
             .to_string();
         assert!(err.contains("cut.mcap: MCAP file cut short"), "{err}");
-        // Anywhere it is cut: an error, or (cut exactly between records) the whole part read
-        // with a warning.
+        // Cut in half: the messages before the cut, with a warning.
+        std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+        let bag = rosbag::load(&cut, &TopicChoice::default()).unwrap();
+        assert!(!bag.data.odometry.is_empty(), "{bag:?}");
+        let [warning] = &bag.warnings[..] else {
+            panic!("one warning: {:?}", bag.warnings);
+        };
+        assert!(
+            warning.contains("cut.mcap: cut short inside a record"),
+            "{warning}"
+        );
+        // Anywhere it is cut: an error naming the file, or the whole part read with a
+        // warning.
         for k in 0..64 {
             let end = bytes.len() * k / 64;
             std::fs::write(&cut, &bytes[..end]).unwrap();

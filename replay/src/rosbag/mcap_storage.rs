@@ -5,9 +5,10 @@
 //! `lz4`, checked against their CRC) and the messages inside them collected. When the file
 //! ends with its summary, the summary's per-channel message counts must match what the
 //! data section held; a file without summary (a recording that stopped without closing
-//! the file) is read as far as it is whole, with a warning. A file cut inside a record,
-//! a chunk that does not decompress or a record that does not parse is an error naming
-//! the file.
+//! the file) is read as far as it is whole, with a warning, and so is a file cut inside a
+//! record after its first message (a copy that stopped early): the messages before the
+//! cut are read. A file cut before any message, a chunk that does not decompress or a
+//! record that does not parse is an error naming the file.
 
 use super::storage::Collector;
 use crate::text::{DataError, Result};
@@ -42,8 +43,9 @@ struct State {
 /// `sink`.
 ///
 /// # Errors
-/// [`DataError::Io`] naming the file when it is cut short, corrupt, or contradicts its
-/// own summary; [`DataError::Message`] for a compressed message that does not decompress.
+/// [`DataError::Io`] naming the file when it is cut short before its first message,
+/// corrupt, or contradicts its own summary; [`DataError::Message`] for a compressed
+/// message that does not decompress.
 pub fn read(mut source: impl Read, path: &Path, sink: &mut Collector) -> Result<()> {
     let bad = |reason: String| DataError::Io {
         path: path.to_path_buf(),
@@ -55,9 +57,13 @@ pub fn read(mut source: impl Read, path: &Path, sink: &mut Collector) -> Result<
         .with_record_length_limit(MAX_RECORD);
     let mut reader = LinearReader::new_with_options(options);
     let mut state = State::default();
-    let mut offset = 0u64;
+    let (mut offset, mut cut) = (0u64, false);
     while let Some(event) = reader.next_event() {
         match event {
+            Err(mcap::McapError::UnexpectedEof) if !state.counts.is_empty() => {
+                cut = true;
+                break;
+            }
             Err(mcap::McapError::UnexpectedEof) => {
                 return Err(bad(format!(
                     "MCAP file cut short: its last record is incomplete ({offset} bytes read)"
@@ -81,8 +87,14 @@ pub fn read(mut source: impl Read, path: &Path, sink: &mut Collector) -> Result<
         }
     }
     state.check_summary().map_err(bad)?;
-    if !state.footer {
-        let total: u64 = state.counts.values().sum();
+    let total: u64 = state.counts.values().sum();
+    if cut {
+        sink.warn(format!(
+            "{}: cut short inside a record ({offset} bytes read): read the {total} messages \
+             before the cut",
+            path.display()
+        ));
+    } else if !state.footer {
         sink.warn(format!(
             "{}: no summary at the end (a recording that did not finish?): read the {total} \
              messages it holds",

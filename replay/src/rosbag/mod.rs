@@ -29,8 +29,10 @@
 //! and skipped. Ground truth, landmarks and observations stay empty.
 //!
 //! Every problem is an error naming the file, never a panic: a missing or unknown storage
-//! file, a file cut short or corrupt, a message that does not decode (with its topic and
-//! index), no scan topic or several without a choice (listing them).
+//! file, a file cut short before its first message or corrupt, a message that does not
+//! decode (with its topic and index), no scan topic or several without a choice (listing
+//! them). An MCAP file that stopped early is read up to where it is whole, with a warning
+//! (`mcap_storage`).
 
 pub mod cdr;
 pub mod frames;
