@@ -220,18 +220,20 @@ mod written_by_rosbags {
     }
 
     #[test]
-    fn an_undecodable_message_is_an_error_naming_topic_and_index() {
-        let err = load("bad_message", &TopicChoice::default()).unwrap_err();
-        match &err {
-            DataError::Message {
-                path, topic, index, ..
-            } => {
-                assert!(path.ends_with("bad_message/bad_message.mcap"), "{err}");
-                assert_eq!((topic.as_str(), *index), ("/scan", 2));
-            }
-            other => panic!("expected a message error, got {other}"),
-        }
-        assert!(err.to_string().contains("/scan message 2: "), "{err}");
+    fn an_undecodable_message_is_skipped_with_a_warning_naming_topic_and_index() {
+        let bag = load("bad_message", &TopicChoice::default()).unwrap();
+        assert_eq!(bag.data.raw_scans.len(), 4, "the other four scans are read");
+        let skipped: Vec<&String> = (bag.warnings.iter())
+            .filter(|w| w.contains("do not decode"))
+            .collect();
+        let [warning] = skipped[..] else {
+            panic!("one warning about it: {:?}", bag.warnings);
+        };
+        assert!(
+            warning.contains("1 messages that do not decode skipped")
+                && warning.contains("bad_message/bad_message.mcap: /scan message 2: "),
+            "{warning}"
+        );
     }
 
     #[test]

@@ -28,11 +28,12 @@
 //! frame for tf is `odom`. [`TopicChoice`] overrides each. Every other topic is counted
 //! and skipped. Ground truth, landmarks and observations stay empty.
 //!
-//! Every problem is an error naming the file, never a panic: a missing or unknown storage
-//! file, a file cut short before its first message or corrupt, a message that does not
-//! decode (with its topic and index), no scan topic or several without a choice (listing
-//! them). An MCAP file that stopped early is read up to where it is whole, with a warning
-//! (`mcap_storage`).
+//! A problem with the bag as a whole is an error naming the file, never a panic: a missing
+//! or unknown storage file, a file cut short before its first message or corrupt, no scan
+//! topic or several without a choice (listing them). A message that does not decode, or
+//! holds a pose, twist or scan no sensor reports, is skipped and counted, and a warning
+//! names the first few by file, topic and index. An MCAP file that stopped early is read
+//! up to where it is whole, with a warning (`mcap_storage`).
 
 pub mod cdr;
 pub mod frames;
@@ -196,13 +197,13 @@ impl Bag {
 }
 
 /// Reads the bag at `path` (a rosbag2 folder, or one `.mcap` / `.db3` file) with the
-/// topics and frames of `topics` (see the module doc).
+/// topics and frames of `topics` (see the module doc); a message that does not decode is
+/// skipped with a warning.
 ///
 /// # Errors
 /// [`DataError`] naming the file: a missing, unknown, truncated or corrupt storage file;
-/// a message that does not decode ([`DataError::Message`]); no scan topic, no odometry,
-/// or several candidates without a choice ([`DataError::Unusable`], listing them and
-/// the flag that picks one).
+/// no scan topic, no odometry, or several candidates without a choice
+/// ([`DataError::Unusable`], listing them and the flag that picks one).
 pub fn load(path: &Path, topics: &TopicChoice) -> Result<Bag> {
     let keep = |name: &str, type_name: &str| {
         type_name == LASER_SCAN
@@ -215,6 +216,7 @@ pub fn load(path: &Path, topics: &TopicChoice) -> Result<Bag> {
         contents: &contents,
         warnings: contents.warnings.clone(),
         used: BTreeSet::new(),
+        rejected: (0, Vec::new()),
     };
     bag.build(topics)
 }
@@ -226,7 +228,12 @@ struct Reader<'a> {
     warnings: Vec<String>,
     /// Topics read (by index), so the rest are reported as skipped.
     used: BTreeSet<usize>,
+    /// Messages skipped as undecodable: how many, and the first [`REJECTED_SHOWN`] errors.
+    rejected: (usize, Vec<String>),
 }
+
+/// How many undecodable messages the warning names.
+const REJECTED_SHOWN: usize = 3;
 
 /// One odometry sample: the base's pose in the odometry frame and the measured speeds.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -239,7 +246,7 @@ struct Sample {
 /// Odometry samples with their absolute stamps (ns).
 type Samples = Vec<(u64, Sample)>;
 
-impl Reader<'_> {
+impl<'a> Reader<'a> {
     /// The bag as a data set, with the topics and frames of `choice`.
     fn build(mut self, choice: &TopicChoice) -> Result<Bag> {
         let scan_topic = self.choose(LASER_SCAN, choice.scan_topic.as_deref(), "--scan-topic")?;
@@ -254,11 +261,14 @@ impl Reader<'_> {
                 }
             }
         };
-        let scans = self.decode(scan_topic, cdr::laser_scan)?;
+        let scans = self.decode(scan_topic, cdr::laser_scan);
         let laser_frame = (scans.first())
-            .map(|(_, s)| s.header.frame_id.clone())
+            .map(|(_, s, _)| s.header.frame_id.clone())
             .unwrap_or_default();
-        if scans.iter().any(|(_, s)| s.header.frame_id != laser_frame) {
+        if scans
+            .iter()
+            .any(|(_, s, _)| s.header.frame_id != laser_frame)
+        {
             self.warnings.push(format!(
                 "scans name more than one frame: the mounting is that of `{laser_frame}`, the \
                  first scan's"
@@ -267,13 +277,14 @@ impl Reader<'_> {
         let mut full_tf = None;
         let (odometry_source, base_frame, samples) =
             self.odometry(choice, odom_topic, &mut full_tf)?;
-        let first_scan_ns = scans.iter().map(|(t, _)| *t).min().unwrap_or(0);
+        let first_scan_ns = scans.iter().map(|(t, _, _)| *t).min().unwrap_or(0);
         let mount = self.find_mount(&base_frame, &laser_frame, first_scan_ns, full_tf)?;
         let (mount_pose, mirrored) = self.mount(mount, &base_frame, &laser_frame);
-        let raw_scans = self.scans(scan_topic, scans, mirrored)?;
+        let raw_scans = self.scans(scan_topic, scans, mirrored);
         let (raw_scans, scan_stamps) = streams::order(raw_scans, same_scan);
         let (samples, odometry_stamps) = streams::order(samples, |a, b| a == b);
         let path = self.path.display();
+        let rejected = self.rejected_messages();
         let (Some(first_scan), Some(first_sample)) = (raw_scans.first(), samples.first()) else {
             let what = if raw_scans.is_empty() {
                 format!(
@@ -283,8 +294,11 @@ impl Reader<'_> {
             } else {
                 format!("no odometry from {odometry_source}")
             };
-            return Err(DataError::Unusable(format!("{path}: {what}")));
+            let why = rejected.map_or(String::new(), |r| format!("; {r}"));
+            return Err(DataError::Unusable(format!("{path}: {what}{why}")));
         };
+        self.warnings
+            .extend(rejected.map(|r| format!("{path}: {r}")));
         let epoch_ns = first_scan.0.min(first_sample.0);
         let clock = Clock::starting_at([epoch_ns as f64 * 1e-9])?;
         let data = DataSet {
@@ -341,14 +355,14 @@ impl Reader<'_> {
         full_tf: &mut Option<TfTree>,
     ) -> Result<(OdometrySource, String, Samples)> {
         if let Some(topic) = odom_topic {
-            let messages = self.decode(topic, cdr::odometry)?;
+            let messages = self.decode(topic, cdr::odometry);
             let child = (messages.iter())
-                .map(|(_, m)| m.child_frame_id.as_str())
+                .map(|(_, m, _)| m.child_frame_id.as_str())
                 .find(|c| !c.is_empty());
             let base = (choice.base_frame.clone())
                 .or(child.map(str::to_string))
                 .unwrap_or_else(|| "base_link".into());
-            let samples = self.odometry_samples(topic, messages)?;
+            let samples = self.odometry_samples(messages);
             let name = self.contents.topics[topic].name.clone();
             return Ok((OdometrySource::Topic(name), base, samples));
         }
@@ -439,35 +453,51 @@ impl Reader<'_> {
     /// The messages of `topic` decoded by `decode`, each with its stamp (header stamp, or
     /// receive time when that is zero).
     fn decode<M: Stamped>(
-        &self,
+        &mut self,
         topic: usize,
         decode: fn(&[u8]) -> cdr::DecodeResult<M>,
-    ) -> Result<Vec<(u64, M)>> {
-        self.messages(topic)
-            .map(|m| {
-                let msg = decode(&m.data).map_err(|e| self.message_error(m, e))?;
-                let stamp = msg.stamp().ns().map_err(|e| self.message_error(m, e))?;
-                Ok((stamp.unwrap_or(m.receive_ns), msg))
-            })
-            .collect()
+    ) -> Vec<(u64, M, &'a RawMessage)> {
+        let mut out = Vec::new();
+        for m in self.messages(topic) {
+            let decoded = decode(&m.data).and_then(|msg| Ok((msg.stamp().ns()?, msg)));
+            match decoded {
+                Ok((stamp, msg)) => out.push((stamp.unwrap_or(m.receive_ns), msg, m)),
+                Err(reason) => self.reject(m, reason),
+            }
+        }
+        out
     }
 
     /// The kept messages of `topic`, in storage order.
-    fn messages(&self, topic: usize) -> impl Iterator<Item = &RawMessage> {
-        self.contents
-            .messages
-            .iter()
-            .filter(move |m| m.topic == topic)
+    fn messages(&self, topic: usize) -> impl Iterator<Item = &'a RawMessage> + use<'a> {
+        (self.contents.messages.iter()).filter(move |m| m.topic == topic)
     }
 
-    /// A [`DataError::Message`] about `m`.
-    fn message_error(&self, m: &RawMessage, reason: String) -> DataError {
-        DataError::Message {
+    /// Skips message `m`, which does not decode or holds values no sensor reports, for
+    /// `reason`: counted, and among the first few named in a warning.
+    fn reject(&mut self, m: &RawMessage, reason: String) {
+        let error = DataError::Message {
             path: self.contents.files[m.file].clone(),
             topic: self.contents.topics[m.topic].name.clone(),
             index: m.index,
             reason,
+        };
+        self.rejected.0 += 1;
+        if self.rejected.1.len() < REJECTED_SHOWN {
+            self.rejected.1.push(error.to_string());
         }
+    }
+
+    /// The skipped messages in one phrase: how many, and the first few; `None` without.
+    fn rejected_messages(&self) -> Option<String> {
+        let (n, first) = (self.rejected.0, &self.rejected.1);
+        let more = if n > first.len() { "; …" } else { "" };
+        (n > 0).then(|| {
+            format!(
+                "{n} messages that do not decode skipped ({}{more})",
+                first.join("; ")
+            )
+        })
     }
 
     /// The transforms on the tf topics `names` (the first static), as one tree.
@@ -482,14 +512,26 @@ impl Reader<'_> {
             }
             self.used.insert(k);
             for m in self.messages(k) {
-                let transforms = cdr::tf_message(&m.data).map_err(|e| self.message_error(m, e))?;
-                for t in transforms {
-                    let stamp = t.header.stamp.ns().map_err(|e| self.message_error(m, e))?;
-                    let transform = Transform::new(t.translation, t.rotation)
-                        .map_err(|e| self.message_error(m, e))?;
-                    let (parent, child) = (&t.header.frame_id, &t.child_frame_id);
-                    let stamp = stamp.unwrap_or(m.receive_ns);
-                    tree.add(parent, child, stamp, transform, n == 0);
+                let transforms = cdr::tf_message(&m.data).and_then(|transforms| {
+                    (transforms.into_iter())
+                        .map(|t| {
+                            let stamp = t.header.stamp.ns()?.unwrap_or(m.receive_ns);
+                            Ok((
+                                t.header.frame_id,
+                                t.child_frame_id,
+                                stamp,
+                                Transform::new(t.translation, t.rotation)?,
+                            ))
+                        })
+                        .collect::<cdr::DecodeResult<Vec<_>>>()
+                });
+                match transforms {
+                    Ok(transforms) => {
+                        for (parent, child, stamp, transform) in transforms {
+                            tree.add(&parent, &child, stamp, transform, n == 0);
+                        }
+                    }
+                    Err(reason) => self.reject(m, reason),
                 }
             }
         }
@@ -503,25 +545,27 @@ impl Reader<'_> {
     }
 
     /// Odometry messages as samples.
-    fn odometry_samples(
-        &self,
-        topic: usize,
-        messages: Vec<(u64, cdr::Odometry)>,
-    ) -> Result<Samples> {
-        let raw: Vec<&RawMessage> = self.messages(topic).collect();
-        (messages.into_iter().zip(raw))
-            .map(|((t, m), raw)| {
-                let pose = Transform::new(m.position, m.orientation)
-                    .map_err(|e| self.message_error(raw, format!("pose: {e}")))?
-                    .pose2();
-                let (v, omega) = (m.linear[0], m.angular[2]);
-                if !(v.is_finite() && omega.is_finite()) {
-                    let reason = format!("twist {v} m/s, {omega} rad/s is not finite");
-                    return Err(self.message_error(raw, reason));
+    fn odometry_samples(&mut self, messages: Vec<(u64, cdr::Odometry, &RawMessage)>) -> Samples {
+        let mut samples = Vec::with_capacity(messages.len());
+        for (t, m, raw) in messages {
+            let pose = Transform::new(m.position, m.orientation).map_err(|e| format!("pose: {e}"));
+            let (v, omega) = (m.linear[0], m.angular[2]);
+            match pose {
+                Err(reason) => self.reject(raw, reason),
+                Ok(_) if !(v.is_finite() && omega.is_finite()) => {
+                    self.reject(raw, format!("twist {v} m/s, {omega} rad/s is not finite"));
                 }
-                Ok((t, Sample { pose, v, omega }))
-            })
-            .collect()
+                Ok(pose) => samples.push((
+                    t,
+                    Sample {
+                        pose: pose.pose2(),
+                        v,
+                        omega,
+                    },
+                )),
+            }
+        }
+        samples
     }
 
     /// The base frame for odometry from tf (see the module doc).
@@ -608,14 +652,19 @@ impl Reader<'_> {
     fn scans(
         &mut self,
         topic: usize,
-        scans: Vec<(u64, cdr::LaserScan)>,
+        scans: Vec<(u64, cdr::LaserScan, &RawMessage)>,
         mirrored: bool,
-    ) -> Result<Vec<(u64, RawScan)>> {
-        let raw: Vec<&RawMessage> = self.messages(topic).collect();
+    ) -> Vec<(u64, RawScan)> {
         let (mut empty, mut reversed, mut timing) = (0, 0, 0);
         let mut out = Vec::with_capacity(scans.len());
-        for ((t, msg), raw) in scans.into_iter().zip(raw) {
-            let scan = streams::scan(&msg, mirrored).map_err(|e| self.message_error(raw, e))?;
+        for (t, msg, raw) in scans {
+            let scan = match streams::scan(&msg, mirrored) {
+                Ok(scan) => scan,
+                Err(reason) => {
+                    self.reject(raw, reason);
+                    continue;
+                }
+            };
             let Some((header, ranges, fixes)) = scan else {
                 empty += 1;
                 continue;
@@ -646,7 +695,7 @@ impl Reader<'_> {
                 self.warnings.push(format!("{n} scans on {name} {what}"));
             }
         }
-        Ok(out)
+        out
     }
 }
 
