@@ -230,7 +230,7 @@ mod written_by_rosbags {
             panic!("one warning about it: {:?}", bag.warnings);
         };
         assert!(
-            warning.contains("1 messages that do not decode skipped")
+            warning.contains("1 messages skipped that do not decode")
                 && warning.contains("bad_message/bad_message.mcap: /scan message 2: "),
             "{warning}"
         );
@@ -260,6 +260,14 @@ mod written_by_rosbags {
             warning.contains("cut.mcap: cut short inside a record"),
             "{warning}"
         );
+        // The same half followed by the file's closing magic, as a whole file whose record
+        // length is corrupt reads: refused as corrupt, not taken for a cut.
+        let closing = &bytes[bytes.len() - 8..];
+        std::fs::write(&cut, [&bytes[..bytes.len() / 2], closing].concat()).unwrap();
+        let err = rosbag::load(&cut, &TopicChoice::default())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("cut.mcap: corrupt MCAP file"), "{err}");
         // Anywhere it is cut: an error naming the file, or the whole part read with a
         // warning.
         for k in 0..64 {

@@ -290,8 +290,8 @@ impl Records {
             Some(&"ROBOTLASER1") => robotlaser1(line)?,
             Some(&"ODOM") => {
                 // Read for its errors; its pose is a laser line's too (module doc).
-                self.messages.odom += 1;
                 odom(line)?;
+                self.messages.odom += 1;
                 return Ok(());
             }
             Some(kind) if is_message_name(kind) => {
@@ -561,7 +561,10 @@ fn build(path: &Path, records: Records, mut warnings: Vec<String>) -> Result<Car
     let (mut lasers, mut poses, messages) = (records.lasers, records.poses, records.messages);
     let unusable = |why: &str| Err(DataError::Unusable(format!("{}: {why}", path.display())));
     if lasers.is_empty() {
-        let why = malformed.map_or(String::new(), |m| format!("; {m}"));
+        // What was skipped, and where the file ended early.
+        let why: String = (malformed.into_iter().chain(warnings))
+            .map(|w| format!("; {w}"))
+            .collect();
         return unusable(&format!(
             "no laser line (FLASER or ROBOTLASER1) in the log{why}"
         ));

@@ -184,6 +184,20 @@ fn a_log_cut_short_keeps_the_lines_before_with_a_warning() {
     let err = load_bytes("stub.clf.gz", &whole[..30]).unwrap_err();
     assert!(matches!(err, DataError::Io { .. }), "{err}");
     assert!(err.to_string().contains("stub.clf.gz"), "{err}");
+    // Cut after comment lines only: refused, saying where it ended.
+    // (Two gzip members, the second cut in its header.)
+    let comments = gzip(&"# comment\n".repeat(10));
+    let early = [comments, gzip(&text)[..10].to_vec()].concat();
+    let err = load_bytes("early.clf.gz", &early).unwrap_err();
+    assert!(matches!(err, DataError::Unusable(_)), "{err}");
+    let err = err.to_string();
+    assert!(
+        err.contains("no laser line") && err.contains("ends early after line"),
+        "{err}"
+    );
+    let err = load_bytes("stub.clf.gz", &gzip(&text)[..30]).unwrap_err();
+    assert!(matches!(err, DataError::Io { .. }), "{err}");
+    assert!(err.to_string().contains("stub.clf.gz"), "{err}");
 }
 
 #[test]
@@ -240,6 +254,9 @@ fn bad_lines_are_skipped_and_named_with_file_and_line() {
         );
         assert!(log.to_string().contains("skipped malformed 1"), "{log}");
     }
+    // A bad ODOM line is counted as malformed, not as an ODOM line.
+    let log = load_text("badodom.clf", &format!("{good}ODOM 1 2\n")).unwrap();
+    assert_eq!((log.messages.odom, log.messages.malformed), (0, 1));
     // Five bad lines: the warning names the first three.
     let bad = "FLASER 2 1 2\n".repeat(5);
     let log = load_text("bad5.clf", &format!("{good}{bad}")).unwrap();

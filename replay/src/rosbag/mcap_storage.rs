@@ -58,11 +58,21 @@ pub fn read(mut source: impl Read, path: &Path, sink: &mut Collector) -> Result<
     let mut reader = LinearReader::new_with_options(options);
     let mut state = State::default();
     let (mut offset, mut cut) = (0u64, false);
+    // The stream's last bytes: a file that ends with the magic was not cut short.
+    let mut tail = Vec::with_capacity(2 * mcap::MAGIC.len());
     while let Some(event) = reader.next_event() {
         match event {
-            Err(mcap::McapError::UnexpectedEof) if !state.counts.is_empty() => {
+            Err(mcap::McapError::UnexpectedEof)
+                if !state.counts.is_empty() && !tail.ends_with(mcap::MAGIC) =>
+            {
                 cut = true;
                 break;
+            }
+            Err(mcap::McapError::UnexpectedEof) if tail.ends_with(mcap::MAGIC) => {
+                return Err(bad(format!(
+                    "corrupt MCAP file: a record runs past the end of the whole file \
+                     ({offset} bytes)"
+                )));
             }
             Err(mcap::McapError::UnexpectedEof) => {
                 return Err(bad(format!(
@@ -73,6 +83,8 @@ pub fn read(mut source: impl Read, path: &Path, sink: &mut Collector) -> Result<
             Ok(LinearReadEvent::ReadRequest(need)) => {
                 let buf = reader.insert(need.clamp(1, READ_SIZE));
                 let n = read_some(&mut source, buf).map_err(|e| bad(e.to_string()))?;
+                tail.extend_from_slice(&buf[n.saturating_sub(mcap::MAGIC.len())..n]);
+                tail.drain(..tail.len().saturating_sub(mcap::MAGIC.len()));
                 reader.notify_read(n);
                 offset += n as u64;
             }
@@ -91,7 +103,7 @@ pub fn read(mut source: impl Read, path: &Path, sink: &mut Collector) -> Result<
     if cut {
         sink.warn(format!(
             "{}: cut short inside a record ({offset} bytes read): read the {total} messages \
-             before the cut",
+             of the records whole before the cut (a chunk cut short is lost whole)",
             path.display()
         ));
     } else if !state.footer {

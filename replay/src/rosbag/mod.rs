@@ -216,7 +216,7 @@ pub fn load(path: &Path, topics: &TopicChoice) -> Result<Bag> {
         contents: &contents,
         warnings: contents.warnings.clone(),
         used: BTreeSet::new(),
-        rejected: (0, Vec::new()),
+        rejected: (BTreeSet::new(), Vec::new()),
     };
     bag.build(topics)
 }
@@ -228,8 +228,9 @@ struct Reader<'a> {
     warnings: Vec<String>,
     /// Topics read (by index), so the rest are reported as skipped.
     used: BTreeSet<usize>,
-    /// Messages skipped as undecodable: how many, and the first [`REJECTED_SHOWN`] errors.
-    rejected: (usize, Vec<String>),
+    /// Messages skipped as undecodable or holding values no sensor reports: each once, by
+    /// (file, topic, index), and the first [`REJECTED_SHOWN`] errors.
+    rejected: (BTreeSet<(usize, usize, usize)>, Vec<String>),
 }
 
 /// How many undecodable messages the warning names.
@@ -247,8 +248,20 @@ struct Sample {
 type Samples = Vec<(u64, Sample)>;
 
 impl<'a> Reader<'a> {
-    /// The bag as a data set, with the topics and frames of `choice`.
+    /// The bag as a data set, with the topics and frames of `choice`; a refusal names the
+    /// messages skipped on the way.
     fn build(mut self, choice: &TopicChoice) -> Result<Bag> {
+        let built = self.assemble(choice);
+        match (built, self.rejected_messages()) {
+            (Err(DataError::Unusable(why)), Some(r)) => {
+                Err(DataError::Unusable(format!("{why}; {r}")))
+            }
+            (built, _) => built,
+        }
+    }
+
+    /// [`Reader::build`]'s work.
+    fn assemble(&mut self, choice: &TopicChoice) -> Result<Bag> {
         let scan_topic = self.choose(LASER_SCAN, choice.scan_topic.as_deref(), "--scan-topic")?;
         let odom_topic = match choice.odom_topic.as_deref() {
             Some(TF_TOPIC) => None,
@@ -294,8 +307,7 @@ impl<'a> Reader<'a> {
             } else {
                 format!("no odometry from {odometry_source}")
             };
-            let why = rejected.map_or(String::new(), |r| format!("; {r}"));
-            return Err(DataError::Unusable(format!("{path}: {what}{why}")));
+            return Err(DataError::Unusable(format!("{path}: {what}")));
         };
         self.warnings
             .extend(rejected.map(|r| format!("{path}: {r}")));
@@ -342,7 +354,7 @@ impl<'a> Reader<'a> {
             skipped,
             scan_stamps,
             odometry_stamps,
-            warnings: self.warnings,
+            warnings: std::mem::take(&mut self.warnings),
         })
     }
 
@@ -476,13 +488,15 @@ impl<'a> Reader<'a> {
     /// Skips message `m`, which does not decode or holds values no sensor reports, for
     /// `reason`: counted, and among the first few named in a warning.
     fn reject(&mut self, m: &RawMessage, reason: String) {
+        if !self.rejected.0.insert((m.file, m.topic, m.index)) {
+            return; // read again (tf is read once per question asked of it)
+        }
         let error = DataError::Message {
             path: self.contents.files[m.file].clone(),
             topic: self.contents.topics[m.topic].name.clone(),
             index: m.index,
             reason,
         };
-        self.rejected.0 += 1;
         if self.rejected.1.len() < REJECTED_SHOWN {
             self.rejected.1.push(error.to_string());
         }
@@ -490,11 +504,12 @@ impl<'a> Reader<'a> {
 
     /// The skipped messages in one phrase: how many, and the first few; `None` without.
     fn rejected_messages(&self) -> Option<String> {
-        let (n, first) = (self.rejected.0, &self.rejected.1);
+        let (n, first) = (self.rejected.0.len(), &self.rejected.1);
         let more = if n > first.len() { "; …" } else { "" };
         (n > 0).then(|| {
             format!(
-                "{n} messages that do not decode skipped ({}{more})",
+                "{n} messages skipped that do not decode or hold values no sensor \
+                 reports ({}{more})",
                 first.join("; ")
             )
         })
@@ -512,26 +527,22 @@ impl<'a> Reader<'a> {
             }
             self.used.insert(k);
             for m in self.messages(k) {
-                let transforms = cdr::tf_message(&m.data).and_then(|transforms| {
-                    (transforms.into_iter())
-                        .map(|t| {
-                            let stamp = t.header.stamp.ns()?.unwrap_or(m.receive_ns);
-                            Ok((
-                                t.header.frame_id,
-                                t.child_frame_id,
-                                stamp,
-                                Transform::new(t.translation, t.rotation)?,
-                            ))
-                        })
-                        .collect::<cdr::DecodeResult<Vec<_>>>()
-                });
-                match transforms {
-                    Ok(transforms) => {
-                        for (parent, child, stamp, transform) in transforms {
-                            tree.add(&parent, &child, stamp, transform, n == 0);
-                        }
+                let transforms = match cdr::tf_message(&m.data) {
+                    Ok(transforms) => transforms,
+                    Err(reason) => {
+                        self.reject(m, reason);
+                        continue;
                     }
-                    Err(reason) => self.reject(m, reason),
+                };
+                // A bad transform costs only itself: a static publisher sends every mount
+                // in one message.
+                for t in transforms {
+                    let (parent, child) = (&t.header.frame_id, &t.child_frame_id);
+                    let stamp = t.header.stamp.ns().map(|s| s.unwrap_or(m.receive_ns));
+                    match stamp.and_then(|s| Ok((s, Transform::new(t.translation, t.rotation)?))) {
+                        Ok((stamp, transform)) => tree.add(parent, child, stamp, transform, n == 0),
+                        Err(reason) => self.reject(m, format!("{parent} → {child}: {reason}")),
+                    }
                 }
             }
         }

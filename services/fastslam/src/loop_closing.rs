@@ -121,6 +121,8 @@ pub struct LoopClosing {
     /// The newest applied solve as the graph solved it: in the frame of the first
     /// keyframe, which the graph's prior holds where its pose was published.
     in_force: Option<Solved>,
+    /// [`LoopClosing::finish`] was called: the last solve is made.
+    finished: bool,
     solves: u32,
     /// The front end's motion model: how a correction is shared out between keyframes.
     motion: MotionModel,
@@ -183,6 +185,7 @@ impl LoopClosing {
             gauge: Pose2::default(),
             unpublished: None,
             in_force: None,
+            finished: false,
             solves: 0,
             motion,
         })
@@ -242,16 +245,26 @@ impl LoopClosing {
     /// is applied. The final trajectory (every scan), or `None` without a solve. The final
     /// trajectory, the correction and the map rendered from then on are in the frame of
     /// the first keyframe, where it was published, not in the map frame's gauge: a run's
-    /// result starts where the run started.
+    /// result starts where the run started. `None` when called again.
     pub fn finish(&mut self) -> Option<Solution> {
+        if std::mem::replace(&mut self.finished, true) {
+            return None;
+        }
         self.send(Request::Finish);
         let mut last = None;
-        while let Some(reply) = self.receive() {
-            match reply {
-                Reply::Added { index, solved } => self.waiting.push_back((index, solved)),
-                Reply::Rendered(_) => {}
-                Reply::Final(solved) => {
+        loop {
+            match self.receive() {
+                Some(Reply::Added { index, solved }) => self.waiting.push_back((index, solved)),
+                Some(Reply::Rendered(_)) => {}
+                Some(Reply::Final(solved)) => {
                     last = solved;
+                    break;
+                }
+                None => {
+                    tracing::error!(
+                        "the loop-closing back-end stopped before its last solve: the final \
+                         trajectory is its last solve before"
+                    );
                     break;
                 }
             }
