@@ -27,21 +27,22 @@ fn estimate_only(json: &str) -> serde_json::Value {
     v
 }
 
-/// Runs `scenario` with `flags` (and their `overrides`, and the service's `config` file
-/// if any) through the processes and in process, and asserts the metrics the estimate
-/// determines are equal; `look` is shown the processes' run folder before it is removed.
+/// Runs `scenario` with `overrides` (as the launcher's flags, and in process), and the
+/// service's `config` file if any, through the processes and in process, and asserts the
+/// metrics the estimate determines are equal; `look` is shown the processes' run folder
+/// before it is removed.
 fn assert_in_process_equals_processes(
     name: &str,
     scenario: &str,
-    flags: &[&str],
     (config, overrides): (Option<&Path>, &Overrides),
     look: impl FnOnce(&Path),
 ) -> offline::RunOutcome {
     let prefix = prefix(name);
     let dir = folder(&prefix);
     let out = dir.join("run");
+    let flags = overrides.flags();
     let mut all = vec!["--scenario", scenario];
-    all.extend(flags);
+    all.extend(flags.iter().map(String::as_str));
     let file = config.map(|c| c.display().to_string());
     all.extend(file.iter().flat_map(|f| ["--config", f.as_str()]));
     assert_success(&run_stack(&prefix, &out, &all));
@@ -65,18 +66,6 @@ fn assert_in_process_equals_processes(
 fn in_process_run_gives_the_metrics_of_the_run_through_the_processes() {
     // bailey-short with an optimiser, its correction and FastSLAM 2.0, so every piece of
     // the service's wiring is exercised; 30 particles keep it quick.
-    let flags = [
-        "--seed",
-        "3",
-        "--particles",
-        "30",
-        "--optimizer",
-        "icoa",
-        "--proposal",
-        "fastslam2",
-        "--move-correction",
-        "proposal",
-    ];
     let overrides = Overrides {
         particles: Some(30),
         seed: Some(3),
@@ -90,7 +79,6 @@ fn in_process_run_gives_the_metrics_of_the_run_through_the_processes() {
     let outcome = assert_in_process_equals_processes(
         "offline_equal",
         "bailey-short",
-        &flags,
         (None, &overrides),
         |_| {},
     );
@@ -105,11 +93,9 @@ fn in_process_raw_scans_give_the_metrics_of_the_run_through_the_processes() {
         seed: Some(2),
         ..Overrides::default()
     };
-    let flags = ["--seed", "2", "--particles", "30"];
     let outcome = assert_in_process_equals_processes(
         "offline_raw",
         "indoor-loop",
-        &flags,
         (None, &overrides),
         |_| {},
     );
@@ -127,12 +113,9 @@ fn in_process_grid_fastslam_gives_the_metrics_of_the_run_through_the_processes()
             ..EstimatorChoice::default()
         },
     };
-    let flags = overrides.flags();
-    let flags: Vec<&str> = flags.iter().map(String::as_str).collect();
     let outcome = assert_in_process_equals_processes(
         "offline_grid",
         "indoor-loop",
-        &flags,
         (None, &overrides),
         |_| {},
     );
@@ -169,12 +152,9 @@ fn grid_fastslam_with_loop_closing_gives_one_answer_and_ends_in_the_frame_it_sta
             ..EstimatorChoice::default()
         },
     };
-    let flags = overrides.flags();
-    let flags: Vec<&str> = flags.iter().map(String::as_str).collect();
     let outcome = assert_in_process_equals_processes(
         "offline_loop",
         "indoor-loop",
-        &flags,
         (Some(&config), &overrides),
         |run| {
             let published = first_pose(&run.join("estimate.tum"));

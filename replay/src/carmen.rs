@@ -54,7 +54,7 @@
 //! a real echo loses that one reading to "no return".
 
 use crate::dataset::{Clock, DataSet, RawScan};
-use crate::text::{DataError, Result};
+use crate::text::{DataError, Result, Skipped};
 use fastslam_estimation::{Pose2, wrap_angle};
 use fastslam_protocol::validate::MAX_SCAN_BEAMS;
 use fastslam_protocol::{Header, LaserScanHeader, Odometry};
@@ -200,15 +200,12 @@ pub fn load(path: &Path) -> Result<CarmenLog> {
             fields,
         };
         if let Err(e) = records.add(&line) {
-            records.reject(e);
+            records.malformed.add(&e);
         }
         buffer.clear();
     }
     build(path, records, warnings)
 }
-
-/// How many malformed lines the warning and the refusal name.
-const MALFORMED_SHOWN: usize = 3;
 
 /// A laser line, before its stamp is known.
 #[derive(Debug, Clone, PartialEq)]
@@ -252,35 +249,11 @@ struct Records {
     lasers: Vec<LaserRecord>,
     poses: Vec<PoseRecord>,
     messages: MessageCounts,
-    /// The first [`MALFORMED_SHOWN`] malformed lines' errors.
-    malformed: Vec<String>,
+    /// The lines that could not be read.
+    malformed: Skipped,
 }
 
 impl Records {
-    /// Counts a line that could not be read, keeping the first few reasons.
-    fn reject(&mut self, error: DataError) {
-        self.messages.malformed += 1;
-        if self.malformed.len() < MALFORMED_SHOWN {
-            self.malformed.push(error.to_string());
-        }
-    }
-
-    /// The malformed lines in one phrase: how many, and the first few; `None` without.
-    fn malformed_lines(&self) -> Option<String> {
-        let n = self.messages.malformed;
-        let more = if n > self.malformed.len() {
-            "; …"
-        } else {
-            ""
-        };
-        (n > 0).then(|| {
-            format!(
-                "{n} malformed lines skipped ({}{more})",
-                self.malformed.join("; ")
-            )
-        })
-    }
-
     /// Takes in one line of the log.
     fn add(&mut self, line: &Line) -> Result<()> {
         let (laser, pose) = match line.fields.first() {
@@ -557,8 +530,12 @@ fn no_return(scan: &mut RawScan, max_range: f64) {
 
 /// The messages from the records read.
 fn build(path: &Path, records: Records, mut warnings: Vec<String>) -> Result<CarmenLog> {
-    let malformed = records.malformed_lines();
-    let (mut lasers, mut poses, messages) = (records.lasers, records.poses, records.messages);
+    let malformed = records.malformed.phrase("malformed lines skipped");
+    let (mut lasers, mut poses) = (records.lasers, records.poses);
+    let messages = MessageCounts {
+        malformed: records.malformed.count(),
+        ..records.messages
+    };
     let unusable = |why: &str| Err(DataError::Unusable(format!("{}: {why}", path.display())));
     if lasers.is_empty() {
         // What was skipped, and where the file ended early.

@@ -57,6 +57,43 @@ pub enum DataError {
 /// Result alias of the data-set readers.
 pub type Result<T> = std::result::Result<T, DataError>;
 
+/// Records a reader skipped instead of refusing the file: how many, and the first
+/// [`Skipped::SHOWN`] errors, for one warning.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Skipped {
+    count: usize,
+    first: Vec<String>,
+}
+
+impl Skipped {
+    /// How many errors the warning names.
+    pub const SHOWN: usize = 3;
+
+    /// Counts one skipped record, keeping its error among the first few.
+    pub fn add(&mut self, error: &DataError) {
+        self.count += 1;
+        if self.first.len() < Self::SHOWN {
+            self.first.push(error.to_string());
+        }
+    }
+
+    /// How many were skipped.
+    pub fn count(&self) -> usize {
+        self.count
+    }
+
+    /// `"{count} {what} (first error; …)"`, naming the first few; `None` when none was
+    /// skipped.
+    pub fn phrase(&self, what: &str) -> Option<String> {
+        let more = if self.count > self.first.len() {
+            "; …"
+        } else {
+            ""
+        };
+        (self.count > 0).then(|| format!("{} {what} ({}{more})", self.count, self.first.join("; ")))
+    }
+}
+
 /// One data line: its line number (from 1) and its columns.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Row<const N: usize> {

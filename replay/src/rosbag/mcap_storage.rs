@@ -62,22 +62,21 @@ pub fn read(mut source: impl Read, path: &Path, sink: &mut Collector) -> Result<
     let mut tail = Vec::with_capacity(2 * mcap::MAGIC.len());
     while let Some(event) = reader.next_event() {
         match event {
-            Err(mcap::McapError::UnexpectedEof)
-                if !state.counts.is_empty() && !tail.ends_with(mcap::MAGIC) =>
-            {
+            Err(mcap::McapError::UnexpectedEof) => {
+                if tail.ends_with(mcap::MAGIC) {
+                    return Err(bad(format!(
+                        "corrupt MCAP file: a record runs past the end of the whole file \
+                         ({offset} bytes)"
+                    )));
+                }
+                if state.counts.is_empty() {
+                    return Err(bad(format!(
+                        "MCAP file cut short: its last record is incomplete ({offset} bytes \
+                         read)"
+                    )));
+                }
                 cut = true;
                 break;
-            }
-            Err(mcap::McapError::UnexpectedEof) if tail.ends_with(mcap::MAGIC) => {
-                return Err(bad(format!(
-                    "corrupt MCAP file: a record runs past the end of the whole file \
-                     ({offset} bytes)"
-                )));
-            }
-            Err(mcap::McapError::UnexpectedEof) => {
-                return Err(bad(format!(
-                    "MCAP file cut short: its last record is incomplete ({offset} bytes read)"
-                )));
             }
             Err(e) => return Err(bad(format!("corrupt MCAP file: {e}"))),
             Ok(LinearReadEvent::ReadRequest(need)) => {

@@ -45,7 +45,7 @@ pub mod streams;
 mod tests;
 
 use crate::dataset::{Clock, DataSet, RawScan};
-use crate::text::{DataError, Result};
+use crate::text::{DataError, Result, Skipped};
 use fastslam_estimation::Pose2;
 use fastslam_protocol::{Header, Odometry};
 use frames::{TfTree, Transform};
@@ -216,7 +216,8 @@ pub fn load(path: &Path, topics: &TopicChoice) -> Result<Bag> {
         contents: &contents,
         warnings: contents.warnings.clone(),
         used: BTreeSet::new(),
-        rejected: (BTreeSet::new(), Vec::new()),
+        rejected: BTreeSet::new(),
+        skipped_messages: Skipped::default(),
     };
     bag.build(topics)
 }
@@ -228,13 +229,12 @@ struct Reader<'a> {
     warnings: Vec<String>,
     /// Topics read (by index), so the rest are reported as skipped.
     used: BTreeSet<usize>,
-    /// Messages skipped as undecodable or holding values no sensor reports: each once, by
-    /// (file, topic, index), and the first [`REJECTED_SHOWN`] errors.
-    rejected: (BTreeSet<(usize, usize, usize)>, Vec<String>),
+    /// Messages skipped as undecodable or holding values no sensor reports, by (file,
+    /// topic, index): each is counted once, however often its topic is read.
+    rejected: BTreeSet<(usize, usize, usize)>,
+    /// Those messages' count and first errors.
+    skipped_messages: Skipped,
 }
-
-/// How many undecodable messages the warning names.
-const REJECTED_SHOWN: usize = 3;
 
 /// One odometry sample: the base's pose in the odometry frame and the measured speeds.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -297,7 +297,6 @@ impl<'a> Reader<'a> {
         let (raw_scans, scan_stamps) = streams::order(raw_scans, same_scan);
         let (samples, odometry_stamps) = streams::order(samples, |a, b| a == b);
         let path = self.path.display();
-        let rejected = self.rejected_messages();
         let (Some(first_scan), Some(first_sample)) = (raw_scans.first(), samples.first()) else {
             let what = if raw_scans.is_empty() {
                 format!(
@@ -309,6 +308,7 @@ impl<'a> Reader<'a> {
             };
             return Err(DataError::Unusable(format!("{path}: {what}")));
         };
+        let rejected = self.rejected_messages();
         self.warnings
             .extend(rejected.map(|r| format!("{path}: {r}")));
         let epoch_ns = first_scan.0.min(first_sample.0);
@@ -488,31 +488,21 @@ impl<'a> Reader<'a> {
     /// Skips message `m`, which does not decode or holds values no sensor reports, for
     /// `reason`: counted, and among the first few named in a warning.
     fn reject(&mut self, m: &RawMessage, reason: String) {
-        if !self.rejected.0.insert((m.file, m.topic, m.index)) {
+        if !self.rejected.insert((m.file, m.topic, m.index)) {
             return; // read again (tf is read once per question asked of it)
         }
-        let error = DataError::Message {
+        self.skipped_messages.add(&DataError::Message {
             path: self.contents.files[m.file].clone(),
             topic: self.contents.topics[m.topic].name.clone(),
             index: m.index,
             reason,
-        };
-        if self.rejected.1.len() < REJECTED_SHOWN {
-            self.rejected.1.push(error.to_string());
-        }
+        });
     }
 
     /// The skipped messages in one phrase: how many, and the first few; `None` without.
     fn rejected_messages(&self) -> Option<String> {
-        let (n, first) = (self.rejected.0.len(), &self.rejected.1);
-        let more = if n > first.len() { "; …" } else { "" };
-        (n > 0).then(|| {
-            format!(
-                "{n} messages skipped that do not decode or hold values no sensor \
-                 reports ({}{more})",
-                first.join("; ")
-            )
-        })
+        (self.skipped_messages)
+            .phrase("messages skipped that do not decode or hold values no sensor reports")
     }
 
     /// The transforms on the tf topics `names` (the first static), as one tree.

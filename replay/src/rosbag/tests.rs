@@ -19,7 +19,8 @@ fn reader<'a>(contents: &'a Contents) -> Reader<'a> {
         contents,
         warnings: Vec::new(),
         used: BTreeSet::new(),
-        rejected: (BTreeSet::new(), Vec::new()),
+        rejected: BTreeSet::new(),
+        skipped_messages: Skipped::default(),
     }
 }
 
