@@ -187,7 +187,7 @@ fn a_log_cut_short_keeps_the_lines_before_with_a_warning() {
     // Cut after comment lines only: refused, saying where it ended.
     // (Two gzip members, the second cut in its header.)
     let comments = gzip(&"# comment\n".repeat(10));
-    let early = [comments, gzip(&text)[..10].to_vec()].concat();
+    let early = [comments, whole[..10].to_vec()].concat();
     let err = load_bytes("early.clf.gz", &early).unwrap_err();
     assert!(matches!(err, DataError::Unusable(_)), "{err}");
     let err = err.to_string();
@@ -195,9 +195,6 @@ fn a_log_cut_short_keeps_the_lines_before_with_a_warning() {
         err.contains("no laser line") && err.contains("ends early after line"),
         "{err}"
     );
-    let err = load_bytes("stub.clf.gz", &gzip(&text)[..30]).unwrap_err();
-    assert!(matches!(err, DataError::Io { .. }), "{err}");
-    assert!(err.to_string().contains("stub.clf.gz"), "{err}");
 }
 
 #[test]
