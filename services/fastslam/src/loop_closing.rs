@@ -263,7 +263,7 @@ impl LoopClosing {
                 None => {
                     tracing::error!(
                         "the loop-closing back-end stopped before its last solve: the final \
-                         trajectory is its last solve before"
+                         trajectory is the last solve it made"
                     );
                     break;
                 }
