@@ -55,6 +55,29 @@ pub fn remove_dead_nodes(stack: &StackConfig) -> Result<usize> {
     Ok(removed)
 }
 
+/// Removes the stack's shared-memory segments whose creation a kill interrupted: empty,
+/// not yet readable by their owner (iceoryx2 makes a segment readable once it is
+/// initialised), and left so for a second or more. iceoryx2's clean-up of a dead node
+/// waits without end for such a segment to grow. Only for a stack none of whose
+/// processes runs (its launcher holds the prefix's lock); returns how many it removed.
+pub fn remove_unfinished_segments(prefix: &str) -> usize {
+    let unfinished = |file: &std::path::Path| {
+        std::fs::metadata(file).is_ok_and(|m| {
+            let idle = m.modified().ok().and_then(|t| t.elapsed().ok());
+            m.len() == 0
+                && m.permissions().mode() & 0o400 == 0
+                && idle.is_some_and(|idle| idle >= UNFINISHED_AGE)
+        })
+    };
+    (shared_memory_files(prefix).into_iter())
+        .filter(|file| unfinished(file) && std::fs::remove_file(file).is_ok())
+        .count()
+}
+
+/// How long an empty, unreadable segment must have been left before it counts as
+/// unfinished: a live process initialises one within microseconds.
+const UNFINISHED_AGE: std::time::Duration = std::time::Duration::from_secs(1);
+
 /// Makes the stack's node-management file in `/dev/shm`, which iceoryx2 creates
 /// readable and writable by everyone, the owner's alone (0600), as every other file of a
 /// stack is. Best effort: a file of another user's stays as it is.
@@ -107,6 +130,36 @@ impl StackConfig {
 mod tests {
     use super::super::testing::{TestStack, eos_ports, on_thread};
     use super::*;
+
+    #[test]
+    fn only_empty_unreadable_segments_left_for_a_while_are_unfinished() {
+        let prefix = format!("unfin{}", std::process::id());
+        let old = std::time::SystemTime::now() - 2 * UNFINISHED_AGE;
+        let make = |name: &str, mode: u32, bytes: &[u8], modified| {
+            let path = std::path::Path::new("/dev/shm").join(format!("{prefix}{name}"));
+            std::fs::write(&path, bytes).unwrap();
+            std::fs::set_permissions(&path, std::fs::Permissions::from_mode(mode)).unwrap();
+            std::fs::File::options()
+                .write(true)
+                .open(&path)
+                .unwrap()
+                .set_modified(modified)
+                .unwrap();
+            path
+        };
+        let killed = make("_a.connection", 0o200, b"", old);
+        let kept = [
+            make("_b.connection", 0o600, b"", old),
+            make("_c.connection", 0o200, b"x", old),
+            make("_d.connection", 0o200, b"", std::time::SystemTime::now()),
+        ];
+        assert_eq!(remove_unfinished_segments(&prefix), 1);
+        assert!(!killed.exists());
+        for file in &kept {
+            assert!(file.exists(), "{} was removed", file.display());
+        }
+        remove_stack_files(&prefix, None);
+    }
 
     #[test]
     fn no_file_of_a_stack_in_dev_shm_is_shared_with_other_users() {
