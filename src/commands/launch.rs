@@ -102,16 +102,6 @@ impl Place {
             root,
             own_root,
         };
-        // A process killed while it made a segment leaves one iceoryx2's clean-up below
-        // would wait on for ever; no process of the stack runs while the lock is held.
-        let unfinished = ipc::remove_unfinished_segments(&place.prefix);
-        if unfinished > 0 {
-            tracing::info!(
-                unfinished,
-                prefix = place.prefix,
-                "removed shared-memory segments a killed process left half made"
-            );
-        }
         let dead = ipc::remove_dead_nodes(&stack).context("cleaning up the stack's prefix")?;
         if dead > 0 {
             tracing::info!(

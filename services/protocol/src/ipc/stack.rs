@@ -33,14 +33,23 @@ pub fn remove_stack_files(prefix: &str, root: Option<&std::path::Path>) {
 
 /// Removes what the nodes of `stack` whose processes died (SIGKILL, a crash) left
 /// behind: their node entries and the ports they held, so services the dead nodes
-/// created are gone once no live node uses them. Live nodes are untouched. Returns how
-/// many dead nodes were cleaned.
+/// created are gone once no live node uses them. Live nodes are untouched. First removes
+/// the segments a process was killed while making ([`remove_unfinished_segments`]), on
+/// which iceoryx2's clean-up would wait for ever. Returns how many dead nodes were cleaned.
 ///
 /// # Errors
 /// [`IpcError::InvalidLocation`] for a bad prefix/root, [`IpcError::Iceoryx`] when the
 /// nodes cannot be listed.
 pub fn remove_dead_nodes(stack: &StackConfig) -> Result<usize> {
     let config = stack.iceoryx_config()?;
+    let unfinished = remove_unfinished_segments(&stack.prefix);
+    if unfinished > 0 {
+        tracing::info!(
+            unfinished,
+            prefix = stack.prefix,
+            "removed shared-memory segments a killed process left half made"
+        );
+    }
     let mut removed = 0;
     Node::<Service>::list(&config, |state| {
         if let NodeState::Dead(view) = state {
@@ -55,28 +64,51 @@ pub fn remove_dead_nodes(stack: &StackConfig) -> Result<usize> {
     Ok(removed)
 }
 
-/// Removes the stack's shared-memory segments whose creation a kill interrupted: empty,
-/// not yet readable by their owner (iceoryx2 makes a segment readable once it is
-/// initialised), and left so for a second or more. iceoryx2's clean-up of a dead node
-/// waits without end for such a segment to grow. Only for a stack none of whose
-/// processes runs (its launcher holds the prefix's lock); returns how many it removed.
+/// Removes the stack's shared-memory segments whose creation a kill interrupted: empty
+/// and not yet readable by their owner (iceoryx2 makes a segment readable once it is
+/// initialised) for a second or more. iceoryx2's clean-up of a dead node waits without end
+/// for such a segment to grow. A live process initialises a segment within microseconds,
+/// so a younger one is watched until it is finished (and kept) or has been left that long
+/// (and removed): the call returns within about a second, and is safe while other
+/// processes of the stack run. Returns how many segments it removed.
 pub fn remove_unfinished_segments(prefix: &str) -> usize {
-    let unfinished = |file: &std::path::Path| {
-        std::fs::metadata(file).is_ok_and(|m| {
-            let idle = m.modified().ok().and_then(|t| t.elapsed().ok());
-            m.len() == 0
-                && m.permissions().mode() & 0o400 == 0
-                && idle.is_some_and(|idle| idle >= UNFINISHED_AGE)
-        })
-    };
-    (shared_memory_files(prefix).into_iter())
-        .filter(|file| unfinished(file) && std::fs::remove_file(file).is_ok())
-        .count()
+    let deadline = std::time::Instant::now() + UNFINISHED_AGE + UNFINISHED_POLL;
+    let mut removed = 0;
+    loop {
+        let mut young = false;
+        for file in shared_memory_files(prefix) {
+            match unfinished_for(&file) {
+                Some(idle) if idle >= UNFINISHED_AGE => {
+                    removed += usize::from(std::fs::remove_file(&file).is_ok());
+                }
+                Some(_) => young = true,
+                None => {}
+            }
+        }
+        if !young || std::time::Instant::now() >= deadline {
+            return removed;
+        }
+        std::thread::sleep(UNFINISHED_POLL);
+    }
+}
+
+/// How long `file` has been left empty and unreadable by its owner; `None` when it is
+/// not (or is gone). A modification time in the future counts as just now.
+fn unfinished_for(file: &std::path::Path) -> Option<std::time::Duration> {
+    let m = std::fs::metadata(file).ok()?;
+    let unfinished = m.len() == 0 && m.permissions().mode() & 0o400 == 0;
+    unfinished.then(|| {
+        let idle = m.modified().ok().and_then(|t| t.elapsed().ok());
+        idle.unwrap_or_default()
+    })
 }
 
 /// How long an empty, unreadable segment must have been left before it counts as
 /// unfinished: a live process initialises one within microseconds.
 const UNFINISHED_AGE: std::time::Duration = std::time::Duration::from_secs(1);
+
+/// How often a young unfinished segment is looked at again.
+const UNFINISHED_POLL: std::time::Duration = std::time::Duration::from_millis(50);
 
 /// Makes the stack's node-management file in `/dev/shm`, which iceoryx2 creates
 /// readable and writable by everyone, the owner's alone (0600), as every other file of a
@@ -132,7 +164,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn only_empty_unreadable_segments_left_for_a_while_are_unfinished() {
+    fn only_empty_unreadable_segments_left_for_a_second_are_unfinished() {
         let prefix = format!("unfin{}", std::process::id());
         let old = std::time::SystemTime::now() - 2 * UNFINISHED_AGE;
         let make = |name: &str, mode: u32, bytes: &[u8], modified| {
@@ -147,14 +179,23 @@ mod tests {
                 .unwrap();
             path
         };
+        let now = std::time::SystemTime::now();
         let killed = make("_a.connection", 0o200, b"", old);
+        let killed_young = make("_e.connection", 0o200, b"", now);
         let kept = [
             make("_b.connection", 0o600, b"", old),
             make("_c.connection", 0o200, b"x", old),
-            make("_d.connection", 0o200, b"", std::time::SystemTime::now()),
+            make("_d.connection", 0o200, b"", now),
         ];
-        assert_eq!(remove_unfinished_segments(&prefix), 1);
-        assert!(!killed.exists());
+        // A live maker finishes its young segment while the clean-up watches it.
+        let finishing = kept[2].clone();
+        let maker = std::thread::spawn(move || {
+            std::thread::sleep(UNFINISHED_AGE / 4);
+            std::fs::set_permissions(&finishing, std::fs::Permissions::from_mode(0o600)).unwrap();
+        });
+        assert_eq!(remove_unfinished_segments(&prefix), 2);
+        maker.join().unwrap();
+        assert!(!killed.exists() && !killed_young.exists());
         for file in &kept {
             assert!(file.exists(), "{} was removed", file.display());
         }
