@@ -202,3 +202,47 @@ fn a_missing_data_folder_or_profile_is_reported_with_its_reason() {
     );
     assert_no_leftovers_and_remove(&prefix, &dir);
 }
+
+#[test]
+fn lines_a_data_set_cannot_use_are_skipped_with_one_warning_per_file() {
+    use std::io::Write;
+    let prefix = prefix("replayskip");
+    let dir = folder(&prefix);
+    let copy = dir.join("mrclam7");
+    std::fs::create_dir_all(&copy).unwrap();
+    for file in std::fs::read_dir(data("mrclam7")).unwrap() {
+        let file = file.unwrap().path();
+        std::fs::copy(&file, copy.join(file.file_name().unwrap())).unwrap();
+    }
+    // A second gzip member after the recorded one: a line that is no record, and a
+    // sighting with a negative range.
+    let measurements = copy.join("Robot1_Measurement.dat.gz");
+    let file = std::fs::OpenOptions::new()
+        .append(true)
+        .open(&measurements)
+        .unwrap();
+    let mut member = flate2::write::GzEncoder::new(file, flate2::Compression::fast());
+    member
+        .write_all(b"garbage\n9999999999.0 14 -1.0 0.0\n")
+        .unwrap();
+    member.finish().unwrap();
+    let result = Command::new(LAUNCHER)
+        .args(["replay", "mrclam", "--data"])
+        .arg(&copy)
+        .args(["--prefix", &prefix, "--timeout-s", "600", "--out"])
+        .arg(dir.join("run"))
+        .output()
+        .unwrap();
+    assert_success(&result);
+    let err = String::from_utf8_lossy(&result.stderr);
+    let warnings: Vec<&str> = err.lines().filter(|l| l.starts_with("warning:")).collect();
+    assert_eq!(warnings.len(), 1, "{err}");
+    assert!(
+        warnings[0].contains("Robot1_Measurement.dat.gz: 2 lines skipped")
+            && warnings[0].contains("expected 4 columns, found 1: `garbage`")
+            && warnings[0].contains("range must be > 0, got -1"),
+        "{err}"
+    );
+    assert_eq!(metrics(&dir.join("run"))["complete"], true);
+    assert_no_leftovers_and_remove(&prefix, &dir);
+}

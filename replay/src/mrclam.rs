@@ -44,12 +44,23 @@ pub struct Options {
 }
 
 /// Reads robot `options.robot` of the MRCLAM data set in `dir` (files plain or gzipped).
+/// Lines that cannot be used (malformed, out of time order, a range ≤ 0, an id that is
+/// not a whole number) are skipped, counted and named in one warning per file.
 ///
 /// # Errors
-/// [`DataError`] naming file and line for a missing or malformed file, a negative range,
-/// or a data set without odometry or ground truth; a profile asking for raw scans (MRCLAM
-/// has a camera, no laser).
+/// [`DataError`] naming the file for a missing or unreadable one, and a data set without
+/// odometry or ground truth (with what was skipped); a profile asking for raw scans
+/// (MRCLAM has a camera, no laser).
 pub fn load(dir: &Path, options: &Options) -> Result<DataSet> {
+    let (data, notices) = read(dir, options)?;
+    for notice in notices {
+        tracing::warn!("{notice}");
+    }
+    Ok(data)
+}
+
+/// [`load`], with what it skipped returned (one line per file) rather than logged.
+fn read(dir: &Path, options: &Options) -> Result<(DataSet, Vec<String>)> {
     options.sensor.validate()?;
     if options.sensor.publish == LaserOutput::Scans {
         return Err(DataError::Unusable(
@@ -59,19 +70,18 @@ pub fn load(dir: &Path, options: &Options) -> Result<DataSet> {
         ));
     }
     let r = options.robot;
-    let barcodes = text::read::<2>(dir, "Barcodes.dat", DAT_TABLE)?;
-    let subject_of = barcodes
-        .rows
-        .iter()
-        .map(|row| Ok((barcodes.integer(row, 1)?, barcodes.integer(row, 0)?)))
-        .collect::<Result<HashMap<u64, u64>>>()?;
-    let landmarks = text::read::<5>(dir, "Landmark_Groundtruth.dat", DAT_TABLE)?;
+    let mut barcodes = text::read::<2>(dir, "Barcodes.dat", DAT_TABLE)?;
+    let subject_of = subjects(&mut barcodes);
+    let mut landmarks = text::read::<5>(dir, "Landmark_Groundtruth.dat", DAT_TABLE)?;
     let odometry = text::read::<3>(dir, &format!("Robot{r}_Odometry.dat"), DAT_BY_TIME)?;
-    let measurements = text::read::<4>(dir, &format!("Robot{r}_Measurement.dat"), DAT_BY_TIME)?;
+    let mut measurements = text::read::<4>(dir, &format!("Robot{r}_Measurement.dat"), DAT_BY_TIME)?;
     let truth = text::read::<4>(dir, &format!("Robot{r}_Groundtruth.dat"), DAT_BY_TIME)?;
     let (Some(start_s), Some(_)) = (odometry.first_time(), truth.first_time()) else {
+        let skipped: String = ([odometry.notice(), truth.notice()].into_iter().flatten())
+            .map(|n| format!("; {n}"))
+            .collect();
         return Err(DataError::Unusable(format!(
-            "robot {r} in {} needs odometry and ground truth",
+            "robot {r} in {} needs odometry and ground truth{skipped}",
             dir.display()
         )));
     };
@@ -102,7 +112,7 @@ pub fn load(dir: &Path, options: &Options) -> Result<DataSet> {
         })
         .collect();
     let model = MotionModel::Unicycle(Unicycle::default());
-    let (scans, dropped) = observations(&measurements, &subject_of, options, &clock)?;
+    let (scans, dropped) = observations(&mut measurements, &subject_of, options, &clock);
     let (scans, beyond) = options.sensor.scans(scans);
     let data = DataSet {
         odometry: dataset::odometry(&records, &model, &clock),
@@ -111,7 +121,7 @@ pub fn load(dir: &Path, options: &Options) -> Result<DataSet> {
             let [t, x, y, theta] = row.values;
             (clock.stamp(t), frame.pose(Pose2::new(x, y, theta)))
         })),
-        landmarks: true_map(&landmarks, &frame)?,
+        landmarks: true_map(&mut landmarks, &frame),
         raw_scans: Vec::new(),
         laser_mount: Pose2::default(),
         epoch_s: clock.epoch_s(),
@@ -128,7 +138,29 @@ pub fn load(dir: &Path, options: &Options) -> Result<DataSet> {
         beyond_range_dropped = beyond,
         "MRCLAM data set read"
     );
-    Ok(data)
+    let notices = [
+        barcodes.notice(),
+        landmarks.notice(),
+        odometry.notice(),
+        measurements.notice(),
+        truth.notice(),
+    ];
+    Ok((data, notices.into_iter().flatten().collect()))
+}
+
+/// Barcode → subject from `Barcodes.dat`; a row whose numbers are not whole is skipped.
+fn subjects(table: &mut Table<2>) -> HashMap<u64, u64> {
+    let mut subject_of = HashMap::with_capacity(table.rows.len());
+    for row in std::mem::take(&mut table.rows) {
+        match (table.integer(&row, 1), table.integer(&row, 0)) {
+            (Ok(barcode), Ok(subject)) => {
+                subject_of.insert(barcode, subject);
+                table.rows.push(row);
+            }
+            (Err(e), _) | (_, Err(e)) => table.skipped.add(&e),
+        }
+    }
+    subject_of
 }
 
 /// Measurements not published, by reason.
@@ -139,22 +171,31 @@ struct Dropped {
 }
 
 /// Landmark observations grouped by camera frame (equal times), robots and unknown
-/// barcodes left out.
+/// barcodes left out; a range ≤ 0 or a barcode that is not whole is skipped in `table`.
 fn observations(
-    table: &Table<4>,
+    table: &mut Table<4>,
     subject_of: &HashMap<u64, u64>,
     options: &Options,
     clock: &Clock,
-) -> Result<(ScanGroups, Dropped)> {
+) -> (ScanGroups, Dropped) {
     let mut groups: ScanGroups = Vec::new();
     let mut dropped = Dropped::default();
-    for row in &table.rows {
+    for row in std::mem::take(&mut table.rows) {
         let [t, _, range, bearing] = row.values;
         if range <= 0.0 {
-            return Err(table.malformed(row, format!("range must be > 0, got {range}")));
+            table.skip(&row, format!("range must be > 0, got {range}"));
+            continue;
         }
+        let barcode = match table.integer(&row, 1) {
+            Ok(barcode) => barcode,
+            Err(e) => {
+                table.skipped.add(&e);
+                continue;
+            }
+        };
         let stamp_ns = clock.stamp(t);
-        let subject = match subject_of.get(&table.integer(row, 1)?) {
+        table.rows.push(row);
+        let subject = match subject_of.get(&barcode) {
             None => {
                 dropped.unknown += 1;
                 continue;
@@ -176,27 +217,36 @@ fn observations(
             _ => groups.push((stamp_ns, vec![observation])),
         }
     }
-    Ok((groups, dropped))
+    (groups, dropped)
 }
 
-/// The true landmarks in the start frame, id = subject number.
-fn true_map(table: &Table<5>, frame: &Frame) -> Result<Vec<MapLandmark>> {
-    (table.rows.iter())
-        .map(|row| {
-            let [_, x, y, sx, sy] = row.values;
-            let (px, py) = frame.point(x, y);
-            let (cov_xx, cov_xy, cov_yy) = frame.covariance(sx * sx, sy * sy);
-            Ok(MapLandmark {
-                id: table.integer(row, 0)?,
-                x: px,
-                y: py,
-                cov_xx,
-                cov_xy,
-                cov_yy,
-                observations: 0,
-            })
-        })
-        .collect()
+/// The true landmarks in the start frame, id = subject number; a row whose subject is
+/// not whole is skipped in `table`.
+fn true_map(table: &mut Table<5>, frame: &Frame) -> Vec<MapLandmark> {
+    let mut map = Vec::with_capacity(table.rows.len());
+    for row in std::mem::take(&mut table.rows) {
+        let id = match table.integer(&row, 0) {
+            Ok(id) => id,
+            Err(e) => {
+                table.skipped.add(&e);
+                continue;
+            }
+        };
+        let [_, x, y, sx, sy] = row.values;
+        let (px, py) = frame.point(x, y);
+        let (cov_xx, cov_xy, cov_yy) = frame.covariance(sx * sx, sy * sy);
+        map.push(MapLandmark {
+            id,
+            x: px,
+            y: py,
+            cov_xx,
+            cov_xy,
+            cov_yy,
+            observations: 0,
+        });
+        table.rows.push(row);
+    }
+    map
 }
 
 /// The Vicon pose at `t_s`, linearly interpolated (heading along the shorter arc); the
@@ -352,28 +402,58 @@ mod tests {
     }
 
     #[test]
-    fn malformed_measurements_name_file_and_line() {
-        for (text, expected) in [
+    fn bad_measurements_are_skipped_and_named_with_file_and_line() {
+        for (bad, expected) in [
+            ("100.7 63 NaN 0.0\n", "Robot1_Measurement.dat:2: column 3"),
             (
-                "100.6 63 2.0 0.0\n100.7 63 NaN 0.0\n",
-                "Robot1_Measurement.dat:2: column 3",
+                "100.7 63 -2.0 0.0\n",
+                "Robot1_Measurement.dat:2: range must be > 0",
             ),
             (
-                "100.6 63 -2.0 0.0\n",
-                "Robot1_Measurement.dat:1: range must be > 0",
+                "100.7 6.5 2.0 0.0\n",
+                "Robot1_Measurement.dat:2: column 2 must be a whole",
             ),
             (
-                "100.6 6.5 2.0 0.0\n",
-                "Robot1_Measurement.dat:1: column 2 must be a whole",
+                "100.5 63 2.0 0.0\n",
+                "Robot1_Measurement.dat:2: time 100.5 goes back",
             ),
         ] {
-            let dir = folder("mrclam-bad", text);
-            let err = load(&dir, &options(Association::Known))
-                .unwrap_err()
-                .to_string();
-            assert!(err.contains(expected), "{err}");
+            let dir = folder(
+                "mrclam-bad",
+                &format!("100.6 63 2.0 0.0\n{bad}102.0 81 2.5 0.3\n"),
+            );
+            let (data, notices) = read(&dir, &options(Association::Known)).unwrap();
+            let ids: Vec<i64> = data
+                .scans
+                .iter()
+                .flat_map(|s| &s.items)
+                .map(|o| o.id)
+                .collect();
+            assert_eq!(ids, [6, 7], "the lines around the bad one are replayed");
+            assert_eq!(notices.len(), 1, "{notices:?}");
+            assert!(
+                notices[0].contains("1 lines skipped") && notices[0].contains(expected),
+                "{notices:?}"
+            );
             std::fs::remove_dir_all(dir).unwrap();
         }
+        let dir = folder("mrclam-clean", MEASUREMENTS);
+        assert!(
+            read(&dir, &options(Association::Known))
+                .unwrap()
+                .1
+                .is_empty()
+        );
+        std::fs::write(dir.join("Robot1_Odometry.dat"), "x y z\n").unwrap();
+        let err = load(&dir, &options(Association::Known))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("needs odometry and ground truth")
+                && err.contains("Robot1_Odometry.dat: 1 lines skipped"),
+            "{err}"
+        );
+        std::fs::remove_dir_all(dir).unwrap();
         let dir = folder("mrclam-robot", MEASUREMENTS);
         let robot2 = Options {
             robot: 2,

@@ -1,9 +1,11 @@
-//! Reading the data sets' text files: plain or gzipped, numeric columns separated by
-//! commas or white space, `#` comment lines, an optional header line. Every problem —
-//! a missing file, a malformed line, a NaN, time going backwards — is an error naming the
-//! file and the line, never a panic.
+//! Reading the data sets' text files: plain or gzipped (one member or several), numeric
+//! columns separated by commas or white space, `#` comment lines, an optional header
+//! line. A missing or unreadable file is an error naming it; a malformed line, a NaN or a
+//! time going backwards is skipped and counted, and a file cut short keeps the lines
+//! before the cut; [`Table::notice`] says both in one line naming the file and the first
+//! lines. Never a panic.
 
-use flate2::read::GzDecoder;
+use flate2::read::MultiGzDecoder;
 use std::fs::File;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -110,9 +112,29 @@ pub struct Table<const N: usize> {
     pub path: PathBuf,
     /// Its data rows in file order.
     pub rows: Vec<Row<N>>,
+    /// Lines skipped: by [`read`] (malformed, time going back) and by the reader using
+    /// the rows (a value no sensor reports), with their errors.
+    pub skipped: Skipped,
+    /// Where and why the file ended before its end (a gzip stream cut short).
+    pub ended_early: Option<String>,
 }
 
 impl<const N: usize> Table<N> {
+    /// Skips `row` for `reason`: counts it and keeps the error among the first few.
+    pub fn skip(&mut self, row: &Row<N>, reason: impl Into<String>) {
+        let error = self.malformed(row, reason);
+        self.skipped.add(&error);
+    }
+
+    /// What the user should know about this file in one line, naming it: the lines
+    /// skipped (with the first errors) and an early end; `None` when nothing was lost.
+    pub fn notice(&self) -> Option<String> {
+        let parts: Vec<String> = (self.skipped.phrase("lines skipped").into_iter())
+            .chain(self.ended_early.clone())
+            .collect();
+        (!parts.is_empty()).then(|| format!("{}: {}", self.path.display(), parts.join("; ")))
+    }
+
     /// A [`DataError::Malformed`] about `row` of this file.
     pub fn malformed(&self, row: &Row<N>, reason: impl Into<String>) -> DataError {
         DataError::Malformed {
@@ -183,12 +205,12 @@ pub fn locate(dir: &Path, name: &str) -> Result<PathBuf> {
 }
 
 /// Reads every data row of `name` (or `name.gz`) in `dir`, each with exactly `N` finite
-/// numbers.
+/// numbers. A line with the wrong number of columns, a value that is not a finite number,
+/// or (for a time-ordered layout) a time earlier than the row before is skipped and
+/// counted; a read error after the first line ends the file there ([`Table::notice`]).
 ///
 /// # Errors
-/// [`DataError`] naming the file (and line) for a missing or unreadable file, a line
-/// with the wrong number of columns, a value that is not a finite number, or (for a
-/// time-ordered layout) a time earlier than the line before.
+/// [`DataError`] naming the file for a missing file or one that cannot be read at all.
 pub fn read<const N: usize>(dir: &Path, name: &str, layout: Layout) -> Result<Table<N>> {
     let path = locate(dir, name)?;
     let io = |e: std::io::Error| DataError::Io {
@@ -196,16 +218,34 @@ pub fn read<const N: usize>(dir: &Path, name: &str, layout: Layout) -> Result<Ta
         reason: e.to_string(),
     };
     let file = File::open(&path).map_err(io)?;
-    let reader: Box<dyn BufRead> = if path.extension().is_some_and(|e| e == "gz") {
-        Box::new(BufReader::new(GzDecoder::new(file)))
+    let mut reader: Box<dyn BufRead> = if path.extension().is_some_and(|e| e == "gz") {
+        Box::new(BufReader::new(MultiGzDecoder::new(file)))
     } else {
         Box::new(BufReader::new(file))
     };
-    let mut rows: Vec<Row<N>> = Vec::new();
+    let mut table = Table {
+        path: path.clone(),
+        rows: Vec::new(),
+        skipped: Skipped::default(),
+        ended_early: None,
+    };
     let mut header_pending = layout.header_line;
-    for (index, text) in reader.lines().enumerate() {
-        let text = text.map_err(io)?;
-        let line = index + 1;
+    let (mut buffer, mut line) = (Vec::new(), 0);
+    loop {
+        buffer.clear();
+        match reader.read_until(b'\n', &mut buffer) {
+            Ok(0) => break,
+            Ok(_) => {}
+            Err(e) if line > 0 => {
+                table.ended_early = Some(format!(
+                    "the file ends early after line {line} ({e}); the lines before are read"
+                ));
+                break;
+            }
+            Err(e) => return Err(io(e)),
+        }
+        line += 1;
+        let text = String::from_utf8_lossy(&buffer);
         let trimmed = text.trim();
         if trimmed.is_empty() || trimmed.starts_with('#') {
             continue;
@@ -213,26 +253,31 @@ pub fn read<const N: usize>(dir: &Path, name: &str, layout: Layout) -> Result<Ta
         if std::mem::take(&mut header_pending) {
             continue;
         }
-        let row = parse_row::<N>(trimmed).map_err(|reason| DataError::Malformed {
+        let malformed = |reason| DataError::Malformed {
             path: path.clone(),
             line,
             reason,
-        })?;
-        if let Some(previous) = rows.last().filter(|_| layout.time_ordered)
+        };
+        let row = match parse_row::<N>(trimmed) {
+            Ok(row) => row,
+            Err(reason) => {
+                table.skipped.add(&malformed(reason));
+                continue;
+            }
+        };
+        if let Some(previous) = table.rows.last().filter(|_| layout.time_ordered)
             && row[0] < previous.values[0]
         {
-            return Err(DataError::Malformed {
-                path,
-                line,
-                reason: format!(
-                    "time {} goes back before {} (line {})",
-                    row[0], previous.values[0], previous.line
-                ),
-            });
+            let reason = format!(
+                "time {} goes back before {} (line {})",
+                row[0], previous.values[0], previous.line
+            );
+            table.skipped.add(&malformed(reason));
+            continue;
         }
-        rows.push(Row { line, values: row });
+        table.rows.push(Row { line, values: row });
     }
-    Ok(Table { path, rows })
+    Ok(table)
 }
 
 /// The `N` finite numbers of one line, or what is wrong with it.
@@ -306,28 +351,80 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn bad_lines_are_reported_with_file_and_line() {
+    fn bad_lines_are_skipped_and_named_with_file_and_line() {
         let cases = [
-            ("1 2 3\n4 5\n", "a.dat:2: expected 3 columns, found 2"),
+            (
+                "1 2 3\n4 5\n",
+                "a.dat: 1 lines skipped (",
+                "a.dat:2: expected 3 columns, found 2",
+            ),
             (
                 "1 2 3\n4 NaN 6\n",
+                "",
                 "a.dat:2: column 2 is not a finite number: `NaN`",
             ),
-            ("1 2 x\n", "a.dat:1: column 3 is not a finite number: `x`"),
-            ("1 2 inf\n", "a.dat:1: column 3 is not a finite number"),
+            (
+                "1 2 3\n2 2 x\n",
+                "",
+                "a.dat:2: column 3 is not a finite number: `x`",
+            ),
+            (
+                "1 2 3\n2 2 inf\n",
+                "",
+                "a.dat:2: column 3 is not a finite number",
+            ),
             (
                 "5 2 3\n4 5 6\n",
+                "",
                 "a.dat:2: time 4 goes back before 5 (line 1)",
             ),
         ];
-        for (text, expected) in cases {
+        for (text, start, expected) in cases {
             let dir = folder_with("bad", &[("a.dat", text)]);
-            let err = read::<3>(&dir, "a.dat", DAT_BY_TIME)
-                .unwrap_err()
-                .to_string();
-            assert!(err.contains(expected), "{err} should contain {expected}");
+            let table = read::<3>(&dir, "a.dat", DAT_BY_TIME).unwrap();
+            assert_eq!(table.rows.len(), 1, "{text:?}: the good line is kept");
+            assert_eq!(table.skipped.count(), 1);
+            let notice = table.notice().expect("a skipped line is noticed");
+            assert!(
+                notice.contains(start) && notice.contains(expected),
+                "{notice}"
+            );
             std::fs::remove_dir_all(dir).unwrap();
         }
+        let dir = folder_with("good", &[("a.dat", "1 2 3\n")]);
+        assert_eq!(
+            read::<3>(&dir, "a.dat", DAT_BY_TIME).unwrap().notice(),
+            None
+        );
+        std::fs::write(dir.join("b.dat"), b"1 2 3\n\xff 2 3\n2 2 3\n").unwrap();
+        let table = read::<3>(&dir, "b.dat", DAT_BY_TIME).unwrap();
+        assert_eq!(
+            (table.rows.len(), table.skipped.count()),
+            (2, 1),
+            "not UTF-8"
+        );
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn a_gzipped_file_cut_short_keeps_the_lines_before_the_cut() {
+        let text: String = (0..2000).map(|i| format!("{i} 1 2\n")).collect();
+        let dir = folder_with("cut", &[("a.dat.gz", &text)]);
+        let gz = dir.join("a.dat.gz");
+        let bytes = std::fs::read(&gz).unwrap();
+        std::fs::write(&gz, &bytes[..bytes.len() / 2]).unwrap();
+        let table = read::<3>(&dir, "a.dat", DAT_BY_TIME).unwrap();
+        assert!(
+            !table.rows.is_empty() && table.rows.len() < 2000,
+            "{}",
+            table.rows.len()
+        );
+        let notice = table.notice().expect("the early end is noticed");
+        assert!(
+            notice.contains("a.dat.gz: the file ends early after line"),
+            "{notice}"
+        );
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]

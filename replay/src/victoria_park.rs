@@ -39,7 +39,7 @@
 //!   [`NO_RETURN_M`] on is the laser's "no return" and goes out as +∞ (REP-117).
 
 use crate::dataset::{self, Clock, DataSet, LaserOutput, RawScan, ScanGroups, SensorSpec};
-use crate::text::{self, CSV_BY_TIME, DAT_BY_TIME, DataError, Result, Table};
+use crate::text::{self, CSV_BY_TIME, DAT_BY_TIME, DataError, Result, Row, Table};
 use fastslam_estimation::Pose2;
 use fastslam_estimation::motion::{Bicycle, Control, MotionModel};
 use fastslam_protocol::{Header, LaserScanHeader, Observation};
@@ -98,28 +98,47 @@ pub fn laser_bicycle() -> MotionModel {
 
 /// Reads the Victoria Park folder `dir` (files plain or gzipped): with the tree
 /// detections (observations beyond `sensor.max_range_m` dropped), or with the raw scans
-/// when `sensor.publish` asks for them.
+/// when `sensor.publish` asks for them. Lines that cannot be used (malformed, out of time
+/// order, a tree of a scan not in `scan_times.csv` or at another time, a range ≤ 0, a raw
+/// scan without 361 ranges ≥ 0) are skipped, counted and named in one warning per file.
 ///
 /// # Errors
-/// [`DataError`] naming file and line for a missing or malformed file, a tree of a scan
-/// not in `scan_times.csv` (or at another time), a raw scan without 361 ranges, or a data
-/// set without odometry.
+/// [`DataError`] naming the file for a missing or unreadable one, and a data set without
+/// odometry (with what was skipped).
 pub fn load(dir: &Path, sensor: &SensorSpec) -> Result<DataSet> {
+    let (data, notices) = read(dir, sensor)?;
+    for notice in notices {
+        tracing::warn!("{notice}");
+    }
+    Ok(data)
+}
+
+/// [`load`], with what it skipped returned (one line per file) rather than logged.
+fn read(dir: &Path, sensor: &SensorSpec) -> Result<(DataSet, Vec<String>)> {
     sensor.validate()?;
     let odometry = text::read::<3>(dir, "odometry.csv", CSV_BY_TIME)?;
     let gps = text::read::<3>(dir, "gps.csv", CSV_BY_TIME)?;
     if odometry.rows.is_empty() {
+        let skipped: String = odometry
+            .notice()
+            .map(|n| format!("; {n}"))
+            .unwrap_or_default();
         return Err(DataError::Unusable(format!(
-            "{} has no odometry",
+            "{} has no odometry{skipped}",
             odometry.path.display()
         )));
     }
+    let mut notices = vec![odometry.notice(), gps.notice()];
     let laser = match sensor.publish {
         LaserOutput::Observations => Laser::Trees {
             scan_times: text::read::<2>(dir, "scan_times.csv", CSV_BY_TIME)?,
             trees: text::read::<5>(dir, "tree_observations.csv", CSV_BY_TIME)?,
         },
-        LaserOutput::Scans => Laser::Raw(read_raw_scans(dir)?),
+        LaserOutput::Scans => {
+            let (raw, notice) = read_raw_scans(dir)?;
+            notices.push(notice);
+            Laser::Raw(raw)
+        }
     };
     let clock = Clock::starting_at(
         [odometry.first_time(), gps.first_time(), laser.first_time()]
@@ -132,12 +151,16 @@ pub fn load(dir: &Path, sensor: &SensorSpec) -> Result<DataSet> {
             (t, laser_controls(v_e, gamma))
         })
         .collect();
-    let ((scans, beyond), raw_scans) = match &laser {
-        Laser::Trees { scan_times, trees } => (
-            sensor.scans(self::scans(scan_times, trees, &clock)?),
-            Vec::new(),
-        ),
-        Laser::Raw(raw) => ((Vec::new(), 0), raw_messages(raw, &clock)),
+    let ((scans, beyond), raw_scans) = match laser {
+        Laser::Trees {
+            mut scan_times,
+            mut trees,
+        } => {
+            let groups = self::scans(&mut scan_times, &mut trees, &clock);
+            notices.extend([scan_times.notice(), trees.notice()]);
+            (sensor.scans(groups), Vec::new())
+        }
+        Laser::Raw(raw) => ((Vec::new(), 0), raw_messages(&raw, &clock)),
     };
     let fixes: Vec<[f64; 3]> = gps.rows.iter().map(|r| r.values).collect();
     let truth = dataset::truth_track(
@@ -162,7 +185,7 @@ pub fn load(dir: &Path, sensor: &SensorSpec) -> Result<DataSet> {
         beyond_range_dropped = beyond,
         "Victoria Park data set read"
     );
-    Ok(data)
+    Ok((data, notices.into_iter().flatten().collect()))
 }
 
 /// The laser's files a replay reads.
@@ -196,24 +219,27 @@ pub struct RawLaserScan {
     pub ranges: Vec<f32>,
 }
 
-/// Reads [`RAW_SCANS_FILE`] (plain or gzipped) in `dir`.
+/// Reads [`RAW_SCANS_FILE`] (plain or gzipped) in `dir`, with what it skipped in one
+/// line naming the file: a line without a time and 361 finite ranges ≥ 0, or a time going
+/// backwards.
 ///
 /// # Errors
-/// [`DataError`] naming file and line for a missing file, a line without a time and 361
-/// finite ranges ≥ 0, or a time going backwards.
-pub fn read_raw_scans(dir: &Path) -> Result<Vec<RawLaserScan>> {
-    let table = text::read::<{ BEAMS + 1 }>(dir, RAW_SCANS_FILE, DAT_BY_TIME)?;
-    (table.rows.iter())
-        .map(|row| {
-            if row.values[1..].iter().any(|r| *r < 0.0) {
-                return Err(table.malformed(row, "ranges must be ≥ 0"));
-            }
-            Ok(RawLaserScan {
-                t_s: row.values[0] + RAW_LASER_CLOCK_OFFSET_S,
-                ranges: row.values[1..].iter().map(|&r| r as f32).collect(),
-            })
-        })
-        .collect()
+/// [`DataError`] naming the file when it is missing or cannot be read at all.
+pub fn read_raw_scans(dir: &Path) -> Result<(Vec<RawLaserScan>, Option<String>)> {
+    let mut table = text::read::<{ BEAMS + 1 }>(dir, RAW_SCANS_FILE, DAT_BY_TIME)?;
+    let mut scans = Vec::with_capacity(table.rows.len());
+    for row in std::mem::take(&mut table.rows) {
+        if row.values[1..].iter().any(|r| *r < 0.0) {
+            table.skip(&row, "ranges must be ≥ 0");
+            continue;
+        }
+        scans.push(RawLaserScan {
+            t_s: row.values[0] + RAW_LASER_CLOCK_OFFSET_S,
+            ranges: row.values[1..].iter().map(|&r| r as f32).collect(),
+        });
+        table.rows.push(row);
+    }
+    Ok((scans, table.notice()))
 }
 
 /// The raw scans as messages: the laser's layout (see the module doc), no-return ranges
@@ -248,44 +274,71 @@ fn raw_messages(raw: &[RawLaserScan], clock: &Clock) -> Vec<RawScan> {
         .collect()
 }
 
-/// Every scan of `scan_times` with its trees, in the vehicle (= laser) frame.
-fn scans(scan_times: &Table<2>, trees: &Table<5>, clock: &Clock) -> Result<ScanGroups> {
+/// Every scan of `scan_times` with its trees, in the vehicle (= laser) frame. A scan
+/// time going backwards or an index that is not whole is skipped in `scan_times`; a tree
+/// of a scan not there (or at another time), with a range ≤ 0 or a diameter < 0, in
+/// `trees`.
+fn scans(scan_times: &mut Table<2>, trees: &mut Table<5>, clock: &Clock) -> ScanGroups {
     let mut index = HashMap::with_capacity(scan_times.rows.len());
     let mut out: Vec<(f64, Vec<Observation>)> = Vec::with_capacity(scan_times.rows.len());
-    for row in &scan_times.rows {
+    for row in std::mem::take(&mut scan_times.rows) {
         let t = row.values[1];
         if out.last().is_some_and(|(previous, _)| t < *previous) {
-            return Err(scan_times.malformed(row, format!("scan time {t} goes backwards")));
+            scan_times.skip(&row, format!("scan time {t} goes backwards"));
+            continue;
         }
-        index.insert(scan_times.integer(row, 0)?, out.len());
-        out.push((t, Vec::new()));
-    }
-    for row in &trees.rows {
-        let [t, _, range, bearing, diameter] = row.values;
-        let scan = trees.integer(row, 1)?;
-        let Some(&k) = index.get(&scan) else {
-            return Err(trees.malformed(row, format!("scan {scan} is not in scan_times")));
+        match scan_times.integer(&row, 0) {
+            Ok(scan) => index.insert(scan, out.len()),
+            Err(e) => {
+                scan_times.skipped.add(&e);
+                continue;
+            }
         };
-        if (out[k].0 - t).abs() > 1e-3 {
-            return Err(trees.malformed(
-                row,
-                format!("time {t} differs from scan {scan}'s time {}", out[k].0),
-            ));
-        }
-        if range <= 0.0 || diameter < 0.0 {
-            return Err(trees.malformed(row, "range must be > 0 and diameter ≥ 0"));
-        }
-        out[k].1.push(Observation {
-            range,
-            bearing: bearing - FRAC_PI_2,
-            diameter,
-            id: -1,
-        });
+        out.push((t, Vec::new()));
+        scan_times.rows.push(row);
     }
-    Ok(out
-        .into_iter()
+    for row in std::mem::take(&mut trees.rows) {
+        match tree(&row, trees, &index, &out) {
+            Ok((k, observation)) => {
+                out[k].1.push(observation);
+                trees.rows.push(row);
+            }
+            Err(e) => trees.skipped.add(&e),
+        }
+    }
+    out.into_iter()
         .map(|(t, observations)| (clock.stamp(t), observations))
-        .collect())
+        .collect()
+}
+
+/// The tree of `row` and the index in `scans` of the scan it belongs to.
+fn tree(
+    row: &Row<5>,
+    trees: &Table<5>,
+    index: &HashMap<u64, usize>,
+    scans: &[(f64, Vec<Observation>)],
+) -> Result<(usize, Observation)> {
+    let [t, _, range, bearing, diameter] = row.values;
+    let scan = trees.integer(row, 1)?;
+    let Some(&k) = index.get(&scan) else {
+        return Err(trees.malformed(row, format!("scan {scan} is not in scan_times")));
+    };
+    if (scans[k].0 - t).abs() > 1e-3 {
+        return Err(trees.malformed(
+            row,
+            format!("time {t} differs from scan {scan}'s time {}", scans[k].0),
+        ));
+    }
+    if range <= 0.0 || diameter < 0.0 {
+        return Err(trees.malformed(row, "range must be > 0 and diameter ≥ 0"));
+    }
+    let observation = Observation {
+        range,
+        bearing: bearing - FRAC_PI_2,
+        diameter,
+        id: -1,
+    };
+    Ok((k, observation))
 }
 
 /// The direction of travel at each fix `[t, x, y]`: from the fix before to the fix
@@ -425,26 +478,43 @@ mod tests {
     }
 
     #[test]
-    fn trees_of_unknown_scans_or_bad_values_name_file_and_line() {
-        let head = "t_s,scan_idx,range_m,bearing_rad_0_to_pi,diameter_m\n";
+    fn trees_of_unknown_scans_or_bad_values_are_skipped_and_named_with_file_and_line() {
+        let head = "t_s,scan_idx,range_m,bearing_rad_0_to_pi,diameter_m\n1.2,0,10,1,0.3\n";
         let sensor = SensorSpec {
             max_range_m: 30.0,
             field_of_view_deg: 180.0,
             publish: LaserOutput::Observations,
         };
-        for (rows, expected) in [
+        for (bad, expected) in [
             (
                 "1.2,7,10,1,0.3\n",
-                "tree_observations.csv:2: scan 7 is not in scan_times",
+                "tree_observations.csv:3: scan 7 is not in scan_times",
             ),
-            ("1.2,0,10,1,0.3\n1.3,1,10,1,0.3\n", ":3: time 1.3 differs"),
-            ("1.2,0,10,nan,0.3\n", ":2: column 4 is not a finite number"),
+            ("1.3,1,10,1,0.3\n", ":3: time 1.3 differs"),
+            ("1.2,0,10,nan,0.3\n", ":3: column 4 is not a finite number"),
+            ("1.2,0,-1,1,0.3\n", ":3: range must be > 0"),
+            ("1.1,0,10,1,0.3\n", ":3: time 1.1 goes back before 1.2"),
         ] {
-            let dir = folder("vp-bad", &format!("{head}{rows}"));
-            let err = load(&dir, &sensor).unwrap_err().to_string();
-            assert!(err.contains(expected), "{err}");
+            let dir = folder("vp-bad", &format!("{head}{bad}1.8,1,10,1,0.3\n"));
+            let (data, notices) = read(&dir, &sensor).unwrap();
+            let trees: Vec<usize> = data.scans.iter().map(|s| s.items.len()).collect();
+            assert_eq!(trees, [1, 1], "the trees around the bad line are published");
+            assert_eq!(notices.len(), 1, "{notices:?}");
+            assert!(
+                notices[0].contains("1 lines skipped") && notices[0].contains(expected),
+                "{notices:?}"
+            );
             std::fs::remove_dir_all(dir).unwrap();
         }
+        let dir = folder("vp-no-odometry", head);
+        std::fs::remove_file(dir.join("odometry.csv.gz")).unwrap();
+        std::fs::write(dir.join("odometry.csv"), "t,v,s\n1,2\n").unwrap();
+        let err = load(&dir, &sensor).unwrap_err().to_string();
+        assert!(
+            err.contains("has no odometry") && err.contains("expected 3 columns"),
+            "{err}"
+        );
+        std::fs::remove_dir_all(dir).unwrap();
     }
 
     /// A raw scans' file: one line per `(time on its own clock, range of every beam)`.
@@ -511,13 +581,13 @@ mod tests {
     }
 
     #[test]
-    fn raw_scans_with_a_missing_beam_or_a_negative_range_name_file_and_line() {
+    fn raw_scans_with_a_missing_beam_or_a_negative_range_are_skipped_and_named() {
         let sensor = SensorSpec {
             max_range_m: 30.0,
             field_of_view_deg: 180.0,
             publish: LaserOutput::Scans,
         };
-        let good = (0.5, vec![5.0; BEAMS]);
+        let good = |t| (t, vec![5.0; BEAMS]);
         let mut negative = vec![5.0; BEAMS];
         negative[7] = -1.0;
         for (bad, expected) in [
@@ -527,7 +597,7 @@ mod tests {
             ),
             ((0.7, negative), ":2: ranges must be ≥ 0"),
         ] {
-            let file = raw_lines(&[good.clone(), bad]);
+            let file = raw_lines(&[good(0.5), bad, good(0.9)]);
             let dir = folder_with(
                 "vp-raw-bad",
                 &[
@@ -536,10 +606,12 @@ mod tests {
                     ("laser_raw_361beams.txt", &file),
                 ],
             );
-            let err = load(&dir, &sensor).unwrap_err().to_string();
+            let (data, notices) = read(&dir, &sensor).unwrap();
+            assert_eq!(data.raw_scans.len(), 2, "the good scans are kept");
+            assert_eq!(notices.len(), 1, "{notices:?}");
             assert!(
-                err.contains("laser_raw_361beams.txt") && err.contains(expected),
-                "{err}"
+                notices[0].contains("laser_raw_361beams.txt") && notices[0].contains(expected),
+                "{notices:?}"
             );
             std::fs::remove_dir_all(dir).unwrap();
         }

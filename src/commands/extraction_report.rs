@@ -83,7 +83,10 @@ pub fn compare(args: &ReportArgs) -> anyhow::Result<Comparison> {
         }
         None => victoria_park_extractor(),
     };
-    let mut scans = victoria_park::read_raw_scans(&args.data)?;
+    let (mut scans, skipped) = victoria_park::read_raw_scans(&args.data)?;
+    if let Some(skipped) = skipped {
+        eprintln!("warning: {skipped}");
+    }
     scans.truncate(args.scans.unwrap_or(usize::MAX));
     let mut trees = read_trees(&args.data.join("tree_observations.csv.gz"))?;
     let increment = 0.5f64.to_radians();

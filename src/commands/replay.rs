@@ -13,7 +13,7 @@ use fastslam_replay::registry::{self, DataSetKind};
 use fastslam_service::config::{EstimatorChoice, Overrides, ServiceConfig};
 use fastslam_stack::settings;
 use fastslam_stack::topology;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 /// The data set to replay, with its own flags: one subcommand per data set of the
@@ -240,6 +240,13 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
     let outcome = stack.wait(&stop, args.launch.timeout_s.map(Duration::from_secs_f64));
     drop(stack);
     place.remove();
+    if loaded.is_none() {
+        // A recording's warnings were printed when the launcher read it; a data set is
+        // read by its replay process alone.
+        for warning in logged_warnings(&logs.join(format!("{}.log", kind.process.name))) {
+            eprintln!("warning: {warning}");
+        }
+    }
     if let Some(code) = args.launch.split.conclusion(&outcome, &logs) {
         return Ok(code);
     }
@@ -250,6 +257,17 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
         wall: started.elapsed(),
     };
     conclude(ended, &args.launch.judge, &expectations)
+}
+
+/// The messages of the warnings in a process's log (what the replay skipped reading
+/// the data set), without their time and span.
+fn logged_warnings(log: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    (text.lines())
+        .filter_map(|line| line.split_once(" WARN ").map(|(_, rest)| rest))
+        .map(|rest| rest.split_once("}: ").map_or(rest, |(_, message)| message))
+        .map(str::to_string)
+        .collect()
 }
 
 /// A built-in profile is passed by name, a file by absolute path.
