@@ -54,7 +54,7 @@
 //! a real echo loses that one reading to "no return".
 
 use crate::dataset::{Clock, DataSet, RawScan};
-use crate::text::{DataError, Result, Skipped};
+use crate::text::{self, DataError, Result, Skipped};
 use fastslam_estimation::{Pose2, wrap_angle};
 use fastslam_protocol::validate::MAX_SCAN_BEAMS;
 use fastslam_protocol::{Header, LaserScanHeader, Odometry};
@@ -170,29 +170,12 @@ pub fn load(path: &Path) -> Result<CarmenLog> {
     };
     let mut file = BufReader::new(File::open(path).map_err(io)?);
     let gzipped = file.fill_buf().map_err(io)?.starts_with(&[0x1f, 0x8b]);
-    let mut reader: Box<dyn BufRead> = match gzipped {
+    let reader: Box<dyn BufRead> = match gzipped {
         true => Box::new(BufReader::new(MultiGzDecoder::new(file))),
         false => Box::new(file),
     };
     let mut records = Records::default();
-    let (mut buffer, mut number) = (Vec::new(), 0);
-    let mut warnings = Vec::new();
-    loop {
-        match reader.read_until(b'\n', &mut buffer) {
-            Ok(0) => break,
-            Ok(_) => {}
-            Err(e) if number > 0 => {
-                warnings.push(format!(
-                    "{}: the file ends early after line {number} ({e}); the lines before \
-                     are replayed",
-                    path.display()
-                ));
-                break;
-            }
-            Err(e) => return Err(io(e)),
-        }
-        number += 1;
-        let text = String::from_utf8_lossy(&buffer);
+    let early = text::each_line(reader, |number, text| {
         let fields = text.split_ascii_whitespace().collect();
         let line = Line {
             path,
@@ -202,8 +185,11 @@ pub fn load(path: &Path) -> Result<CarmenLog> {
         if let Err(e) = records.add(&line) {
             records.malformed.add(&e);
         }
-        buffer.clear();
-    }
+    })
+    .map_err(io)?;
+    let warnings = (early.into_iter())
+        .map(|end| format!("{}: {end}; the lines before are replayed", path.display()))
+        .collect();
     build(path, records, warnings)
 }
 

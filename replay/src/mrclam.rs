@@ -52,14 +52,10 @@ pub struct Options {
 /// odometry or ground truth (with what was skipped); a profile asking for raw scans
 /// (MRCLAM has a camera, no laser).
 pub fn load(dir: &Path, options: &Options) -> Result<DataSet> {
-    let (data, notices) = read(dir, options)?;
-    for notice in notices {
-        tracing::warn!("{notice}");
-    }
-    Ok(data)
+    text::logged(read(dir, options))
 }
 
-/// [`load`], with what it skipped returned (one line per file) rather than logged.
+/// [`load`], with what it skipped (one line per file) returned rather than logged.
 fn read(dir: &Path, options: &Options) -> Result<(DataSet, Vec<String>)> {
     options.sensor.validate()?;
     if options.sensor.publish == LaserOutput::Scans {
@@ -150,17 +146,10 @@ fn read(dir: &Path, options: &Options) -> Result<(DataSet, Vec<String>)> {
 
 /// Barcode → subject from `Barcodes.dat`; a row whose numbers are not whole is skipped.
 fn subjects(table: &mut Table<2>) -> HashMap<u64, u64> {
-    let mut subject_of = HashMap::with_capacity(table.rows.len());
-    for row in std::mem::take(&mut table.rows) {
-        match (table.integer(&row, 1), table.integer(&row, 0)) {
-            (Ok(barcode), Ok(subject)) => {
-                subject_of.insert(barcode, subject);
-                table.rows.push(row);
-            }
-            (Err(e), _) | (_, Err(e)) => table.skipped.add(&e),
-        }
-    }
-    subject_of
+    (table
+        .extract(|row| Ok((row.integer(1)?, row.integer(0)?)))
+        .into_iter())
+    .collect()
 }
 
 /// Measurements not published, by reason.
@@ -178,23 +167,16 @@ fn observations(
     options: &Options,
     clock: &Clock,
 ) -> (ScanGroups, Dropped) {
-    let mut groups: ScanGroups = Vec::new();
-    let mut dropped = Dropped::default();
-    for row in std::mem::take(&mut table.rows) {
+    let sightings = table.extract(|row| {
         let [t, _, range, bearing] = row.values;
         if range <= 0.0 {
-            table.skip(&row, format!("range must be > 0, got {range}"));
-            continue;
+            return Err(format!("range must be > 0, got {range}"));
         }
-        let barcode = match table.integer(&row, 1) {
-            Ok(barcode) => barcode,
-            Err(e) => {
-                table.skipped.add(&e);
-                continue;
-            }
-        };
-        let stamp_ns = clock.stamp(t);
-        table.rows.push(row);
+        Ok((clock.stamp(t), row.integer(1)?, range, bearing))
+    });
+    let mut groups: ScanGroups = Vec::new();
+    let mut dropped = Dropped::default();
+    for (stamp_ns, barcode, range, bearing) in sightings {
         let subject = match subject_of.get(&barcode) {
             None => {
                 dropped.unknown += 1;
@@ -223,30 +205,20 @@ fn observations(
 /// The true landmarks in the start frame, id = subject number; a row whose subject is
 /// not whole is skipped in `table`.
 fn true_map(table: &mut Table<5>, frame: &Frame) -> Vec<MapLandmark> {
-    let mut map = Vec::with_capacity(table.rows.len());
-    for row in std::mem::take(&mut table.rows) {
-        let id = match table.integer(&row, 0) {
-            Ok(id) => id,
-            Err(e) => {
-                table.skipped.add(&e);
-                continue;
-            }
-        };
+    table.extract(|row| {
         let [_, x, y, sx, sy] = row.values;
         let (px, py) = frame.point(x, y);
         let (cov_xx, cov_xy, cov_yy) = frame.covariance(sx * sx, sy * sy);
-        map.push(MapLandmark {
-            id,
+        Ok(MapLandmark {
+            id: row.integer(0)?,
             x: px,
             y: py,
             cov_xx,
             cov_xy,
             cov_yy,
             observations: 0,
-        });
-        table.rows.push(row);
-    }
-    map
+        })
+    })
 }
 
 /// The Vicon pose at `t_s`, linearly interpolated (heading along the shorter arc); the

@@ -119,11 +119,42 @@ pub struct Table<const N: usize> {
     pub ended_early: Option<String>,
 }
 
+impl<const N: usize> Row<N> {
+    /// Column `col` (from 0) as a non-negative integer (an id, a count), or why it is not.
+    pub fn integer(&self, col: usize) -> std::result::Result<u64, String> {
+        let v = self.values[col];
+        if v >= 0.0 && v.fract() == 0.0 && v < 2f64.powi(53) {
+            Ok(v as u64)
+        } else {
+            Err(format!(
+                "column {} must be a whole number ≥ 0, got {v}",
+                col + 1
+            ))
+        }
+    }
+}
+
 impl<const N: usize> Table<N> {
-    /// Skips `row` for `reason`: counts it and keeps the error among the first few.
-    pub fn skip(&mut self, row: &Row<N>, reason: impl Into<String>) {
-        let error = self.malformed(row, reason);
-        self.skipped.add(&error);
+    /// Maps every row with `f` and keeps the rows it accepts; a row it refuses, with the
+    /// reason, leaves the table and is skipped (counted, its error among the first few).
+    pub fn extract<T>(
+        &mut self,
+        mut f: impl FnMut(&Row<N>) -> std::result::Result<T, String>,
+    ) -> Vec<T> {
+        let mut kept = Vec::with_capacity(self.rows.len());
+        for row in std::mem::take(&mut self.rows) {
+            match f(&row) {
+                Ok(value) => {
+                    kept.push(value);
+                    self.rows.push(row);
+                }
+                Err(reason) => {
+                    let error = self.malformed(&row, reason);
+                    self.skipped.add(&error);
+                }
+            }
+        }
+        kept
     }
 
     /// What the user should know about this file in one line, naming it: the lines
@@ -141,22 +172,6 @@ impl<const N: usize> Table<N> {
             path: self.path.clone(),
             line: row.line,
             reason: reason.into(),
-        }
-    }
-
-    /// Column `col` (from 0) of `row` as a non-negative integer (an id, a count).
-    ///
-    /// # Errors
-    /// [`DataError::Malformed`] when the value is negative or has a fraction.
-    pub fn integer(&self, row: &Row<N>, col: usize) -> Result<u64> {
-        let v = row.values[col];
-        if v >= 0.0 && v.fract() == 0.0 && v < 2f64.powi(53) {
-            Ok(v as u64)
-        } else {
-            Err(self.malformed(
-                row,
-                format!("column {} must be a whole number ≥ 0, got {v}", col + 1),
-            ))
         }
     }
 
@@ -218,7 +233,7 @@ pub fn read<const N: usize>(dir: &Path, name: &str, layout: Layout) -> Result<Ta
         reason: e.to_string(),
     };
     let file = File::open(&path).map_err(io)?;
-    let mut reader: Box<dyn BufRead> = if path.extension().is_some_and(|e| e == "gz") {
+    let reader: Box<dyn BufRead> = if path.extension().is_some_and(|e| e == "gz") {
         Box::new(BufReader::new(MultiGzDecoder::new(file)))
     } else {
         Box::new(BufReader::new(file))
@@ -230,28 +245,10 @@ pub fn read<const N: usize>(dir: &Path, name: &str, layout: Layout) -> Result<Ta
         ended_early: None,
     };
     let mut header_pending = layout.header_line;
-    let (mut buffer, mut line) = (Vec::new(), 0);
-    loop {
-        buffer.clear();
-        match reader.read_until(b'\n', &mut buffer) {
-            Ok(0) => break,
-            Ok(_) => {}
-            Err(e) if line > 0 => {
-                table.ended_early = Some(format!(
-                    "the file ends early after line {line} ({e}); the lines before are read"
-                ));
-                break;
-            }
-            Err(e) => return Err(io(e)),
-        }
-        line += 1;
-        let text = String::from_utf8_lossy(&buffer);
+    let early = each_line(reader, |line, text| {
         let trimmed = text.trim();
-        if trimmed.is_empty() || trimmed.starts_with('#') {
-            continue;
-        }
-        if std::mem::take(&mut header_pending) {
-            continue;
+        if trimmed.is_empty() || trimmed.starts_with('#') || std::mem::take(&mut header_pending) {
+            return;
         }
         let malformed = |reason| DataError::Malformed {
             path: path.clone(),
@@ -260,10 +257,7 @@ pub fn read<const N: usize>(dir: &Path, name: &str, layout: Layout) -> Result<Ta
         };
         let row = match parse_row::<N>(trimmed) {
             Ok(row) => row,
-            Err(reason) => {
-                table.skipped.add(&malformed(reason));
-                continue;
-            }
+            Err(reason) => return table.skipped.add(&malformed(reason)),
         };
         if let Some(previous) = table.rows.last().filter(|_| layout.time_ordered)
             && row[0] < previous.values[0]
@@ -272,12 +266,69 @@ pub fn read<const N: usize>(dir: &Path, name: &str, layout: Layout) -> Result<Ta
                 "time {} goes back before {} (line {})",
                 row[0], previous.values[0], previous.line
             );
-            table.skipped.add(&malformed(reason));
-            continue;
+            return table.skipped.add(&malformed(reason));
         }
         table.rows.push(Row { line, values: row });
-    }
+    })
+    .map_err(io)?;
+    table.ended_early = early.map(|end| format!("{end}; the lines before are read"));
     Ok(table)
+}
+
+/// The value `read` gives, with each notice of what it skipped (one line per file)
+/// logged as a warning.
+///
+/// # Errors
+/// `read`'s error.
+pub fn logged<T>(read: Result<(T, Vec<String>)>) -> Result<T> {
+    let (value, notices) = read?;
+    for notice in notices {
+        tracing::warn!("{notice}");
+    }
+    Ok(value)
+}
+
+/// Where a file that could not be read to its end stopped: after which line, and why.
+#[derive(Debug)]
+pub struct EarlyEnd {
+    /// The last line read whole, from 1.
+    pub after_line: usize,
+    /// The read error that ended it (a gzip stream cut short).
+    pub error: std::io::Error,
+}
+
+impl std::fmt::Display for EarlyEnd {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (line, error) = (self.after_line, &self.error);
+        write!(f, "the file ends early after line {line} ({error})")
+    }
+}
+
+/// Calls `f` with every line of `reader` and its number (from 1); bytes that are not
+/// UTF-8 are replaced. A read error after the first line ends the reading there and is
+/// returned as the [`EarlyEnd`].
+///
+/// # Errors
+/// The read error when not even the first line can be read.
+pub fn each_line(
+    mut reader: impl BufRead,
+    mut f: impl FnMut(usize, &str),
+) -> std::io::Result<Option<EarlyEnd>> {
+    let (mut buffer, mut line) = (Vec::new(), 0);
+    loop {
+        buffer.clear();
+        match reader.read_until(b'\n', &mut buffer) {
+            Ok(0) => return Ok(None),
+            Ok(_) => {}
+            Err(error) if line > 0 => {
+                let after_line = line;
+                return Ok(Some(EarlyEnd { after_line, error }));
+            }
+            Err(error) => return Err(error),
+        }
+        line += 1;
+        f(line, &String::from_utf8_lossy(&buffer));
+    }
 }
 
 /// The `N` finite numbers of one line, or what is wrong with it.
@@ -429,18 +480,15 @@ pub(crate) mod tests {
 
     #[test]
     fn an_unordered_table_may_go_back_but_a_missing_file_is_named() {
-        let dir = folder_with("table", &[("t.dat", "5 1\n4 2\n")]);
-        let table = read::<2>(&dir, "t.dat", DAT_TABLE).unwrap();
-        assert_eq!(table.rows.len(), 2);
-        assert_eq!(table.integer(&table.rows[1], 0).unwrap(), 4);
-        let half = Row {
-            line: 9,
-            values: [0.5, 1.0],
-        };
-        let err = table.integer(&half, 0).unwrap_err().to_string();
+        let dir = folder_with("table", &[("t.dat", "5 1\n4 2\n0.5 3\n")]);
+        let mut table = read::<2>(&dir, "t.dat", DAT_TABLE).unwrap();
+        assert_eq!(table.rows.len(), 3);
+        assert_eq!(table.extract(|row| row.integer(0)), [5, 4]);
+        assert_eq!(table.rows.len(), 2, "the refused row leaves the table");
+        let notice = table.notice().unwrap_or_default();
         assert!(
-            err.contains("t.dat:9: column 1 must be a whole number"),
-            "{err}"
+            notice.contains("t.dat:3: column 1 must be a whole number"),
+            "{notice}"
         );
         let err = read::<2>(&dir, "none.dat", DAT_TABLE).unwrap_err();
         assert!(matches!(err, DataError::Missing { .. }), "{err}");

@@ -106,14 +106,10 @@ pub fn laser_bicycle() -> MotionModel {
 /// [`DataError`] naming the file for a missing or unreadable one, and a data set without
 /// odometry (with what was skipped).
 pub fn load(dir: &Path, sensor: &SensorSpec) -> Result<DataSet> {
-    let (data, notices) = read(dir, sensor)?;
-    for notice in notices {
-        tracing::warn!("{notice}");
-    }
-    Ok(data)
+    text::logged(read(dir, sensor))
 }
 
-/// [`load`], with what it skipped returned (one line per file) rather than logged.
+/// [`load`], with what it skipped (one line per file) returned rather than logged.
 fn read(dir: &Path, sensor: &SensorSpec) -> Result<(DataSet, Vec<String>)> {
     sensor.validate()?;
     let odometry = text::read::<3>(dir, "odometry.csv", CSV_BY_TIME)?;
@@ -227,18 +223,15 @@ pub struct RawLaserScan {
 /// [`DataError`] naming the file when it is missing or cannot be read at all.
 pub fn read_raw_scans(dir: &Path) -> Result<(Vec<RawLaserScan>, Option<String>)> {
     let mut table = text::read::<{ BEAMS + 1 }>(dir, RAW_SCANS_FILE, DAT_BY_TIME)?;
-    let mut scans = Vec::with_capacity(table.rows.len());
-    for row in std::mem::take(&mut table.rows) {
+    let scans = table.extract(|row| {
         if row.values[1..].iter().any(|r| *r < 0.0) {
-            table.skip(&row, "ranges must be ≥ 0");
-            continue;
+            return Err("ranges must be ≥ 0".into());
         }
-        scans.push(RawLaserScan {
+        Ok(RawLaserScan {
             t_s: row.values[0] + RAW_LASER_CLOCK_OFFSET_S,
             ranges: row.values[1..].iter().map(|&r| r as f32).collect(),
-        });
-        table.rows.push(row);
-    }
+        })
+    });
     Ok((scans, table.notice()))
 }
 
@@ -279,58 +272,50 @@ fn raw_messages(raw: &[RawLaserScan], clock: &Clock) -> Vec<RawScan> {
 /// of a scan not there (or at another time), with a range ≤ 0 or a diameter < 0, in
 /// `trees`.
 fn scans(scan_times: &mut Table<2>, trees: &mut Table<5>, clock: &Clock) -> ScanGroups {
-    let mut index = HashMap::with_capacity(scan_times.rows.len());
-    let mut out: Vec<(f64, Vec<Observation>)> = Vec::with_capacity(scan_times.rows.len());
-    for row in std::mem::take(&mut scan_times.rows) {
+    let mut last = f64::NEG_INFINITY;
+    let times = scan_times.extract(|row| {
         let t = row.values[1];
-        if out.last().is_some_and(|(previous, _)| t < *previous) {
-            scan_times.skip(&row, format!("scan time {t} goes backwards"));
-            continue;
+        if t < last {
+            return Err(format!("scan time {t} goes backwards"));
         }
-        match scan_times.integer(&row, 0) {
-            Ok(scan) => index.insert(scan, out.len()),
-            Err(e) => {
-                scan_times.skipped.add(&e);
-                continue;
-            }
-        };
+        let scan = row.integer(0)?;
+        last = t;
+        Ok((scan, t))
+    });
+    let mut index = HashMap::with_capacity(times.len());
+    let mut out: Vec<(f64, Vec<Observation>)> = Vec::with_capacity(times.len());
+    for (scan, t) in times {
+        index.insert(scan, out.len());
         out.push((t, Vec::new()));
-        scan_times.rows.push(row);
     }
-    for row in std::mem::take(&mut trees.rows) {
-        match tree(&row, trees, &index, &out) {
-            Ok((k, observation)) => {
-                out[k].1.push(observation);
-                trees.rows.push(row);
-            }
-            Err(e) => trees.skipped.add(&e),
-        }
+    for (k, observation) in trees.extract(|row| tree(row, &index, &out)) {
+        out[k].1.push(observation);
     }
     out.into_iter()
         .map(|(t, observations)| (clock.stamp(t), observations))
         .collect()
 }
 
-/// The tree of `row` and the index in `scans` of the scan it belongs to.
+/// The tree of `row` and the index in `scans` of the scan it belongs to, or why the row
+/// holds none.
 fn tree(
     row: &Row<5>,
-    trees: &Table<5>,
     index: &HashMap<u64, usize>,
     scans: &[(f64, Vec<Observation>)],
-) -> Result<(usize, Observation)> {
+) -> std::result::Result<(usize, Observation), String> {
     let [t, _, range, bearing, diameter] = row.values;
-    let scan = trees.integer(row, 1)?;
+    let scan = row.integer(1)?;
     let Some(&k) = index.get(&scan) else {
-        return Err(trees.malformed(row, format!("scan {scan} is not in scan_times")));
+        return Err(format!("scan {scan} is not in scan_times"));
     };
     if (scans[k].0 - t).abs() > 1e-3 {
-        return Err(trees.malformed(
-            row,
-            format!("time {t} differs from scan {scan}'s time {}", scans[k].0),
+        return Err(format!(
+            "time {t} differs from scan {scan}'s time {}",
+            scans[k].0
         ));
     }
     if range <= 0.0 || diameter < 0.0 {
-        return Err(trees.malformed(row, "range must be > 0 and diameter ≥ 0"));
+        return Err("range must be > 0 and diameter ≥ 0".into());
     }
     let observation = Observation {
         range,

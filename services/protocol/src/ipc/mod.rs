@@ -40,10 +40,7 @@ pub use publisher::{
     COALESCING_PERIOD, OUTSIDE_GRACE, Pub, STACK_NODES, Subscribers, is_stack_node,
 };
 pub use request_response::SliceServer;
-pub use stack::{
-    StackConfig, remove_dead_nodes, remove_stack_files, remove_unfinished_segments,
-    shared_memory_files,
-};
+pub use stack::{StackConfig, remove_dead_nodes, remove_stack_files, shared_memory_files};
 pub use subscriber::{HoldingSub, PublisherCount, Received, Sub, Taken};
 pub use wake::{Ended, Flow, LOST_WAKEUP_GUARD, WakeSource};
 pub use wire::{Service, Wire};

@@ -34,7 +34,7 @@ pub fn remove_stack_files(prefix: &str, root: Option<&std::path::Path>) {
 /// Removes what the nodes of `stack` whose processes died (SIGKILL, a crash) left
 /// behind: their node entries and the ports they held, so services the dead nodes
 /// created are gone once no live node uses them. Live nodes are untouched. First removes
-/// the segments a process was killed while making ([`remove_unfinished_segments`]), on
+/// the segments a process was killed while making (`remove_unfinished_segments`), on
 /// which iceoryx2's clean-up would wait for ever. Returns how many dead nodes were cleaned.
 ///
 /// # Errors
@@ -71,7 +71,7 @@ pub fn remove_dead_nodes(stack: &StackConfig) -> Result<usize> {
 /// so a younger one is watched until it is finished (and kept) or has been left that long
 /// (and removed): the call returns within about a second, and is safe while other
 /// processes of the stack run. Returns how many segments it removed.
-pub fn remove_unfinished_segments(prefix: &str) -> usize {
+fn remove_unfinished_segments(prefix: &str) -> usize {
     let deadline = std::time::Instant::now() + UNFINISHED_AGE + UNFINISHED_POLL;
     let mut removed = 0;
     loop {
