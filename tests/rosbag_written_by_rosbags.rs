@@ -237,6 +237,52 @@ mod written_by_rosbags {
     }
 
     #[test]
+    fn compressed_files_cut_short_keep_what_came_before_the_cut_or_are_refused() {
+        let dir = bags().0.join("cut_zstd");
+        std::fs::create_dir_all(&dir).unwrap();
+        // MCAP compressed whole, cut in half: the messages before the cut, one warning.
+        let source = bags().0.join("long_file_zstd/long_file_zstd.mcap.zstd");
+        let whole = rosbag::load(&source, &TopicChoice::default()).unwrap();
+        assert_eq!(whole.data.raw_scans.len(), 3000, "{:?}", whole.warnings);
+        let bytes = std::fs::read(&source).unwrap();
+        let cut = dir.join("cut.mcap.zstd");
+        std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+        let bag = rosbag::load(&cut, &TopicChoice::default()).unwrap();
+        let scans = bag.data.raw_scans.len();
+        assert!(scans > 0 && scans < 3000, "{scans} scans");
+        let cuts: Vec<&String> = (bag.warnings.iter())
+            .filter(|w| w.contains("cut short"))
+            .collect();
+        let [warning] = cuts[..] else {
+            panic!("one warning about the cut: {:?}", bag.warnings);
+        };
+        assert!(warning.contains("cut.mcap.zstd: cut short"), "{warning}");
+        // Cut before its first whole block: refused, saying so.
+        std::fs::write(&cut, &bytes[..bytes.len() / 100]).unwrap();
+        let err = rosbag::load(&cut, &TopicChoice::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("cut.mcap.zstd: the zstd-compressed file is cut short"),
+            "{err}"
+        );
+        // A database compressed whole and cut: SQLite needs all of it, so it is refused.
+        let source = bags()
+            .0
+            .join("long_sqlite_file_zstd/long_sqlite_file_zstd.db3.zstd");
+        let bytes = std::fs::read(&source).unwrap();
+        let cut = dir.join("cut.db3.zstd");
+        std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+        let err = rosbag::load(&cut, &TopicChoice::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("cut.db3.zstd: the zstd-compressed database is cut short"),
+            "{err}"
+        );
+    }
+
+    #[test]
     fn a_truncated_mcap_file_is_read_up_to_the_cut_or_refused_never_a_panic() {
         let source = bags().0.join("mcap/mcap.mcap");
         let bytes = std::fs::read(&source).unwrap();

@@ -11,6 +11,9 @@ Bags written under OUT_DIR (each a rosbag2 folder):
                    different scan at the last scan's stamp.
 - sqlite_file_zstd: the same as mcap, SQLite storage compressed whole (file mode).
 - mcap_message_zstd: the same as mcap, each message compressed (message mode).
+- long_file_zstd:  MCAP compressed whole (file mode), 3000 scans on /scan and odometry on
+                   /odom: a file of many zstd blocks, to be cut.
+- long_sqlite_file_zstd: the same in SQLite storage.
 - two_scans:       MCAP with /front/scan and /rear/scan, odometry on /odom.
 - bad_message:     MCAP whose /scan message 2 is cut short.
 
@@ -218,6 +221,16 @@ def bad_message_bag(path):
             writer.write(conns['/scan'], ns, data)
 
 
+def long_bag(path, plugin, compression):
+    writer = open_writer(path, plugin, compression=compression)
+    with writer:
+        conns = {topic: writer.add_connection(topic, msgtype, typestore=TS) for topic, msgtype in [('/scan', SCAN), ('/odom', ODOM)]}
+        for k in range(3000):
+            ns = T0 + k * 100_000_000
+            write(writer, conns, '/odom', ns, ODOM, odom_msg(ns, 0.01 * k, 0.0, 0.0, 0.1, 0.0))
+            write(writer, conns, '/scan', ns + 1, SCAN, scan(ns + 1, 'laser', scan_ranges(k)))
+
+
 def main():
     out = Path(sys.argv[1])
     expected = {
@@ -228,6 +241,8 @@ def main():
         'two_scans': two_scans_bag(out / 'two_scans'),
     }
     bad_message_bag(out / 'bad_message')
+    long_bag(out / 'long_file_zstd', StoragePlugin.MCAP, CompressionMode.FILE)
+    long_bag(out / 'long_sqlite_file_zstd', StoragePlugin.SQLITE3, CompressionMode.FILE)
     (out / 'expected.json').write_text(json.dumps(expected, indent=1))
 
 

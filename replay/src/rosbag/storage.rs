@@ -274,10 +274,25 @@ fn read_file(path: &Path, sink: &mut Collector) -> Result<()> {
     } else if head.starts_with(ZSTD_MAGIC) {
         let mut inner = BufReader::new(ZstdFrames::new(reader));
         let head = inner.fill_buf().map_err(io)?.to_vec();
+        if head.is_empty() && inner.get_ref().cut_short() {
+            return Err(DataError::Unusable(format!(
+                "{}: the zstd-compressed file is cut short before its first whole block",
+                path.display()
+            )));
+        }
         if head.starts_with(MCAP_MAGIC) {
+            // A cut in the compressed file is a cut in the MCAP stream, which the MCAP
+            // reader reads up to and warns about.
             mcap_storage::read(inner, path, sink)
         } else if head.starts_with(SQLITE_MAGIC) {
             let copy = TempFile::copy_of(&mut inner, path)?;
+            if inner.get_ref().cut_short() {
+                return Err(DataError::Unusable(format!(
+                    "{}: the zstd-compressed database is cut short; SQLite needs the \
+                     whole file",
+                    path.display()
+                )));
+            }
             sqlite_storage::read(&copy.0, path, sink)
         } else {
             Err(unknown_storage(path, &head))
@@ -332,12 +347,21 @@ impl Drop for TempFile {
 }
 
 /// zstd-compressed bytes as a reader of the decompressed bytes: any number of frames one
-/// after another (skippable frames skipped), each frame's checksum checked.
+/// after another (skippable frames skipped), each frame's checksum checked. Compressed
+/// bytes that end inside a frame (a file cut short) end the stream after the frame's last
+/// whole block, and [`ZstdFrames::cut_short`] says so.
 pub struct ZstdFrames<R: Read> {
     source: BufReader<R>,
     decoder: FrameDecoder,
     in_frame: bool,
+    cut: bool,
+    /// The next block's compressed bytes, read whole before the decoder sees them.
+    block: Vec<u8>,
 }
+
+/// An empty raw block marked last, and room for a checksum: ends a frame that was cut,
+/// so that the decoder gives up the bytes it holds back for its window.
+const LAST_EMPTY_BLOCK: [u8; 7] = [1, 0, 0, 0, 0, 0, 0];
 
 impl<R: Read> ZstdFrames<R> {
     /// A reader decompressing `source`.
@@ -346,7 +370,41 @@ impl<R: Read> ZstdFrames<R> {
             source: BufReader::new(source),
             decoder: FrameDecoder::new(),
             in_frame: false,
+            cut: false,
+            block: Vec::new(),
         }
+    }
+
+    /// True once the compressed bytes have ended inside a frame: what was read is what
+    /// decompressed before the cut.
+    pub fn cut_short(&self) -> bool {
+        self.cut
+    }
+
+    /// Whether a failed frame header is the compressed bytes running out (a cut), not
+    /// corrupt data: the source has nothing left.
+    fn ran_out(&mut self) -> std::io::Result<bool> {
+        if self.source.fill_buf()?.is_empty() {
+            self.cut = true;
+        }
+        Ok(self.cut)
+    }
+
+    /// Reads the next block (its 3-byte header and its content) into `self.block`;
+    /// false when the source ends before the block does.
+    fn next_block(&mut self) -> std::io::Result<bool> {
+        self.block.clear();
+        let mut source = (&mut self.source).take(3);
+        if source.read_to_end(&mut self.block)? < 3 {
+            return Ok(false);
+        }
+        let header = u32::from_le_bytes([self.block[0], self.block[1], self.block[2], 0]);
+        let rle = (header >> 1) & 3 == 1;
+        let content = if rle { 1 } else { u64::from(header >> 3) };
+        let read = (&mut self.source)
+            .take(content)
+            .read_to_end(&mut self.block)?;
+        Ok(read as u64 == content)
     }
 }
 
@@ -355,7 +413,7 @@ impl<R: Read> Read for ZstdFrames<R> {
         let bad = |e: FrameDecoderError| std::io::Error::new(std::io::ErrorKind::InvalidData, e);
         loop {
             if !self.in_frame {
-                if self.source.fill_buf()?.is_empty() {
+                if self.cut || self.source.fill_buf()?.is_empty() {
                     return Ok(0);
                 }
                 match self.decoder.reset(&mut self.source) {
@@ -367,24 +425,36 @@ impl<R: Read> Read for ZstdFrames<R> {
                             &mut (&mut self.source).take(length.into()),
                             &mut std::io::sink(),
                         )?;
-                        if skipped < length.into() {
-                            return Err(std::io::ErrorKind::UnexpectedEof.into());
-                        }
+                        self.cut = skipped < length.into();
                     }
+                    Err(_) if self.ran_out()? => {}
                     Err(e) => return Err(bad(e)),
                 }
                 continue;
             }
             while self.decoder.can_collect() == 0 && !self.decoder.is_finished() {
-                self.decoder
-                    .decode_blocks(&mut self.source, BlockDecodingStrategy::UptoBlocks(1))
-                    .map_err(bad)?;
+                let strategy = BlockDecodingStrategy::UptoBlocks(1);
+                if !self.next_block()? {
+                    self.cut = true;
+                    self.decoder
+                        .decode_blocks(&LAST_EMPTY_BLOCK[..], strategy)
+                        .map_err(bad)?;
+                    continue;
+                }
+                let block = (&self.block[..]).chain(&mut self.source);
+                match self.decoder.decode_blocks(block, strategy) {
+                    Ok(_) => {}
+                    // The last block whole and its checksum cut.
+                    Err(FrameDecoderError::FailedToReadChecksum(_)) => self.cut = true,
+                    Err(e) => return Err(bad(e)),
+                }
             }
             let n = self.decoder.read(buf)?;
             if n > 0 || buf.is_empty() {
                 return Ok(n);
             }
-            if let (Some(saved), Some(computed)) = (
+            if let (false, Some(saved), Some(computed)) = (
+                self.cut,
                 self.decoder.get_checksum_from_data(),
                 self.decoder.get_calculated_checksum(),
             ) && saved != computed
@@ -431,12 +501,17 @@ mod tests {
             .read_to_string(&mut out)
             .unwrap();
         assert_eq!(out, "hello world");
-        let mut cut = Vec::new();
-        assert!(
-            ZstdFrames::new(&bytes[..bytes.len() - 2])
-                .read_to_end(&mut cut)
-                .is_err()
-        );
+        // Cut inside the second frame: the first frame, and the cut is told.
+        let mut cut = ZstdFrames::new(&bytes[..bytes.len() - 2]);
+        let mut out = String::new();
+        cut.read_to_string(&mut out).unwrap();
+        assert_eq!((out.as_str(), cut.cut_short()), ("hello ", true));
+        // A reserved block type before the end is corrupt, not a cut.
+        let mut corrupt = frame(b"hello ");
+        corrupt[6] |= 0b110;
+        corrupt.extend(frame(b"world"));
+        let mut out = Vec::new();
+        assert!(ZstdFrames::new(&corrupt[..]).read_to_end(&mut out).is_err());
     }
 
     #[test]
