@@ -113,10 +113,13 @@ impl Collector<'_> {
         let file = self.contents.files.len() - 1;
         let data = if data.starts_with(ZSTD_MAGIC) {
             let mut out = Vec::new();
-            let read = ZstdFrames::new(data)
-                .take(MAX_MESSAGE_BYTES)
-                .read_to_end(&mut out);
-            read.map_err(|e| DataError::Message {
+            let mut frames = ZstdFrames::new(data);
+            let read = (&mut frames).take(MAX_MESSAGE_BYTES).read_to_end(&mut out);
+            let whole = read.and_then(|_| match frames.cut_short() {
+                true => Err(std::io::ErrorKind::UnexpectedEof.into()),
+                false => Ok(()),
+            });
+            whole.map_err(|e| DataError::Message {
                 path: self.contents.files[file].clone(),
                 topic: t.name.clone(),
                 index,
@@ -483,16 +486,40 @@ mod tests {
         );
     }
 
+    /// A zstd frame of `text` in one raw (uncompressed) block.
+    fn frame(text: &[u8]) -> Vec<u8> {
+        let mut f = vec![0x28, 0xb5, 0x2f, 0xfd, 0x20, text.len() as u8];
+        let block_header = ((text.len() as u32) << 3) | 1; // last block, raw
+        f.extend_from_slice(&block_header.to_le_bytes()[..3]);
+        f.extend_from_slice(text);
+        f
+    }
+
+    #[test]
+    fn a_compressed_message_cut_short_does_not_decompress() {
+        let keep = |_: &str, _: &str| true;
+        let mut sink = Collector {
+            keep: &keep,
+            contents: Contents {
+                files: vec![PathBuf::from("bag.mcap")],
+                ..Contents::default()
+            },
+            by_key: HashMap::new(),
+            kept: Vec::new(),
+        };
+        let topic = sink.topic("/scan", "sensor_msgs/msg/LaserScan", "cdr");
+        let whole = frame(b"hello");
+        sink.message(topic, 0, &whole).unwrap();
+        assert_eq!(sink.contents.messages[0].data, b"hello");
+        let err = sink
+            .message(topic, 1, &whole[..whole.len() - 1])
+            .unwrap_err();
+        assert!(err.to_string().contains("does not decompress"), "{err}");
+    }
+
     #[test]
     fn zstd_frames_decompress_one_after_another() {
         // Two frames of raw (uncompressed) blocks, a skippable frame between them.
-        let frame = |text: &[u8]| {
-            let mut f = vec![0x28, 0xb5, 0x2f, 0xfd, 0x20, text.len() as u8];
-            let block_header = ((text.len() as u32) << 3) | 1; // last block, raw
-            f.extend_from_slice(&block_header.to_le_bytes()[..3]);
-            f.extend_from_slice(text);
-            f
-        };
         let mut bytes = frame(b"hello ");
         bytes.extend_from_slice(&[0x50, 0x2a, 0x4d, 0x18, 2, 0, 0, 0, 9, 9]);
         bytes.extend(frame(b"world"));
