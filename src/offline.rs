@@ -345,7 +345,7 @@ pub fn run_in_process(
     };
     let mut filter_time = Duration::ZERO;
     let mut last_pose: Option<Header> = None;
-    let mut health = Health::new(Duration::from_secs(5));
+    let mut health = Health::new(Duration::from_secs(5), config.unknown_association());
     let mut apply = |sequencer: &mut Sequencer, recording: &mut Recording| {
         while let Some(input) = sequencer.release() {
             let started = Instant::now();

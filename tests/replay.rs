@@ -87,6 +87,11 @@ fn mrclam(association: &str) -> (serde_json::Value, f64, f64) {
         15.0,
         "the true landmarks arrived: {m}"
     );
+    assert_eq!(
+        m["filter"]["unknown_association"],
+        association == "unknown",
+        "the service's status says how it associates: {m}"
+    );
     let (estimate, dead_reckoning) = ates(&m);
     std::fs::remove_dir_all(&dir).ok();
     (m, estimate, dead_reckoning)

@@ -169,6 +169,9 @@ pub struct FilterHealth {
     /// Solves of the smoothing back-end withheld as torn (docs/ALGORITHMS.md §8.3).
     #[serde(default)]
     pub smoother_torn_solves: u32,
+    /// The landmark filter associated its observations without ids.
+    #[serde(default)]
+    pub unknown_association: bool,
     /// The configured noise as standard deviations at the last step: the motion model's
     /// two (`sigma_v` and `sigma_omega` or `sigma_steering`), `sigma_range`,
     /// `sigma_bearing` (zeros without a noise fit).
@@ -460,6 +463,7 @@ pub fn filter_health(rec: &Recording) -> FilterHealth {
             _ => "sensor".into(),
         },
         smoother_torn_solves: rec.torn_solves,
+        unknown_association: rec.unknown_association,
         noise_profile: s.last().map_or([0.0; 4], |x| x.noise_profile),
         noise_fitted: s.last().map_or([0.0; 4], |x| x.noise_fitted),
         noise_fit: match s.last().map(|x| x.noise_fit) {

@@ -80,6 +80,9 @@ pub struct Recording {
     pub smoothed_map: Vec<MapLandmark>,
     /// The back-end's solves withheld as torn, as of the service's newest status.
     pub torn_solves: u32,
+    /// The service's landmark filter associates without ids
+    /// ([`status::flags::UNKNOWN_ASSOCIATION`]).
+    pub unknown_association: bool,
     /// The service's estimates.
     pub estimates: Vec<Estimate>,
     /// The newest landmark map from the service.
@@ -260,6 +263,7 @@ impl Recording {
             *count = (*count).max(now);
         }
         self.torn_solves = self.torn_solves.max(m.torn_solves);
+        self.unknown_association |= m.flags & status::flags::UNKNOWN_ASSOCIATION != 0;
         if m.flags & status::flags::FINAL != 0 {
             tracing::info!(
                 steps = m.steps,

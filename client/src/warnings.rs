@@ -42,9 +42,14 @@ impl Warnings {
             let measure = if by_back_end {
                 let i = if odometry { 0 } else { 2 };
                 let (fitted, profile) = (&h.noise_fitted[i..i + 2], &h.noise_profile[i..i + 2]);
+                let caveat = if h.unknown_association {
+                    " (with unknown association, wrong matches raise this fit too)"
+                } else {
+                    ""
+                };
                 format!(
                     "the smoothing back-end's residuals put the {} noise at σ {:.3}, {:.3} \
-                     against the profile's {:.3}, {:.3}",
+                     against the profile's {:.3}, {:.3}{caveat}",
                     h.nis_suspect, fitted[0], fitted[1], profile[0], profile[1]
                 )
             } else {
@@ -195,6 +200,13 @@ mod tests {
             "{w:?}"
         );
         assert!(w.lines[0].contains("sigma_v / sigma_omega"), "{w:?}");
+        assert!(!w.lines[0].contains("wrong matches"), "{w:?}");
+        m.filter.unknown_association = true;
+        let w = Warnings::of(&m);
+        assert!(
+            w.lines[0].contains("with unknown association, wrong matches raise this fit too"),
+            "{w:?}"
+        );
         m.filter.noise_fit = "innovations".into();
         assert_eq!(
             Warnings::of(&m).count,

@@ -47,7 +47,7 @@
 //! scheme is biased, so the corrected modes keep the filter's own.
 
 use clap::builder::PossibleValuesParser;
-use fastslam_estimation::fastslam::{FastSlamConfig, Proposal, ResamplingScheme};
+use fastslam_estimation::fastslam::{AssociationMode, FastSlamConfig, Proposal, ResamplingScheme};
 use fastslam_estimation::features::ExtractorConfig;
 use fastslam_estimation::graph::SmootherConfig;
 use fastslam_estimation::grid::GridConfig;
@@ -527,6 +527,12 @@ impl ServiceConfig {
             filter.resampling.scheme = ResamplingScheme::PartialEwa;
         }
         filter
+    }
+
+    /// True when the landmark filter associates its observations without ids.
+    pub fn unknown_association(&self) -> bool {
+        self.map.kind == MapKind::Landmarks
+            && self.filter.association.mode == AssociationMode::Unknown
     }
 }
 

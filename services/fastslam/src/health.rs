@@ -24,11 +24,14 @@ pub struct Health {
     nis: NisWindow,
     /// Whether the noise check's warning has been logged.
     warned: bool,
+    /// [`flags::UNKNOWN_ASSOCIATION`] when the filter associates without ids, else 0.
+    association: u32,
 }
 
 impl Health {
-    /// Counters at zero; rejections logged once per kind per `log_interval`.
-    pub fn new(log_interval: Duration) -> Self {
+    /// Counters at zero; rejections logged once per kind per `log_interval`; every
+    /// status flagged [`flags::UNKNOWN_ASSOCIATION`] when `unknown_association`.
+    pub fn new(log_interval: Duration, unknown_association: bool) -> Self {
         Self {
             steps: 0,
             resamplings: 0,
@@ -39,6 +42,11 @@ impl Health {
             },
             nis: NisWindow::new(NIS_WINDOW_SCANS),
             warned: false,
+            association: if unknown_association {
+                flags::UNKNOWN_ASSOCIATION
+            } else {
+                0
+            },
         }
     }
 
@@ -193,7 +201,8 @@ impl Health {
         };
         let mut status = ServiceStatus {
             flags: (self.last.flags & (flags::RESAMPLED | flags::NIS_HIGH | flags::NIS_POSE))
-                | degraded,
+                | degraded
+                | self.association,
             rejections: self.log.counts(),
             ..self.last
         };

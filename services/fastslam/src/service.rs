@@ -449,7 +449,10 @@ impl Core {
         resumed: Option<&Checkpoint>,
         out: Outputs,
     ) -> Self {
-        let mut health = Health::new(Duration::from_secs_f64(config.input.log_interval_s));
+        let mut health = Health::new(
+            Duration::from_secs_f64(config.input.log_interval_s),
+            config.unknown_association(),
+        );
         if let Some(c) = resumed {
             health.resume(c);
         }

@@ -103,6 +103,9 @@ pub mod flags {
     /// The smoothing back-end's newest solve was torn and withheld: `smoothed/*` holds an
     /// older solution, or none ([`super::ServiceStatus::torn_solves`]).
     pub const SMOOTHED_TORN: u32 = 128;
+    /// The landmark filter associates observations without their ids (unknown
+    /// association): a wrong match is possible, and bends the noise fit too.
+    pub const UNKNOWN_ASSOCIATION: u32 = 256;
 }
 
 /// Most input streams a [`ServiceStatus`] or a [`Checkpointed`] lists.
