@@ -240,6 +240,12 @@ mod written_by_rosbags {
     fn compressed_files_cut_short_keep_what_came_before_the_cut_or_are_refused() {
         let dir = bags().0.join("cut_zstd");
         std::fs::create_dir_all(&dir).unwrap();
+        // Why the file `cut` holding `bytes` is refused.
+        let refusal = |cut: &Path, bytes: &[u8]| {
+            std::fs::write(cut, bytes).unwrap();
+            let err = rosbag::load(cut, &TopicChoice::default()).unwrap_err();
+            err.to_string()
+        };
         // MCAP compressed whole, cut in half: the messages before the cut, one warning.
         let source = bags().0.join("long_file_zstd/long_file_zstd.mcap.zstd");
         let whole = rosbag::load(&source, &TopicChoice::default()).unwrap();
@@ -258,10 +264,7 @@ mod written_by_rosbags {
         };
         assert!(warning.contains("cut.mcap.zstd: cut short"), "{warning}");
         // Cut before its first whole block: refused, saying so.
-        std::fs::write(&cut, &bytes[..bytes.len() / 100]).unwrap();
-        let err = rosbag::load(&cut, &TopicChoice::default())
-            .unwrap_err()
-            .to_string();
+        let err = refusal(&cut, &bytes[..bytes.len() / 100]);
         assert!(
             err.contains("cut.mcap.zstd: the zstd-compressed file is cut short"),
             "{err}"
@@ -271,11 +274,7 @@ mod written_by_rosbags {
             .0
             .join("long_sqlite_file_zstd/long_sqlite_file_zstd.db3.zstd");
         let bytes = std::fs::read(&source).unwrap();
-        let cut = dir.join("cut.db3.zstd");
-        std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
-        let err = rosbag::load(&cut, &TopicChoice::default())
-            .unwrap_err()
-            .to_string();
+        let err = refusal(&dir.join("cut.db3.zstd"), &bytes[..bytes.len() / 2]);
         assert!(
             err.contains("cut.db3.zstd: the zstd-compressed database is cut short"),
             "{err}"
