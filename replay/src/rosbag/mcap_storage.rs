@@ -44,8 +44,7 @@ struct State {
 ///
 /// # Errors
 /// [`DataError::Io`] naming the file when it is cut short before its first message,
-/// corrupt, or contradicts its own summary; [`DataError::Message`] for a compressed
-/// message that does not decompress.
+/// corrupt, or contradicts its own summary.
 pub fn read(mut source: impl Read, path: &Path, sink: &mut Collector) -> Result<()> {
     let bad = |reason: String| DataError::Io {
         path: path.to_path_buf(),
@@ -90,10 +89,7 @@ pub fn read(mut source: impl Read, path: &Path, sink: &mut Collector) -> Result<
             Ok(LinearReadEvent::Record { opcode, data }) => {
                 state
                     .record(opcode, data, sink, false)
-                    .map_err(|e| match e {
-                        Failure::Corrupt(reason) => bad(reason),
-                        Failure::Data(e) => e,
-                    })?;
+                    .map_err(|Corrupt(reason)| bad(reason))?;
             }
         }
     }
@@ -125,17 +121,12 @@ fn read_some(source: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
     }
 }
 
-/// Why a record could not be taken.
-enum Failure {
-    /// The file is corrupt (the reason).
-    Corrupt(String),
-    /// A message could not be collected.
-    Data(DataError),
-}
+/// Why a record could not be taken: the file is corrupt (the reason).
+struct Corrupt(String);
 
-impl From<mcap::McapError> for Failure {
+impl From<mcap::McapError> for Corrupt {
     fn from(e: mcap::McapError) -> Self {
-        Self::Corrupt(format!("corrupt MCAP record: {e}"))
+        Self(format!("corrupt MCAP record: {e}"))
     }
 }
 
@@ -147,7 +138,7 @@ impl State {
         body: &[u8],
         sink: &mut Collector,
         in_chunk: bool,
-    ) -> std::result::Result<(), Failure> {
+    ) -> std::result::Result<(), Corrupt> {
         // Only the records the reader needs are parsed.
         let wanted = [
             op::SCHEMA,
@@ -168,7 +159,7 @@ impl State {
                 let type_name = match channel.schema_id {
                     0 => String::new(),
                     id => self.schemas.get(&id).cloned().ok_or_else(|| {
-                        Failure::Corrupt(format!(
+                        Corrupt(format!(
                             "channel {} (`{}`) refers to schema {id}, which is not defined",
                             channel.id, channel.topic
                         ))
@@ -179,28 +170,27 @@ impl State {
             }
             Record::Message { header, data } => {
                 let Some(&topic) = self.channels.get(&header.channel_id) else {
-                    return Err(Failure::Corrupt(format!(
+                    return Err(Corrupt(format!(
                         "a message refers to channel {}, which is not defined",
                         header.channel_id
                     )));
                 };
                 *self.counts.entry(header.channel_id).or_default() += 1;
-                sink.message(topic, header.log_time, &data)
-                    .map_err(Failure::Data)?;
+                sink.message(topic, header.log_time, &data);
             }
             Record::Chunk { header, data } if !in_chunk => {
-                let records = decompress(&header, &data).map_err(Failure::Corrupt)?;
+                let records = decompress(&header, &data).map_err(Corrupt)?;
                 let mut rest: &[u8] = &records;
                 while !rest.is_empty() {
                     let Some((&[opcode], tail)) = rest.split_first_chunk::<1>() else {
                         break;
                     };
                     let Some((len, tail)) = tail.split_first_chunk::<8>() else {
-                        return Err(Failure::Corrupt("a chunk ends inside a record".into()));
+                        return Err(Corrupt("a chunk ends inside a record".into()));
                     };
                     let len = usize::try_from(u64::from_le_bytes(*len)).unwrap_or(usize::MAX);
                     if len > tail.len() {
-                        return Err(Failure::Corrupt("a chunk ends inside a record".into()));
+                        return Err(Corrupt("a chunk ends inside a record".into()));
                     }
                     let (body, tail) = tail.split_at(len);
                     self.record(opcode, body, sink, true)?;
@@ -208,7 +198,7 @@ impl State {
                 }
             }
             Record::Chunk { .. } => {
-                return Err(Failure::Corrupt("a chunk inside a chunk".into()));
+                return Err(Corrupt("a chunk inside a chunk".into()));
             }
             Record::Statistics(statistics) => self.statistics = Some(statistics),
             Record::Footer(_) => self.footer = true,

@@ -471,7 +471,9 @@ impl<'a> Reader<'a> {
     ) -> Vec<(u64, M, &'a RawMessage)> {
         let mut out = Vec::new();
         for m in self.messages(topic) {
-            let decoded = decode(&m.data).and_then(|msg| Ok((msg.stamp().ns()?, msg)));
+            let decoded = (m.data.as_deref().map_err(String::clone))
+                .and_then(decode)
+                .and_then(|msg| Ok((msg.stamp().ns()?, msg)));
             match decoded {
                 Ok((stamp, msg)) => out.push((stamp.unwrap_or(m.receive_ns), msg, m)),
                 Err(reason) => self.reject(m, reason),
@@ -517,7 +519,8 @@ impl<'a> Reader<'a> {
             }
             self.used.insert(k);
             for m in self.messages(k) {
-                let transforms = match cdr::tf_message(&m.data) {
+                let data = m.data.as_deref().map_err(String::clone);
+                let transforms = match data.and_then(cdr::tf_message) {
                     Ok(transforms) => transforms,
                     Err(reason) => {
                         self.reject(m, reason);

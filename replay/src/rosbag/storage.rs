@@ -53,8 +53,9 @@ pub struct RawMessage {
     pub index: usize,
     /// When the recorder received it (ns, the bag's clock).
     pub receive_ns: u64,
-    /// The serialised message.
-    pub data: Vec<u8>,
+    /// The serialised message, or why its bytes cannot be read (a zstd frame that does
+    /// not decompress).
+    pub data: std::result::Result<Vec<u8>, String>,
 }
 
 /// What a bag holds: its files, every topic with its count, and the messages of the
@@ -99,16 +100,13 @@ impl Collector<'_> {
     }
 
     /// Counts a message of `topic` received at `receive_ns`, and keeps its bytes if the
-    /// topic is wanted.
-    ///
-    /// # Errors
-    /// When the message is a zstd frame that does not decompress.
-    pub fn message(&mut self, topic: usize, receive_ns: u64, data: &[u8]) -> Result<()> {
+    /// topic is wanted: a zstd frame decompressed, or why it does not decompress.
+    pub fn message(&mut self, topic: usize, receive_ns: u64, data: &[u8]) {
         let t = &mut self.contents.topics[topic];
         let index = t.count;
         t.count += 1;
         if !self.kept[topic] {
-            return Ok(());
+            return;
         }
         let file = self.contents.files.len() - 1;
         let data = if data.starts_with(ZSTD_MAGIC) {
@@ -119,15 +117,11 @@ impl Collector<'_> {
                 true => Err(std::io::ErrorKind::UnexpectedEof.into()),
                 false => Ok(()),
             });
-            whole.map_err(|e| DataError::Message {
-                path: self.contents.files[file].clone(),
-                topic: t.name.clone(),
-                index,
-                reason: format!("zstd-compressed message does not decompress: {e}"),
-            })?;
-            out
+            whole
+                .map(|()| out)
+                .map_err(|e| format!("zstd-compressed message does not decompress: {e}"))
         } else {
-            data.to_vec()
+            Ok(data.to_vec())
         };
         self.contents.messages.push(RawMessage {
             topic,
@@ -136,7 +130,6 @@ impl Collector<'_> {
             receive_ns,
             data,
         });
-        Ok(())
     }
 
     /// Adds a warning about the file being read.
@@ -496,7 +489,7 @@ mod tests {
     }
 
     #[test]
-    fn a_compressed_message_cut_short_does_not_decompress() {
+    fn a_compressed_message_cut_short_is_kept_with_why_it_does_not_decompress() {
         let keep = |_: &str, _: &str| true;
         let mut sink = Collector {
             keep: &keep,
@@ -509,12 +502,12 @@ mod tests {
         };
         let topic = sink.topic("/scan", "sensor_msgs/msg/LaserScan", "cdr");
         let whole = frame(b"hello");
-        sink.message(topic, 0, &whole).unwrap();
-        assert_eq!(sink.contents.messages[0].data, b"hello");
-        let err = sink
-            .message(topic, 1, &whole[..whole.len() - 1])
-            .unwrap_err();
-        assert!(err.to_string().contains("does not decompress"), "{err}");
+        sink.message(topic, 0, &whole);
+        sink.message(topic, 1, &whole[..whole.len() - 1]);
+        let messages = &sink.contents.messages;
+        assert_eq!(messages[0].data.as_deref(), Ok(&b"hello"[..]));
+        let err = messages[1].data.as_ref().unwrap_err();
+        assert!(err.contains("does not decompress"), "{err}");
     }
 
     #[test]

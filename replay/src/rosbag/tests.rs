@@ -30,7 +30,7 @@ fn raw(topic: usize, index: usize, receive_ns: u64, data: Vec<u8>) -> RawMessage
         file: 0,
         index,
         receive_ns,
-        data,
+        data: Ok(data),
     }
 }
 
@@ -187,8 +187,8 @@ fn odometry_comes_from_tf_through_an_intermediate_frame() {
 
 #[test]
 fn an_undecodable_message_is_skipped_and_named_by_file_topic_and_index() {
-    // One good scan and one cut short: the good one is decoded, the other skipped and
-    // named.
+    // One good scan, one cut short and one that did not decompress: the good one is
+    // decoded, the others skipped and named.
     let good = scan_bytes(
         true,
         "laser",
@@ -204,6 +204,10 @@ fn an_undecodable_message_is_skipped_and_named_by_file_topic_and_index() {
                 file: 1,
                 ..raw(0, 1, 2, good[..30].to_vec())
             },
+            RawMessage {
+                data: Err("zstd-compressed message does not decompress: cut".into()),
+                ..raw(0, 2, 3, Vec::new())
+            },
         ],
         ..Contents::default()
     };
@@ -211,11 +215,15 @@ fn an_undecodable_message_is_skipped_and_named_by_file_topic_and_index() {
     let scans = r.decode(0, cdr::laser_scan);
     assert_eq!(scans.len(), 1);
     assert_eq!(scans[0].2.index, 0, "the good one, with its message");
-    // Read again (as tf is, once per question): still one message skipped.
+    // Read again (as tf is, once per question): still two messages skipped.
     assert_eq!(r.decode(0, cdr::laser_scan).len(), 1);
     let skipped = r.rejected_messages().unwrap();
     assert!(
-        skipped.starts_with("1 messages skipped that do not decode or hold values no sensor reports (b.mcap: /scan message 1: "),
+        skipped.starts_with("2 messages skipped that do not decode or hold values no sensor reports (b.mcap: /scan message 1: "),
+        "{skipped}"
+    );
+    assert!(
+        skipped.contains("a.mcap: /scan message 2: zstd-compressed message does not decompress"),
         "{skipped}"
     );
 }
