@@ -471,7 +471,7 @@ impl<'a> Reader<'a> {
     ) -> Vec<(u64, M, &'a RawMessage)> {
         let mut out = Vec::new();
         for m in self.messages(topic) {
-            let decoded = (m.data.as_deref().map_err(String::clone))
+            let decoded = (m.bytes())
                 .and_then(decode)
                 .and_then(|msg| Ok((msg.stamp().ns()?, msg)));
             match decoded {
@@ -519,8 +519,7 @@ impl<'a> Reader<'a> {
             }
             self.used.insert(k);
             for m in self.messages(k) {
-                let data = m.data.as_deref().map_err(String::clone);
-                let transforms = match data.and_then(cdr::tf_message) {
+                let transforms = match m.bytes().and_then(cdr::tf_message) {
                     Ok(transforms) => transforms,
                     Err(reason) => {
                         self.reject(m, reason);

@@ -58,6 +58,13 @@ pub struct RawMessage {
     pub data: std::result::Result<Vec<u8>, String>,
 }
 
+impl RawMessage {
+    /// The serialised message, or why its bytes cannot be read, for a decoder.
+    pub fn bytes(&self) -> std::result::Result<&[u8], String> {
+        self.data.as_deref().map_err(String::clone)
+    }
+}
+
 /// What a bag holds: its files, every topic with its count, and the messages of the
 /// topics that were asked for.
 #[derive(Debug, Clone, Default)]
