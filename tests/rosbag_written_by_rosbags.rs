@@ -263,6 +263,10 @@ mod written_by_rosbags {
             panic!("one warning about the cut: {:?}", bag.warnings);
         };
         assert!(warning.contains("cut.mcap.zstd: cut short"), "{warning}");
+        assert!(
+            warning.contains("bytes after decompression read"),
+            "{warning}"
+        );
         // Cut before its first whole block: refused, saying so.
         let err = refusal(&cut, &bytes[..bytes.len() / 100]);
         assert!(
@@ -305,6 +309,7 @@ mod written_by_rosbags {
             warning.contains("cut.mcap: cut short inside a record"),
             "{warning}"
         );
+        assert!(!warning.contains("decompression"), "{warning}");
         // The same half followed by the file's closing magic, as a whole file whose record
         // length is corrupt reads: refused as corrupt, not taken for a cut.
         let closing = &bytes[bytes.len() - 8..];

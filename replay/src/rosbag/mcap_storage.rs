@@ -39,13 +39,40 @@ struct State {
     footer: bool,
 }
 
-/// Reads the MCAP stream `source` (the file `path`, or its decompressed content) into
-/// `sink`.
+/// What the bytes an MCAP stream is read from are: the file's own, or the file's
+/// decompressed content (rosbag2's file compression). Messages about where a file ends
+/// count its bytes in these.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stream {
+    /// The file is the MCAP stream.
+    File,
+    /// The MCAP stream is the file's decompressed content.
+    Decompressed,
+}
+
+impl Stream {
+    /// How `n` bytes of this stream read in a message: "N bytes" or "N bytes after
+    /// decompression".
+    fn bytes(self, n: u64) -> String {
+        match self {
+            Self::File => format!("{n} bytes"),
+            Self::Decompressed => format!("{n} bytes after decompression"),
+        }
+    }
+}
+
+/// Reads the MCAP stream `source` (the file `path`, or its decompressed content as
+/// `stream` says) into `sink`.
 ///
 /// # Errors
 /// [`DataError::Io`] naming the file when it is cut short before its first message,
 /// corrupt, or contradicts its own summary.
-pub fn read(mut source: impl Read, path: &Path, sink: &mut Collector) -> Result<()> {
+pub fn read(
+    mut source: impl Read,
+    stream: Stream,
+    path: &Path,
+    sink: &mut Collector,
+) -> Result<()> {
     let bad = |reason: String| DataError::Io {
         path: path.to_path_buf(),
         reason,
@@ -65,13 +92,14 @@ pub fn read(mut source: impl Read, path: &Path, sink: &mut Collector) -> Result<
                 if tail.ends_with(mcap::MAGIC) {
                     return Err(bad(format!(
                         "corrupt MCAP file: a record runs past the end of the whole file \
-                         ({offset} bytes)"
+                         ({})",
+                        stream.bytes(offset)
                     )));
                 }
                 if state.counts.is_empty() {
                     return Err(bad(format!(
-                        "MCAP file cut short: its last record is incomplete ({offset} bytes \
-                         read)"
+                        "MCAP file cut short: its last record is incomplete ({} read)",
+                        stream.bytes(offset)
                     )));
                 }
                 cut = true;
@@ -97,9 +125,10 @@ pub fn read(mut source: impl Read, path: &Path, sink: &mut Collector) -> Result<
     let total: u64 = state.counts.values().sum();
     if cut {
         sink.warn(format!(
-            "{}: cut short inside a record ({offset} bytes read): read the {total} messages \
-             of the records whole before the cut (a chunk cut short is lost whole)",
-            path.display()
+            "{}: cut short inside a record ({} read): read the {total} messages of the \
+             records whole before the cut (a chunk cut short is lost whole)",
+            path.display(),
+            stream.bytes(offset)
         ));
     } else if !state.footer {
         sink.warn(format!(

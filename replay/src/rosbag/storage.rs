@@ -10,7 +10,8 @@
 //! compressed whole with zstd (rosbag2's `file` compression mode). A message whose bytes
 //! are a zstd frame (the `message` compression mode) is decompressed on the way in.
 
-use super::{mcap_storage, sqlite_storage};
+use super::mcap_storage::{self, Stream};
+use super::sqlite_storage;
 use crate::text::{DataError, Result};
 use ruzstd::decoding::errors::{FrameDecoderError, ReadFrameHeaderError};
 use ruzstd::decoding::{BlockDecodingStrategy, FrameDecoder};
@@ -271,7 +272,7 @@ fn read_file(path: &Path, sink: &mut Collector) -> Result<()> {
     let mut reader = BufReader::new(File::open(path).map_err(io)?);
     let head = reader.fill_buf().map_err(io)?.to_vec();
     if head.starts_with(MCAP_MAGIC) {
-        mcap_storage::read(reader, path, sink)
+        mcap_storage::read(reader, Stream::File, path, sink)
     } else if head.starts_with(SQLITE_MAGIC) {
         sqlite_storage::read(path, path, sink)
     } else if head.starts_with(ZSTD_MAGIC) {
@@ -286,7 +287,7 @@ fn read_file(path: &Path, sink: &mut Collector) -> Result<()> {
         if head.starts_with(MCAP_MAGIC) {
             // A cut in the compressed file is a cut in the MCAP stream, which the MCAP
             // reader reads up to and warns about.
-            mcap_storage::read(inner, path, sink)
+            mcap_storage::read(inner, Stream::Decompressed, path, sink)
         } else if head.starts_with(SQLITE_MAGIC) {
             let copy = TempFile::copy_of(&mut inner, path)?;
             if inner.get_ref().cut_short() {
