@@ -138,24 +138,34 @@ fn a_carmen_log_replays_without_truth_and_is_scored_on_its_relations() {
 }
 
 #[test]
-fn a_ros2_bag_replays_with_default_flags_and_its_mount_from_tf_static() {
+fn a_ros2_bag_and_its_ros1_conversion_replay_alike_with_default_flags_and_mount_from_tf() {
     let bag = data("ros2/mit-csail");
+    let ros1 = folder(&prefix("ros1conv")).join("mit-csail.bag");
+    rosbags_convert(&bag, &ros1, "lz4");
     let relations = data("freiburg/mit-csail/mit-csail.relations");
-    let (out, m, _) = replay_recording(
-        "rosbag",
-        &[
-            "rosbag",
-            bag.to_str().unwrap(),
-            "--relations",
-            relations.to_str().unwrap(),
-            "--particles",
-            "5",
-        ],
-    );
+    let run = |name: &str, bag: &Path| {
+        replay_recording(
+            name,
+            &[
+                "rosbag",
+                bag.to_str().unwrap(),
+                "--relations",
+                relations.to_str().unwrap(),
+                "--particles",
+                "5",
+            ],
+        )
+    };
+    let ((out, m, _), (ros1_out, _, _)) = std::thread::scope(|s| {
+        let ros2 = s.spawn(|| run("rosbag", &bag));
+        let ros1 = s.spawn(|| run("rosbag1", &ros1));
+        (ros2.join().unwrap(), ros1.join().unwrap())
+    });
     assert_mit_dead_reckoning(&m);
     let config = std::fs::read_to_string(out.join("service.toml")).unwrap();
     assert!(config.contains("mount"), "{config}");
     assert!(config.contains("model = \"increment\""), "{config}");
+    assert_eq!(reproducible(&out), reproducible(&ros1_out));
 }
 
 /// A failed replay: non-zero exit, one `error:` line naming `what`, no panic.

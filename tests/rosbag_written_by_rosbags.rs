@@ -1,7 +1,8 @@
 //! The bag reader on bags written by an independent implementation: the pure-Python
 //! `rosbags` library (`tests/python/write_bag.py`), in MCAP and SQLite storage, with
 //! zstd chunk, file and message compression, tf-only odometry through an intermediate
-//! frame, an off-centre laser, two scan topics and an undecodable message.
+//! frame, an off-centre laser, two scan topics and an undecodable message; and ROS 1 bags
+//! converted from them by `rosbags-convert` (uncompressed, bz2 and lz4 chunks).
 //!
 //! Python comes from a virtual environment under the cargo target directory, built on
 //! first use ([`common::python_venv`]); without Python, venv or PyPI the test fails
@@ -9,16 +10,13 @@
 
 mod common;
 
-use common::python_venv;
+use common::{rosbags_bin, rosbags_convert};
 use fastslam_replay::rosbag::{self, OdometrySource, TopicChoice};
 use fastslam_replay::text::DataError;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
-
-/// The rosbags release the bags are written with.
-const ROSBAGS: &str = "rosbags==0.11.9";
 
 /// Runs `cmd`, failing the test with its output when it fails.
 fn run(what: &str, cmd: &mut Command) {
@@ -34,13 +32,16 @@ fn run(what: &str, cmd: &mut Command) {
     );
 }
 
-/// The bags `write_bag.py` wrote (once per test run) and what they hold.
+/// The ROS 1 bags converted from the `mcap` bag, by chunk compression: `ros1_none.bag`…
+const ROS1_COMPRESSIONS: [&str; 3] = ["none", "bz2", "lz4"];
+
+/// The bags `write_bag.py` wrote (once per test run) and what they hold; beside them the
+/// ROS 1 bags `rosbags-convert` made of the `mcap` bag (each holding what it holds) and of
+/// `long_file_zstd` (`long.bag`, lz4 chunks).
 fn bags() -> &'static (PathBuf, Value) {
     static BAGS: OnceLock<(PathBuf, Value)> = OnceLock::new();
     BAGS.get_or_init(|| {
-        let python = python_venv("rosbags-0.11.9", ROSBAGS)
-            .join("bin")
-            .join("python3");
+        let python = rosbags_bin().join("python3");
         let out =
             Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("rosbags-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&out);
@@ -48,7 +49,17 @@ fn bags() -> &'static (PathBuf, Value) {
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/write_bag.py");
         run("write_bag.py", Command::new(python).arg(script).arg(&out));
         let expected = std::fs::read_to_string(out.join("expected.json")).unwrap();
-        (out.clone(), serde_json::from_str(&expected).unwrap())
+        let mut expected: Value = serde_json::from_str(&expected).unwrap();
+        let convert = |source: &str, target: String, compression: &str| {
+            rosbags_convert(&out.join(source), &out.join(target), compression);
+        };
+        for compression in ROS1_COMPRESSIONS {
+            let name = format!("ros1_{compression}.bag");
+            convert("mcap", name.clone(), compression);
+            expected[name] = expected["mcap"].clone();
+        }
+        convert("long_file_zstd", "long.bag".into(), "lz4");
+        (out.clone(), expected)
     })
 }
 
@@ -331,5 +342,93 @@ mod written_by_rosbags {
                 ),
             }
         }
+    }
+
+    #[test]
+    fn ros1_bags_read_like_the_rosbag2_bag_they_were_converted_from() {
+        let rosbag2 = check_tf_only_bag("mcap");
+        for compression in ROS1_COMPRESSIONS {
+            let name = format!("ros1_{compression}.bag");
+            let bag = check_tf_only_bag(&name);
+            assert!(same(&bag.data, &rosbag2.data), "{name} differs");
+            assert!(bag.warnings.is_empty(), "{name}: {:?}", bag.warnings);
+            assert!(
+                bag.summary().contains("10 scans from /base_scan"),
+                "{}",
+                bag.summary()
+            );
+        }
+    }
+
+    #[test]
+    fn a_ros1_bag_cut_short_or_never_closed_keeps_its_whole_chunks() {
+        let source = bags().0.join("long.bag");
+        let whole = rosbag::load(&source, &TopicChoice::default()).unwrap();
+        assert_eq!(whole.data.raw_scans.len(), 3000, "{:?}", whole.warnings);
+        // The bag has no mounting (no tf): that warning aside, the storage's only.
+        let storage = |bag: &rosbag::Bag| -> Vec<String> {
+            (bag.warnings.iter())
+                .filter(|w| !w.contains("no transform base_link→laser"))
+                .cloned()
+                .collect()
+        };
+        assert!(storage(&whole).is_empty(), "{:?}", whole.warnings);
+        let bytes = std::fs::read(&source).unwrap();
+        let dir = bags().0.join("cut_ros1");
+        std::fs::create_dir_all(&dir).unwrap();
+        let cut = dir.join("cut.bag");
+        // Cut in half: the chunks before the cut, one warning.
+        std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+        let bag = rosbag::load(&cut, &TopicChoice::default()).unwrap();
+        let scans = bag.data.raw_scans.len();
+        assert!(scans > 0 && scans < 3000, "{scans} scans");
+        let [warning] = &storage(&bag)[..] else {
+            panic!("one warning: {:?}", bag.warnings);
+        };
+        assert!(
+            warning.contains("cut.bag: cut short inside a record"),
+            "{warning}"
+        );
+        // Never closed: the bag header's index position still 0, every message read.
+        let at = (bytes.windows(10).position(|w| w == b"index_pos=")).unwrap() + 10;
+        let mut open = bytes.clone();
+        open[at..at + 8].fill(0);
+        std::fs::write(&cut, &open).unwrap();
+        let bag = rosbag::load(&cut, &TopicChoice::default()).unwrap();
+        assert_eq!(bag.data.raw_scans.len(), 3000);
+        let [warning] = &storage(&bag)[..] else {
+            panic!("one warning: {:?}", bag.warnings);
+        };
+        assert!(warning.contains("cut.bag: no index"), "{warning}");
+        // Cut before its first message: refused, naming the file.
+        std::fs::write(&cut, &bytes[..bytes.len() / 1000]).unwrap();
+        let err = rosbag::load(&cut, &TopicChoice::default()).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("cut.bag: ROS 1 bag cut short before its first message"),
+            "{err}"
+        );
+        // Anywhere it is cut: an error naming the file, or the whole chunks read with a
+        // warning.
+        for k in 0..64 {
+            let end = bytes.len() * k / 64;
+            std::fs::write(&cut, &bytes[..end]).unwrap();
+            match rosbag::load(&cut, &TopicChoice::default()) {
+                Err(e) => assert!(e.to_string().contains("cut.bag"), "cut at {end}: {e}"),
+                Ok(bag) => assert!(!storage(&bag).is_empty(), "cut at {end} without warning"),
+            }
+        }
+        // A chunk whose stated size is not what it decompresses to: refused as corrupt,
+        // naming the file.
+        let size = (bytes.windows(5).position(|w| w == b"size=")).unwrap() + 5;
+        let mut corrupt = bytes.clone();
+        corrupt[size..size + 4].copy_from_slice(&7u32.to_le_bytes());
+        std::fs::write(&cut, &corrupt).unwrap();
+        let err = rosbag::load(&cut, &TopicChoice::default()).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("cut.bag: corrupt ROS 1 bag: a lz4 chunk decompresses to"),
+            "{err}"
+        );
     }
 }

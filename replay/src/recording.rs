@@ -14,8 +14,8 @@ use std::path::PathBuf;
 /// Which recording, in which format.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Recording {
-    /// A rosbag2 folder (with `metadata.yaml`) or one `.mcap` / `.db3` file, with the
-    /// topics and frames to read.
+    /// A rosbag2 folder (with `metadata.yaml`), one `.mcap` / `.db3` file or a ROS 1
+    /// `.bag` file, with the topics and frames to read.
     Rosbag {
         /// The bag.
         path: PathBuf,

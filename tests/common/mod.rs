@@ -639,3 +639,33 @@ pub fn mrclam_clip(
     );
     data.to_path_buf()
 }
+
+/// The `rosbags` release (PyPI) the tests write and convert bags with: an implementation
+/// of the formats independent of the stack's reader.
+pub const ROSBAGS: &str = "rosbags==0.11.9";
+
+/// The `bin` folder of a virtual environment with [`ROSBAGS`] (`python3`,
+/// `rosbags-convert`), built on first use ([`python_venv`]).
+pub fn rosbags_bin() -> PathBuf {
+    python_venv("rosbags-0.11.9", ROSBAGS).join("bin")
+}
+
+/// Converts the bag `source` into `target` with `rosbags-convert` (a ROS 1 `.bag` for a
+/// target so named; `--compress compression`), panicking with its output when it fails.
+pub fn rosbags_convert(source: &Path, target: &Path, compression: &str) {
+    let out = Command::new(rosbags_bin().join("rosbags-convert"))
+        .arg("--src")
+        .arg(source)
+        .arg("--dst")
+        .arg(target)
+        .args(["--dst-typestore", "ros1_noetic", "--compress", compression])
+        .output()
+        .expect("starting rosbags-convert");
+    assert!(
+        out.status.success(),
+        "rosbags-convert {} failed: {}{}",
+        source.display(),
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

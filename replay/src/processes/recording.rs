@@ -12,15 +12,15 @@ use clap::FromArgMatches;
 use std::path::PathBuf;
 
 /// What `--help` says about this process.
-pub const ABOUT: &str = "Replays a recording (a rosbag2 bag, MCAP or sqlite3, or a CARMEN \
-log) with the stack's messages: the laser's scans and the odometry's poses, then an \
+pub const ABOUT: &str = "Replays a recording (a rosbag2 bag, MCAP or sqlite3, a ROS 1 bag, \
+or a CARMEN log) with the stack's messages: the laser's scans and the odometry's poses, then an \
 end-of-stream message per stream. No ground truth.";
 
 /// Which recording, and the bag's topics and frames.
 #[derive(Debug, Clone, clap::Args)]
 #[group(required = true, multiple = false, id = "recording")]
 pub struct Source {
-    /// A rosbag2 folder (with metadata.yaml) or one .mcap / .db3 file.
+    /// A rosbag2 folder (with metadata.yaml), one .mcap / .db3 file, or a ROS 1 .bag file.
     #[arg(long, group = "recording")]
     pub rosbag: Option<PathBuf>,
     /// A CARMEN log (.clf / .log, gzipped or not).
@@ -133,8 +133,8 @@ pub const PROCESS: Process = Process {
 /// A user's ROS 2 bag in the registry.
 pub const ROSBAG: DataSetKind = DataSetKind {
     name: "rosbag",
-    about: "Your own ROS 2 bag (rosbag2: MCAP or sqlite3): its laser scans and odometry, the \
-laser's mounting from /tf_static; no ground truth needed (docs/REPLAYS.md)",
+    about: "Your own bag (rosbag2: MCAP or sqlite3; or a ROS 1 .bag): its laser scans and \
+odometry, the laser's mounting from /tf_static; no ground truth needed (docs/REPLAYS.md)",
     flags: <RosbagFlags as clap::Args>::augment_args,
     plan: |matches| RosbagFlags::from_arg_matches(matches)?.plan(),
     profile: "planar-laser",
@@ -157,7 +157,7 @@ Freiburg benchmark's; no ground truth needed (docs/REPLAYS.md)",
 /// `replay rosbag`'s own flags.
 #[derive(Debug, Clone, clap::Args)]
 struct RosbagFlags {
-    /// A rosbag2 folder (with metadata.yaml) or one .mcap / .db3 file.
+    /// A rosbag2 folder (with metadata.yaml), one .mcap / .db3 file, or a ROS 1 .bag file.
     path: PathBuf,
     /// Topics and frames, where the bag leaves a choice.
     #[command(flatten)]

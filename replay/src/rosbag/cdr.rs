@@ -1,5 +1,6 @@
-//! The three ROS 2 messages the bag reader needs, decoded from their CDR bytes:
-//! `sensor_msgs/msg/LaserScan`, `nav_msgs/msg/Odometry` and `tf2_msgs/msg/TFMessage`.
+//! The three ROS messages the bag reader needs, decoded from their CDR bytes (ROS 2) or
+//! their ROS 1 bytes: `sensor_msgs/msg/LaserScan`, `nav_msgs/msg/Odometry` and
+//! `tf2_msgs/msg/TFMessage`.
 //!
 //! ROS 2 serialises messages as plain CDR (XCDR1): a 4-byte encapsulation header (`00 01`
 //! little-endian, `00 00` big-endian, then two option bytes), then the fields in order,
@@ -7,11 +8,26 @@
 //! a `u32` length that counts its terminating NUL, then the bytes; a sequence is a `u32`
 //! count, then the elements; a fixed array (the covariances) has no count. The plain XCDR2
 //! encapsulations (`00 06`, `00 07`) differ only in aligning 8-byte values to 4, and are
-//! read too. Every read is bounds-checked: a short or inconsistent message is an error
-//! saying where it ends, never a panic.
+//! read too.
+//!
+//! ROS 1 serialises the same fields little-endian with no header and no alignment; its
+//! strings count no NUL, its `Header` starts with a `uint32 seq` (skipped here), and its
+//! `time` is two `uint32`, seconds and nanoseconds.
+//!
+//! Every read is bounds-checked: a short or inconsistent message is an error saying where
+//! it ends, never a panic.
 
 /// What is wrong with a message's bytes.
 pub type DecodeResult<T> = std::result::Result<T, String>;
+
+/// How a message's bytes are serialised.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Serialization {
+    /// ROS 2's CDR, with its encapsulation header (a storage file's `cdr` encoding).
+    Cdr,
+    /// ROS 1's serialisation (a ROS 1 bag's messages).
+    Ros1,
+}
 
 /// A cursor over one CDR-encoded message.
 pub struct Cdr<'a> {
@@ -21,16 +37,28 @@ pub struct Cdr<'a> {
     pos: usize,
     /// Little-endian (else big-endian).
     little: bool,
-    /// Largest alignment: 8 in XCDR1, 4 in XCDR2.
+    /// Largest alignment: 8 in XCDR1, 4 in XCDR2, 1 (none) in ROS 1.
     max_align: usize,
+    /// ROS 1: headers start with a sequence number and times are unsigned.
+    ros1: bool,
 }
 
 impl<'a> Cdr<'a> {
-    /// A cursor after the encapsulation header of `bytes`.
+    /// A cursor at the first field of `bytes`, serialised as `serialization` says.
     ///
     /// # Errors
-    /// When `bytes` is shorter than the header or the encapsulation is not plain CDR.
-    pub fn new(bytes: &'a [u8]) -> DecodeResult<Self> {
+    /// For CDR, when `bytes` is shorter than the header or the encapsulation is not plain
+    /// CDR.
+    pub fn new(bytes: &'a [u8], serialization: Serialization) -> DecodeResult<Self> {
+        if serialization == Serialization::Ros1 {
+            return Ok(Self {
+                body: bytes,
+                pos: 0,
+                little: true,
+                max_align: 1,
+                ros1: true,
+            });
+        }
         let Some((header, body)) = bytes.split_first_chunk::<4>() else {
             return Err(format!(
                 "{} bytes: shorter than the 4-byte CDR header",
@@ -53,6 +81,7 @@ impl<'a> Cdr<'a> {
             pos: 0,
             little,
             max_align,
+            ros1: false,
         })
     }
 
@@ -188,10 +217,17 @@ pub struct Header {
     pub frame_id: String,
 }
 
-/// Decodes a `std_msgs/msg/Header`.
+/// Decodes a `std_msgs/msg/Header` (ROS 1: its sequence number skipped).
 fn header(c: &mut Cdr) -> DecodeResult<Header> {
+    let sec = if c.ros1 {
+        c.u32()?; // seq
+        let sec = c.u32()?;
+        i32::try_from(sec).map_err(|_| format!("stamp {sec} s is past 2038"))?
+    } else {
+        c.i32()?
+    };
     let stamp = Time {
-        sec: c.i32()?,
+        sec,
         nanosec: c.u32()?,
     };
     Ok(Header {
@@ -227,8 +263,8 @@ pub struct LaserScan {
 ///
 /// # Errors
 /// When the bytes do not hold one (short, bad header, intensities cut off).
-pub fn laser_scan(bytes: &[u8]) -> DecodeResult<LaserScan> {
-    let mut c = Cdr::new(bytes)?;
+pub fn laser_scan(bytes: &[u8], serialization: Serialization) -> DecodeResult<LaserScan> {
+    let mut c = Cdr::new(bytes, serialization)?;
     let header = header(&mut c)?;
     let mut f = [0f32; 7];
     for v in &mut f {
@@ -279,8 +315,8 @@ pub struct Odometry {
 ///
 /// # Errors
 /// When the bytes do not hold one.
-pub fn odometry(bytes: &[u8]) -> DecodeResult<Odometry> {
-    let mut c = Cdr::new(bytes)?;
+pub fn odometry(bytes: &[u8], serialization: Serialization) -> DecodeResult<Odometry> {
+    let mut c = Cdr::new(bytes, serialization)?;
     let header = header(&mut c)?;
     let child_frame_id = c.string()?;
     let position = c.f64s::<3>()?;
@@ -317,8 +353,11 @@ pub struct TransformStamped {
 ///
 /// # Errors
 /// When the bytes do not hold one.
-pub fn tf_message(bytes: &[u8]) -> DecodeResult<Vec<TransformStamped>> {
-    let mut c = Cdr::new(bytes)?;
+pub fn tf_message(
+    bytes: &[u8],
+    serialization: Serialization,
+) -> DecodeResult<Vec<TransformStamped>> {
+    let mut c = Cdr::new(bytes, serialization)?;
     // A transform takes at least 8 (stamp) + 2 × 4 (empty strings) + 7 × 8 bytes.
     let n = c.count(72)?;
     (0..n)
@@ -409,7 +448,7 @@ pub(crate) mod tests {
         let fields = [-1.5, 1.5, 0.5, 0.001, 0.1, 0.2, 30.0];
         for little in [true, false] {
             let bytes = scan_bytes(little, "laser", fields, &[1.0, f32::INFINITY, 3.0]);
-            let scan = laser_scan(&bytes).unwrap();
+            let scan = laser_scan(&bytes, Serialization::Cdr).unwrap();
             assert_eq!(scan.header.frame_id, "laser");
             assert_eq!(
                 scan.header.stamp,
@@ -443,7 +482,7 @@ pub(crate) mod tests {
             for _ in 0..36 {
                 w.f64(9.0);
             }
-            let odo = odometry(&w.bytes).unwrap();
+            let odo = odometry(&w.bytes, Serialization::Cdr).unwrap();
             assert_eq!(odo.header.frame_id, "odo");
             assert_eq!(odo.child_frame_id, "base_footprint");
             assert_eq!(odo.position, [1.0, 2.0, 3.0]);
@@ -462,7 +501,7 @@ pub(crate) mod tests {
                 w.f64(v);
             }
         }
-        let tf = tf_message(&w.bytes).unwrap();
+        let tf = tf_message(&w.bytes, Serialization::Cdr).unwrap();
         assert_eq!(tf.len(), 2);
         assert_eq!(tf[0].child_frame_id, "base_footprint");
         assert_eq!(tf[0].translation, [1.5, 0.0, 0.1]);
@@ -479,15 +518,22 @@ pub(crate) mod tests {
             &[1.0; 3],
         );
         for cut in 0..bytes.len() {
-            assert!(laser_scan(&bytes[..cut]).is_err(), "cut at {cut}");
+            assert!(
+                laser_scan(&bytes[..cut], Serialization::Cdr).is_err(),
+                "cut at {cut}"
+            );
         }
-        assert!(odometry(&bytes).is_err());
-        let err = laser_scan(&[1, 0, 0, 0, 0]).unwrap_err();
+        assert!(odometry(&bytes, Serialization::Cdr).is_err());
+        let err = laser_scan(&[1, 0, 0, 0, 0], Serialization::Cdr).unwrap_err();
         assert!(err.contains("not plain CDR"), "{err}");
         // A sequence count far beyond the message.
         let mut w = Writer::new(true);
         w.u32(u32::MAX);
-        assert!(tf_message(&w.bytes).unwrap_err().contains("does not fit"));
+        assert!(
+            tf_message(&w.bytes, Serialization::Cdr)
+                .unwrap_err()
+                .contains("does not fit")
+        );
         let negative = Time {
             sec: -1,
             nanosec: 0,

@@ -1,9 +1,11 @@
-//! ROS 2 bags (rosbag2): a robot's laser scans and odometry as a [`DataSet`], so a
-//! recording a ROS 2 user brings replays like the data sets the stack ships.
+//! ROS bags (rosbag2, and ROS 1's `.bag`): a robot's laser scans and odometry as a
+//! [`DataSet`], so a recording a ROS user brings replays like the data sets the stack
+//! ships.
 //!
-//! [`load`] reads a rosbag2 folder (`metadata.yaml` and its MCAP or SQLite storage files)
-//! or one `.mcap` / `.db3` file ([`storage`]), decodes the CDR messages it needs
-//! ([`cdr`]) and turns them into the stack's messages:
+//! [`load`] reads a rosbag2 folder (`metadata.yaml` and its MCAP or SQLite storage files),
+//! one `.mcap` / `.db3` file, or a ROS 1 `.bag` file (`ros1_storage`) ([`storage`]),
+//! decodes the CDR or ROS 1 messages it needs ([`cdr`]) and turns them into the stack's
+//! messages:
 //! - **Scans**: the one `sensor_msgs/msg/LaserScan` topic (or the one named) becomes
 //!   [`DataSet::raw_scans`], ranges after REP-117 and beams counter-clockwise
 //!   ([`streams`]); intensities are dropped; a scan without beams is skipped.
@@ -32,12 +34,14 @@
 //! or unknown storage file, a file cut short before its first message or corrupt, no scan
 //! topic or several without a choice (listing them). A message that does not decode, or
 //! holds a pose, twist or scan no sensor reports, is skipped and counted, and a warning
-//! names the first few by file, topic and index. An MCAP file that stopped early is read
-//! up to where it is whole, with a warning (`mcap_storage`).
+//! names the first few by file, topic and index. An MCAP file or a ROS 1 bag that stopped
+//! early is read up to where it is whole, with a warning (`mcap_storage`,
+//! `ros1_storage`).
 
 pub mod cdr;
 pub mod frames;
 mod mcap_storage;
+mod ros1_storage;
 mod sqlite_storage;
 pub mod storage;
 pub mod streams;
@@ -46,6 +50,7 @@ mod tests;
 
 use crate::dataset::{Clock, DataSet, RawScan};
 use crate::text::{DataError, Result, Skipped};
+use cdr::Serialization;
 use fastslam_estimation::Pose2;
 use fastslam_protocol::{Header, Odometry};
 use frames::{TfTree, Transform};
@@ -196,7 +201,8 @@ impl Bag {
     }
 }
 
-/// Reads the bag at `path` (a rosbag2 folder, or one `.mcap` / `.db3` file) with the
+/// Reads the bag at `path` (a rosbag2 folder, one `.mcap` / `.db3` file or a ROS 1 `.bag`
+/// file) with the
 /// topics and frames of `topics` (see the module doc); a message that does not decode is
 /// skipped with a warning.
 ///
@@ -421,10 +427,10 @@ impl<'a> Reader<'a> {
         Ok(mount)
     }
 
-    /// The `cdr` topics of type `type_name`.
+    /// The topics of type `type_name` in a serialisation the decoders read.
     fn candidates(&self, type_name: &str) -> Vec<usize> {
         (self.contents.topics.iter().enumerate())
-            .filter(|(_, t)| t.type_name == type_name && t.encoding == "cdr")
+            .filter(|(_, t)| t.type_name == type_name && t.serialization().is_some())
             .map(|(k, _)| k)
             .collect()
     }
@@ -467,12 +473,13 @@ impl<'a> Reader<'a> {
     fn decode<M: Stamped>(
         &mut self,
         topic: usize,
-        decode: fn(&[u8]) -> cdr::DecodeResult<M>,
+        decode: fn(&[u8], Serialization) -> cdr::DecodeResult<M>,
     ) -> Vec<(u64, M, &'a RawMessage)> {
+        let serialization = self.serialization(topic);
         let mut out = Vec::new();
         for m in self.messages(topic) {
             let decoded = (m.bytes())
-                .and_then(decode)
+                .and_then(|bytes| decode(bytes, serialization))
                 .and_then(|msg| Ok((msg.stamp().ns()?, msg)));
             match decoded {
                 Ok((stamp, msg)) => out.push((stamp.unwrap_or(m.receive_ns), msg, m)),
@@ -480,6 +487,13 @@ impl<'a> Reader<'a> {
             }
         }
         out
+    }
+
+    /// How `topic`'s messages are serialised (CDR unless the storage says ROS 1).
+    fn serialization(&self, topic: usize) -> Serialization {
+        self.contents.topics[topic]
+            .serialization()
+            .unwrap_or(Serialization::Cdr)
     }
 
     /// The kept messages of `topic`, in storage order.
@@ -518,8 +532,9 @@ impl<'a> Reader<'a> {
                 continue;
             }
             self.used.insert(k);
+            let serialization = self.serialization(k);
             for m in self.messages(k) {
-                let transforms = match m.bytes().and_then(cdr::tf_message) {
+                let transforms = match (m.bytes()).and_then(|b| cdr::tf_message(b, serialization)) {
                     Ok(transforms) => transforms,
                     Err(reason) => {
                         self.reject(m, reason);
@@ -742,7 +757,7 @@ fn same_scan(a: &RawScan, b: &RawScan) -> bool {
 fn listing<'a>(topics: impl Iterator<Item = &'a Topic>) -> String {
     let items: Vec<String> = topics
         .map(|t| {
-            let encoding = if t.encoding == "cdr" {
+            let encoding = if t.serialization().is_some() {
                 String::new()
             } else {
                 format!(", {} encoding", t.encoding)

@@ -6,11 +6,15 @@
 //! which order (`relative_file_paths`). A folder without it is read file by file in
 //! name order (numbers compared as numbers: `bag_2` before `bag_10`).
 //!
-//! Each file's format comes from its first bytes, not its name: MCAP, SQLite, or either
-//! compressed whole with zstd (rosbag2's `file` compression mode). A message whose bytes
-//! are a zstd frame (the `message` compression mode) is decompressed on the way in.
+//! Each file's format comes from its first bytes, not its name: MCAP, SQLite, either
+//! compressed whole with zstd (rosbag2's `file` compression mode), or a ROS 1 bag. A
+//! message whose bytes are a zstd frame (the `message` compression mode) is decompressed on
+//! the way in. A folder without `metadata.yaml` may hold ROS 1 `.bag` files too (a bag
+//! split by size).
 
+use super::cdr::Serialization;
 use super::mcap_storage::{self, Stream};
+use super::ros1_storage::{self, ROS1_ENCODING, ROS1_MAGIC};
 use super::sqlite_storage;
 use crate::text::{DataError, Result};
 use ruzstd::decoding::errors::{FrameDecoderError, ReadFrameHeaderError};
@@ -37,10 +41,21 @@ pub struct Topic {
     pub name: String,
     /// The message type (`sensor_msgs/msg/LaserScan`); empty when the file does not say.
     pub type_name: String,
-    /// The serialisation (`cdr` for ROS 2).
+    /// The serialisation (`cdr` for ROS 2, `ros1` for a ROS 1 bag).
     pub encoding: String,
     /// How many messages the bag holds on it.
     pub count: usize,
+}
+
+impl Topic {
+    /// The serialisation of its messages, when the decoders read it.
+    pub fn serialization(&self) -> Option<Serialization> {
+        match self.encoding.as_str() {
+            "cdr" => Some(Serialization::Cdr),
+            ROS1_ENCODING => Some(Serialization::Ros1),
+            _ => None,
+        }
+    }
 }
 
 /// One message kept for decoding.
@@ -88,7 +103,17 @@ pub struct Collector<'k> {
     kept: Vec<bool>,
 }
 
-impl Collector<'_> {
+impl<'k> Collector<'k> {
+    /// An empty collector keeping the messages of the topics for which `keep(name, type)`
+    /// holds.
+    pub fn new(keep: &'k dyn Fn(&str, &str) -> bool) -> Self {
+        Self {
+            keep,
+            contents: Contents::default(),
+            by_key: HashMap::new(),
+            kept: Vec::new(),
+        }
+    }
     /// The index of topic `name` of type `type_name`, registered on first sight.
     pub fn topic(&mut self, name: &str, type_name: &str, encoding: &str) -> usize {
         let key = (name.to_string(), type_name.to_string());
@@ -154,12 +179,7 @@ impl Collector<'_> {
 /// `metadata.yaml`, a truncated or corrupt file.
 pub fn read(path: &Path, keep: &dyn Fn(&str, &str) -> bool) -> Result<Contents> {
     let files = storage_files(path)?;
-    let mut sink = Collector {
-        keep,
-        contents: Contents::default(),
-        by_key: HashMap::new(),
-        kept: Vec::new(),
-    };
+    let mut sink = Collector::new(keep);
     for file in files {
         sink.contents.files.push(file.clone());
         read_file(&file, &mut sink)?;
@@ -199,14 +219,14 @@ fn storage_files(path: &Path) -> Result<Vec<PathBuf>> {
     for entry in std::fs::read_dir(path).map_err(io)? {
         let file = entry.map_err(io)?.path();
         let name = file.file_name().unwrap_or_default().to_string_lossy();
-        let storage = [".mcap", ".db3", ".mcap.zstd", ".db3.zstd"];
+        let storage = [".mcap", ".db3", ".mcap.zstd", ".db3.zstd", ".bag"];
         if file.is_file() && storage.iter().any(|s| name.ends_with(s)) {
             files.push(file);
         }
     }
     if files.is_empty() {
         return Err(DataError::Unusable(format!(
-            "{}: not a rosbag2 bag: no metadata.yaml and no .mcap or .db3 file",
+            "{}: not a bag: no metadata.yaml and no .mcap, .db3 or .bag file",
             path.display()
         )));
     }
@@ -273,6 +293,8 @@ fn read_file(path: &Path, sink: &mut Collector) -> Result<()> {
     let head = reader.fill_buf().map_err(io)?.to_vec();
     if head.starts_with(MCAP_MAGIC) {
         mcap_storage::read(reader, Stream::File, path, sink)
+    } else if head.starts_with(ROS1_MAGIC) {
+        ros1_storage::read(reader, path, sink)
     } else if head.starts_with(SQLITE_MAGIC) {
         sqlite_storage::read(path, path, sink)
     } else if head.starts_with(ZSTD_MAGIC) {
@@ -547,7 +569,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("rosbag-none-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let err = read(&dir, &|_, _| true).unwrap_err().to_string();
-        assert!(err.contains("not a rosbag2 bag"), "{err}");
+        assert!(err.contains("not a bag: no metadata.yaml"), "{err}");
         let file = dir.join("notes.mcap");
         std::fs::write(&file, b"hello").unwrap();
         let err = read(&file, &|_, _| true).unwrap_err().to_string();
