@@ -37,7 +37,8 @@ const ROS1_COMPRESSIONS: [&str; 3] = ["none", "bz2", "lz4"];
 
 /// The bags `write_bag.py` wrote (once per test run) and what they hold; beside them the
 /// ROS 1 bags `rosbags-convert` made of the `mcap` bag (each holding what it holds) and of
-/// `long_file_zstd` (`long.bag`, lz4 chunks).
+/// `long_file_zstd` (`long.bag`, lz4 chunks), and `tf1.bag`, the uncompressed one as
+/// `tf1_bag.py` rewrites it: frame ids with a leading slash, `tf/tfMessage`.
 fn bags() -> &'static (PathBuf, Value) {
     static BAGS: OnceLock<(PathBuf, Value)> = OnceLock::new();
     BAGS.get_or_init(|| {
@@ -59,6 +60,15 @@ fn bags() -> &'static (PathBuf, Value) {
             expected[name] = expected["mcap"].clone();
         }
         convert("long_file_zstd", "long.bag".into(), "lz4");
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/tf1_bag.py");
+        run(
+            "tf1_bag.py",
+            Command::new(rosbags_bin().join("python3"))
+                .arg(script)
+                .arg(out.join("ros1_none.bag"))
+                .arg(out.join("tf1.bag")),
+        );
+        expected["tf1.bag"] = expected["mcap"].clone();
         (out.clone(), expected)
     })
 }
@@ -347,9 +357,10 @@ mod written_by_rosbags {
     #[test]
     fn ros1_bags_read_like_the_rosbag2_bag_they_were_converted_from() {
         let rosbag2 = check_tf_only_bag("mcap");
-        for compression in ROS1_COMPRESSIONS {
-            let name = format!("ros1_{compression}.bag");
-            let bag = check_tf_only_bag(&name);
+        let names = ROS1_COMPRESSIONS.map(|c| format!("ros1_{c}.bag"));
+        // And one as recorded before tf2: `/base_link`, `tf/tfMessage`.
+        for name in names.iter().map(String::as_str).chain(["tf1.bag"]) {
+            let bag = check_tf_only_bag(name);
             assert!(same(&bag.data, &rosbag2.data), "{name} differs");
             assert!(bag.warnings.is_empty(), "{name}: {:?}", bag.warnings);
             assert!(

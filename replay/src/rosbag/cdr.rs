@@ -12,7 +12,8 @@
 //!
 //! ROS 1 serialises the same fields little-endian with no header and no alignment; its
 //! strings count no NUL, its `Header` starts with a `uint32 seq` (skipped here), and its
-//! `time` is two `uint32`, seconds and nanoseconds.
+//! `time` is two `uint32`, seconds and nanoseconds. Its frame ids lose a leading slash
+//! (bags recorded before tf2 have `/base_link`), as tf2 reads them.
 //!
 //! Every read is bounds-checked: a short or inconsistent message is an error saying where
 //! it ends, never a panic.
@@ -167,6 +168,16 @@ impl<'a> Cdr<'a> {
         String::from_utf8(text.to_vec()).map_err(|_| "a string is not UTF-8".to_string())
     }
 
+    /// A frame id: a string, in ROS 1 without the leading slash frames had before tf2
+    /// (`/base_link` is `base_link`, as tf2 reads it).
+    pub fn frame(&mut self) -> DecodeResult<String> {
+        let frame = self.string()?;
+        Ok(match frame.strip_prefix('/') {
+            Some(stripped) if self.ros1 => stripped.to_string(),
+            _ => frame,
+        })
+    }
+
     /// A `float32[]` sequence.
     pub fn f32_seq(&mut self) -> DecodeResult<Vec<f32>> {
         self.align(4)?;
@@ -232,7 +243,7 @@ fn header(c: &mut Cdr) -> DecodeResult<Header> {
     };
     Ok(Header {
         stamp,
-        frame_id: c.string()?,
+        frame_id: c.frame()?,
     })
 }
 
@@ -318,7 +329,7 @@ pub struct Odometry {
 pub fn odometry(bytes: &[u8], serialization: Serialization) -> DecodeResult<Odometry> {
     let mut c = Cdr::new(bytes, serialization)?;
     let header = header(&mut c)?;
-    let child_frame_id = c.string()?;
+    let child_frame_id = c.frame()?;
     let position = c.f64s::<3>()?;
     let orientation = c.f64s::<4>()?;
     c.f64s::<36>()?;
@@ -364,7 +375,7 @@ pub fn tf_message(
         .map(|_| {
             Ok(TransformStamped {
                 header: header(&mut c)?,
-                child_frame_id: c.string()?,
+                child_frame_id: c.frame()?,
                 translation: c.f64s::<3>()?,
                 rotation: c.f64s::<4>()?,
             })
@@ -540,5 +551,53 @@ pub(crate) mod tests {
         };
         assert!(negative.ns().is_err());
         assert_eq!(Time::default().ns(), Ok(None));
+    }
+
+    #[test]
+    fn ros1_bytes_have_no_header_no_alignment_a_sequence_number_and_bare_frames() {
+        // A TFMessage of one transform, ROS 1: seq, stamp (u32, u32), frame ids without
+        // NUL, the leading slash of tf's days.
+        let mut b = Vec::new();
+        let string = |b: &mut Vec<u8>, s: &str| {
+            b.extend_from_slice(&(s.len() as u32).to_le_bytes());
+            b.extend_from_slice(s.as_bytes());
+        };
+        b.extend_from_slice(&1u32.to_le_bytes());
+        b.extend_from_slice(&7u32.to_le_bytes()); // seq
+        b.extend_from_slice(&12u32.to_le_bytes());
+        b.extend_from_slice(&500u32.to_le_bytes());
+        string(&mut b, "/odom");
+        string(&mut b, "/base_link");
+        for v in [1.0f64, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        let tf = tf_message(&b, Serialization::Ros1).unwrap();
+        assert_eq!(tf.len(), 1);
+        assert_eq!(
+            tf[0].header.stamp,
+            Time {
+                sec: 12,
+                nanosec: 500
+            }
+        );
+        assert_eq!(tf[0].header.frame_id, "odom");
+        assert_eq!(tf[0].child_frame_id, "base_link");
+        assert_eq!(tf[0].translation, [1.0, 2.0, 0.0]);
+        assert_eq!(tf[0].rotation, [0.0, 0.0, 0.0, 1.0]);
+        // Cut anywhere: an error, never a panic.
+        for cut in 0..b.len() {
+            assert!(
+                tf_message(&b[..cut], Serialization::Ros1).is_err(),
+                "cut at {cut}"
+            );
+        }
+        // A ROS 2 frame keeps what it says.
+        let mut w = Writer::new(true);
+        w.u32(1).header(12, 500, "/odom").string("/base_link");
+        for v in [1.0f64, 2.0, 0.0, 0.0, 0.0, 0.0, 1.0] {
+            w.f64(v);
+        }
+        let tf = tf_message(&w.bytes, Serialization::Cdr).unwrap();
+        assert_eq!(tf[0].header.frame_id, "/odom");
     }
 }

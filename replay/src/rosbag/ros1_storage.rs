@@ -11,8 +11,9 @@
 //! file.
 //!
 //! Types are named the ROS 2 way (`sensor_msgs/LaserScan` becomes
-//! `sensor_msgs/msg/LaserScan`) with the encoding [`ROS1_ENCODING`], so the bag reader
-//! decodes them with ROS 1's serialisation.
+//! `sensor_msgs/msg/LaserScan`, and tf's `tf/tfMessage` from before tf2 the
+//! `tf2_msgs/msg/TFMessage` of the same fields) with the encoding [`ROS1_ENCODING`], so
+//! the bag reader decodes them with ROS 1's serialisation.
 
 use super::storage::Collector;
 use crate::text::{DataError, Result};
@@ -245,8 +246,12 @@ fn decompress(chunk: &Record) -> std::result::Result<Vec<u8>, String> {
     Ok(out)
 }
 
-/// `pkg/Type` as ROS 2 names it, `pkg/msg/Type`; a name with more parts is kept.
+/// `pkg/Type` as ROS 2 names it, `pkg/msg/Type`; a name with more parts is kept. tf's
+/// `tf/tfMessage`, from before tf2, is `tf2_msgs/msg/TFMessage`: the same fields.
 fn ros2_type_name(ros1: &str) -> String {
+    if ros1 == "tf/tfMessage" {
+        return "tf2_msgs/msg/TFMessage".into();
+    }
     match ros1.split_once('/') {
         Some((package, name)) if !name.contains('/') => format!("{package}/msg/{name}"),
         _ => ros1.to_string(),
@@ -328,6 +333,7 @@ mod tests {
             "tf2_msgs/msg/TFMessage"
         );
         assert_eq!(ros2_type_name("Untyped"), "Untyped");
+        assert_eq!(ros2_type_name("tf/tfMessage"), "tf2_msgs/msg/TFMessage");
     }
 
     #[test]
