@@ -30,7 +30,7 @@ pub enum Serialization {
     Ros1,
 }
 
-/// A cursor over one CDR-encoded message.
+/// A cursor over one serialised message (CDR or ROS 1).
 pub struct Cdr<'a> {
     /// The bytes after the encapsulation header.
     body: &'a [u8],
@@ -40,8 +40,9 @@ pub struct Cdr<'a> {
     little: bool,
     /// Largest alignment: 8 in XCDR1, 4 in XCDR2, 1 (none) in ROS 1.
     max_align: usize,
-    /// ROS 1: headers start with a sequence number and times are unsigned.
-    ros1: bool,
+    /// ROS 1 (headers start with a sequence number, times are unsigned, frames may
+    /// carry tf's leading slash) or CDR.
+    serialization: Serialization,
 }
 
 impl<'a> Cdr<'a> {
@@ -57,7 +58,7 @@ impl<'a> Cdr<'a> {
                 pos: 0,
                 little: true,
                 max_align: 1,
-                ros1: true,
+                serialization,
             });
         }
         let Some((header, body)) = bytes.split_first_chunk::<4>() else {
@@ -82,7 +83,7 @@ impl<'a> Cdr<'a> {
             pos: 0,
             little,
             max_align,
-            ros1: false,
+            serialization,
         })
     }
 
@@ -91,7 +92,7 @@ impl<'a> Cdr<'a> {
         let end = self.pos.checked_add(n).filter(|&e| e <= self.body.len());
         let Some(end) = end else {
             return Err(format!(
-                "the message ends {} bytes after its header, {n} more needed at byte {}",
+                "the message's fields end after {} bytes, {n} more needed at byte {}",
                 self.body.len(),
                 self.pos
             ));
@@ -173,7 +174,7 @@ impl<'a> Cdr<'a> {
     pub fn frame(&mut self) -> DecodeResult<String> {
         let frame = self.string()?;
         Ok(match frame.strip_prefix('/') {
-            Some(stripped) if self.ros1 => stripped.to_string(),
+            Some(stripped) if self.serialization == Serialization::Ros1 => stripped.to_string(),
             _ => frame,
         })
     }
@@ -230,7 +231,7 @@ pub struct Header {
 
 /// Decodes a `std_msgs/msg/Header` (ROS 1: its sequence number skipped).
 fn header(c: &mut Cdr) -> DecodeResult<Header> {
-    let sec = if c.ros1 {
+    let sec = if c.serialization == Serialization::Ros1 {
         c.u32()?; // seq
         let sec = c.u32()?;
         i32::try_from(sec).map_err(|_| format!("stamp {sec} s is past 2038"))?

@@ -202,9 +202,8 @@ impl Bag {
 }
 
 /// Reads the bag at `path` (a rosbag2 folder, one `.mcap` / `.db3` file or a ROS 1 `.bag`
-/// file) with the
-/// topics and frames of `topics` (see the module doc); a message that does not decode is
-/// skipped with a warning.
+/// file) with the topics and frames of `topics` (see the module doc); a message that does
+/// not decode is skipped with a warning.
 ///
 /// # Errors
 /// [`DataError`] naming the file: a missing, unknown, truncated or corrupt storage file;

@@ -1,14 +1,19 @@
 //! ROS 1 bags (format 2.0: one `.bag` file), read as a bag's storage file.
 //!
 //! A ROS 1 bag is a sequence of records, each a header of `name=value` fields (its `op`
-//! says what it is) and a data block. Messages sit in chunks (uncompressed, `bz2` or
-//! `lz4`), each beside the connection records that name their topic and type; the index
-//! after the chunks repeats the connections. The file is read from start to end in one
-//! pass, a record at a time, so a bag that was not closed (no index: a recording that
-//! stopped) and a bag cut short inside a record keep the messages of every chunk before
-//! the cut, with a warning. A bag cut before its first message, a chunk that does not
-//! decompress to its stated size or a record without its fields is an error naming the
-//! file.
+//! says what it is) and a data block: the bag header, then chunks (uncompressed, `bz2` or
+//! `lz4`) holding the connection records that name each topic and type and the messages,
+//! then the index, which repeats the connections. The file is read from start to end in
+//! one pass, a record at a time, and memory grows only with the bytes the file has:
+//! - a bag cut short (inside a record, or between records before its index) keeps the
+//!   messages of every chunk before the cut, with a warning;
+//! - a recording that did not finish (no index; its last chunk still open, its header a
+//!   placeholder followed by the chunk's records, compressed or not, up to where the
+//!   recorder stopped) keeps every message up to there, with a warning;
+//! - a bag cut before its first message, a record whose length runs past a whole file, a
+//!   chunk that does not decompress to its stated size or holds other records than
+//!   connections and messages, a record without its fields, and an encrypted bag are
+//!   errors naming the file.
 //!
 //! Types are named the ROS 2 way (`sensor_msgs/LaserScan` becomes
 //! `sensor_msgs/msg/LaserScan`, and tf's `tf/tfMessage` from before tf2 the
@@ -37,6 +42,9 @@ const OP_CONNECTION: u8 = 0x07;
 /// The longest header or data block accepted, against corrupt lengths.
 const MAX_BLOCK: u32 = 1 << 31;
 
+/// Why a bag cannot be read (the reason, for an error naming the file).
+type Corrupt = std::result::Result<(), String>;
+
 /// One record: its header's fields and its data.
 struct Record {
     header: Vec<u8>,
@@ -57,12 +65,34 @@ impl Record {
         }
     }
 
-    /// The little-endian `u32` field `name`.
-    fn u32(&self, name: &str) -> std::result::Result<u32, String> {
-        let value = self.field(name).and_then(|v| v.try_into().ok());
-        value
-            .map(u32::from_le_bytes)
+    /// The little-endian `N`-byte field `name`.
+    fn bytes<const N: usize>(&self, name: &str) -> std::result::Result<[u8; N], String> {
+        (self.field(name).and_then(|v| v.try_into().ok()))
             .ok_or_else(|| format!("a record without its {name} field"))
+    }
+
+    /// The `u32` field `name`.
+    fn u32(&self, name: &str) -> std::result::Result<u32, String> {
+        self.bytes(name).map(u32::from_le_bytes)
+    }
+
+    /// The `u64` field `name`.
+    fn u64(&self, name: &str) -> std::result::Result<u64, String> {
+        self.bytes(name).map(u64::from_le_bytes)
+    }
+
+    /// The `time` field (seconds and nanoseconds, each a `u32`) in nanoseconds.
+    fn time_ns(&self) -> std::result::Result<u64, String> {
+        let time: [u8; 8] = self.bytes("time")?;
+        let (sec, nsec) = time.split_at(4);
+        let word = |b: &[u8]| u64::from(u32::from_le_bytes(b.try_into().unwrap_or_default()));
+        Ok(word(sec) * 1_000_000_000 + word(nsec))
+    }
+
+    /// True for the chunk a recording that stopped left open: its header a placeholder
+    /// (size 0, no data), its records after it in the file.
+    fn is_open_chunk(&self) -> bool {
+        self.op() == Ok(OP_CHUNK) && self.data.is_empty() && self.u32("size") == Ok(0)
     }
 }
 
@@ -80,58 +110,47 @@ fn fields(block: &[u8]) -> impl Iterator<Item = (&[u8], &[u8])> {
     })
 }
 
-/// Where a stream of records ended.
-enum End {
-    /// After a whole record.
-    Clean,
-    /// Inside a record.
+/// What the next record of a stream is.
+enum Next {
+    /// A whole record.
+    Record(Record),
+    /// The stream ended after a whole record.
+    End,
+    /// The stream ended inside a record.
     Cut,
 }
 
-/// The next record of `source`, or where the stream ended; `read` counts the bytes.
-fn next_record(
-    source: &mut impl Read,
-    read: &mut u64,
-) -> std::result::Result<std::result::Result<Record, End>, String> {
+/// The next record of `source`; `read` counts the bytes taken.
+fn next_record(source: &mut impl Read, read: &mut u64) -> std::result::Result<Next, String> {
     let mut blocks = [Vec::new(), Vec::new()];
     for (k, block) in blocks.iter_mut().enumerate() {
-        let mut len = [0u8; 4];
-        let n = read_up_to(source, &mut len)?;
-        *read += n as u64;
-        if n < 4 {
-            return Ok(Err(if k == 0 && n == 0 {
-                End::Clean
+        let len = take(source, 4, read)?;
+        let Ok(len) = <[u8; 4]>::try_from(len.as_slice()) else {
+            return Ok(if k == 0 && len.is_empty() {
+                Next::End
             } else {
-                End::Cut
-            }));
-        }
+                Next::Cut
+            });
+        };
         let len = u32::from_le_bytes(len);
         if len > MAX_BLOCK {
             return Err(format!("a record block of {len} bytes at byte {read}"));
         }
-        block.resize(len as usize, 0);
-        let n = read_up_to(source, block)?;
-        *read += n as u64;
-        if n < block.len() {
-            return Ok(Err(End::Cut));
+        *block = take(source, u64::from(len), read)?;
+        if block.len() < len as usize {
+            return Ok(Next::Cut);
         }
     }
     let [header, data] = blocks;
-    Ok(Ok(Record { header, data }))
+    Ok(Next::Record(Record { header, data }))
 }
 
-/// Fills `buf` as far as `source` goes; the bytes read.
-fn read_up_to(source: &mut impl Read, buf: &mut [u8]) -> std::result::Result<usize, String> {
-    let mut filled = 0;
-    while filled < buf.len() {
-        match source.read(&mut buf[filled..]) {
-            Ok(0) => break,
-            Ok(n) => filled += n,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e.to_string()),
-        }
-    }
-    Ok(filled)
+/// Up to `n` bytes of `source`, fewer where it ends; `read` counts them.
+fn take(source: &mut impl Read, n: u64, read: &mut u64) -> std::result::Result<Vec<u8>, String> {
+    let mut out = Vec::new();
+    (source.take(n).read_to_end(&mut out)).map_err(|e| e.to_string())?;
+    *read += out.len() as u64;
+    Ok(out)
 }
 
 /// What the records read so far say.
@@ -141,44 +160,58 @@ struct State {
     connections: HashMap<u32, usize>,
     /// Messages read.
     messages: u64,
-    /// Whether the bag header says the bag has its index (it was closed).
-    indexed: bool,
+    /// Where the bag header says the index starts (0: the bag was not closed).
+    index_pos: u64,
 }
 
 impl State {
-    /// Takes one record found at the top level or inside a chunk.
-    fn record(&mut self, record: &Record, sink: &mut Collector) -> std::result::Result<(), String> {
+    /// Takes a record of the file's top level.
+    fn top_level(&mut self, record: &Record, sink: &mut Collector) -> Corrupt {
         match record.op()? {
             OP_BAG_HEADER => {
-                let index = record.field("index_pos").and_then(|v| v.try_into().ok());
-                self.indexed = index.is_some_and(|v| u64::from_le_bytes(v) > 0);
-            }
-            OP_CHUNK => {
-                let chunk = decompress(record)?;
-                let mut source = chunk.as_slice();
-                let mut read = 0;
-                loop {
-                    match next_record(&mut source, &mut read)? {
-                        Ok(inner) => self.record(&inner, sink)?,
-                        Err(End::Clean) => break,
-                        Err(End::Cut) => {
-                            return Err("a chunk's last record runs past its end".into());
-                        }
-                    }
+                if let Some(encryptor) = record.field("encryptor") {
+                    return Err(format!(
+                        "the bag is encrypted ({}), which is not read",
+                        String::from_utf8_lossy(encryptor)
+                    ));
                 }
+                self.index_pos = record.u64("index_pos")?;
+                Ok(())
             }
+            OP_CHUNK => self.chunk(&decompress(record)?, sink),
+            // Index data and chunk information: where things are, which one pass does not
+            // need.
+            _ => self.inside_chunk(record, sink, true),
+        }
+    }
+
+    /// Takes the records of one decompressed chunk.
+    fn chunk(&mut self, mut records: &[u8], sink: &mut Collector) -> Corrupt {
+        let mut read = 0;
+        loop {
+            match next_record(&mut records, &mut read)? {
+                Next::Record(record) => self.inside_chunk(&record, sink, false)?,
+                Next::End => return Ok(()),
+                Next::Cut => return Err("a chunk's last record runs past its end".into()),
+            }
+        }
+    }
+
+    /// Takes a connection or a message; with `others`, skips any other record, else
+    /// refuses it (a chunk holds only connections and messages).
+    fn inside_chunk(&mut self, record: &Record, sink: &mut Collector, others: bool) -> Corrupt {
+        match record.op()? {
             OP_CONNECTION => {
                 let id = record.u32("conn")?;
-                let field = |name: &str| {
-                    fields(&record.data).find_map(|(n, v)| {
-                        (n == name.as_bytes()).then(|| String::from_utf8_lossy(v))
-                    })
-                };
-                let topic = field("topic")
-                    .or_else(|| record.field("topic").map(String::from_utf8_lossy))
+                // The topic in the bag is the header's; the data block's is the topic as
+                // published, which a rewritten bag may have renamed.
+                let topic = record
+                    .field("topic")
                     .ok_or("a connection without its topic")?;
-                let type_name = field("type").map_or_else(String::new, |t| ros2_type_name(&t));
-                let k = sink.topic(&topic, &type_name, ROS1_ENCODING);
+                let type_name = fields(&record.data)
+                    .find_map(|(n, v)| (n == b"type").then(|| String::from_utf8_lossy(v)))
+                    .map_or_else(String::new, |t| ros2_type_name(&t));
+                let k = sink.topic(&String::from_utf8_lossy(topic), &type_name, ROS1_ENCODING);
                 self.connections.entry(id).or_insert(k);
             }
             OP_MESSAGE => {
@@ -188,59 +221,67 @@ impl State {
                         "a message on connection {id}, which no connection record names before it"
                     )
                 })?;
-                let time = record
-                    .field("time")
-                    .and_then(|v| <[u8; 8]>::try_from(v).ok());
-                let time = time.ok_or("a message without its time field")?;
-                let (sec, nsec) = (
-                    u32::from_le_bytes(time[..4].try_into().unwrap_or_default()),
-                    u32::from_le_bytes(time[4..].try_into().unwrap_or_default()),
-                );
-                sink.message(
-                    topic,
-                    u64::from(sec) * 1_000_000_000 + u64::from(nsec),
-                    &record.data,
-                );
+                sink.message(topic, record.time_ns()?, &record.data);
                 self.messages += 1;
             }
-            // Index data and chunk information: where things are, which one pass does not
-            // need.
-            _ => {}
+            _ if others => {}
+            op => return Err(format!("a chunk holds a record of op {op:#04x}")),
+        }
+        Ok(())
+    }
+
+    /// Reads the records of the chunk a recording left open, which run from `source`'s
+    /// position to its end (compressed as `chunk` says), up to the last whole one.
+    fn open_chunk(&mut self, chunk: &Record, source: impl Read, sink: &mut Collector) -> Corrupt {
+        let mut stream: Box<dyn Read> = match chunk.field("compression").unwrap_or(b"none") {
+            b"none" => Box::new(source),
+            b"bz2" => Box::new(bzip2::read::BzDecoder::new(source)),
+            b"lz4" => Box::new(lz4_flex::frame::FrameDecoder::new(source)),
+            other => return Err(unknown_compression(other)),
+        };
+        let mut read = 0;
+        // The stream ends where the recorder stopped: inside a record, or in the middle of
+        // a compressed block, which does not decompress.
+        while let Ok(Next::Record(record)) = next_record(&mut stream, &mut read) {
+            self.inside_chunk(&record, sink, false)?;
         }
         Ok(())
     }
 }
 
+/// The reason for a chunk compressed in a way that is not read.
+fn unknown_compression(name: &[u8]) -> String {
+    format!(
+        "a chunk compressed with `{}`, which is not none, bz2 or lz4",
+        String::from_utf8_lossy(name)
+    )
+}
+
 /// A chunk's records, decompressed and checked against the chunk's stated size.
 fn decompress(chunk: &Record) -> std::result::Result<Vec<u8>, String> {
-    let size = chunk.u32("size")? as usize;
+    let size = chunk.u32("size")?;
     let compression = chunk.field("compression").unwrap_or(b"none");
-    // The stated size is checked after, not trusted for the allocation.
-    let mut out = Vec::with_capacity(size.min(1 << 26));
-    let result = match compression {
-        b"none" => {
-            out.extend_from_slice(&chunk.data);
-            Ok(())
-        }
-        b"bz2" => bzip2::read::BzDecoder::new(chunk.data.as_slice())
-            .read_to_end(&mut out)
-            .map(|_| ()),
-        b"lz4" => lz4_flex::frame::FrameDecoder::new(chunk.data.as_slice())
-            .read_to_end(&mut out)
-            .map(|_| ()),
-        other => {
-            return Err(format!(
-                "a chunk compressed with `{}`, which is not none, bz2 or lz4",
-                String::from_utf8_lossy(other)
-            ));
-        }
+    let data = chunk.data.as_slice();
+    let decoder: Box<dyn Read> = match compression {
+        b"none" => Box::new(data),
+        b"bz2" => Box::new(bzip2::read::BzDecoder::new(data)),
+        b"lz4" => Box::new(lz4_flex::frame::FrameDecoder::new(data)),
+        other => return Err(unknown_compression(other)),
     };
     let name = String::from_utf8_lossy(compression);
-    result.map_err(|e| format!("a {name} chunk does not decompress: {e}"))?;
-    if out.len() != size {
+    // At most one byte more than stated: enough to tell, never more memory than that.
+    let mut out = Vec::new();
+    (decoder.take(u64::from(size) + 1).read_to_end(&mut out))
+        .map_err(|e| format!("a {name} chunk does not decompress: {e}"))?;
+    if out.len() != size as usize {
         return Err(format!(
-            "a {name} chunk decompresses to {} bytes, not the {size} it states",
-            out.len()
+            "a {name} chunk decompresses to {}{} bytes, not the {size} it states",
+            if out.len() > size as usize {
+                "over "
+            } else {
+                ""
+            },
+            out.len().min(size as usize)
         ));
     }
     Ok(out)
@@ -258,48 +299,81 @@ fn ros2_type_name(ros1: &str) -> String {
     }
 }
 
-/// Reads the ROS 1 bag `source` (the file `path`, after its first line was checked) into
-/// `sink`.
+/// How the pass over a bag ended.
+enum Ending {
+    /// After a whole record.
+    Whole,
+    /// Inside the record that starts at this byte.
+    Cut(u64),
+    /// In the chunk a recording left open.
+    OpenChunk,
+}
+
+/// Reads the ROS 1 bag `source` (the file `path`, from its first byte) into `sink`.
 ///
 /// # Errors
-/// [`DataError::Io`] naming the file when it is cut short before its first message or
-/// corrupt.
+/// [`DataError::Io`] naming the file when it is cut short before its first message,
+/// corrupt or encrypted.
 pub fn read(mut source: impl Read, path: &Path, sink: &mut Collector) -> Result<()> {
     let bad = |reason: String| DataError::Io {
         path: path.to_path_buf(),
         reason,
     };
-    let mut magic = [0u8; ROS1_MAGIC.len()];
-    let mut offset = read_up_to(&mut source, &mut magic).map_err(&bad)? as u64;
-    if magic != ROS1_MAGIC {
+    let mut offset = 0;
+    if take(&mut source, ROS1_MAGIC.len() as u64, &mut offset).map_err(&bad)? != ROS1_MAGIC {
         return Err(bad("not a ROS 1 bag of format 2.0".into()));
     }
+    let corrupt = |reason: String| bad(format!("corrupt ROS 1 bag: {reason}"));
     let mut state = State::default();
-    let cut = loop {
+    let ending = loop {
+        let start = offset;
         match next_record(&mut source, &mut offset).map_err(&bad)? {
-            Ok(record) => state
-                .record(&record, sink)
-                .map_err(|reason| bad(format!("corrupt ROS 1 bag: {reason}")))?,
-            Err(End::Clean) => break false,
-            Err(End::Cut) => break true,
+            // An uncompressed open chunk's records read like the top level's.
+            Next::Record(record)
+                if record.is_open_chunk() && record.field("compression") != Some(b"none") =>
+            {
+                let open = state.open_chunk(&record, &mut source, sink);
+                open.map_err(corrupt)?;
+                break Ending::OpenChunk;
+            }
+            Next::Record(record) => state.top_level(&record, sink).map_err(corrupt)?,
+            Next::End => break Ending::Whole,
+            Next::Cut => break Ending::Cut(start),
         }
     };
-    let messages = state.messages;
-    if cut && messages == 0 {
-        return Err(bad(format!(
-            "ROS 1 bag cut short before its first message ({offset} bytes read)"
-        )));
-    }
-    if cut {
+    let (messages, index) = (state.messages, state.index_pos);
+    let cut_before_index = index > 0 && offset < index;
+    let warning = match ending {
+        // The index (after every chunk) was read into: the file is whole, so the record
+        // that runs past its end has a corrupt length.
+        Ending::Cut(start) if start < index && offset >= index => {
+            return Err(corrupt(format!(
+                "the record at byte {start} runs past the end of the file"
+            )));
+        }
+        Ending::Cut(_) | Ending::OpenChunk if messages == 0 => {
+            return Err(bad(format!(
+                "ROS 1 bag cut short before its first message ({offset} bytes read)"
+            )));
+        }
+        Ending::Whole if messages == 0 && cut_before_index => {
+            return Err(bad(format!(
+                "ROS 1 bag cut short before its first message ({offset} bytes read)"
+            )));
+        }
+        Ending::Cut(_) => Some(format!("cut short inside a record ({offset} bytes read)")),
+        Ending::Whole if cut_before_index => Some(format!(
+            "cut short ({offset} bytes read, where its index starts at byte {index})"
+        )),
+        Ending::Whole if index == 0 => Some("no index (a recording that did not finish?)".into()),
+        Ending::OpenChunk => {
+            Some("a recording that did not finish (its last chunk still open, no index)".into())
+        }
+        Ending::Whole => None,
+    };
+    if let Some(what) = warning {
         sink.warn(format!(
-            "{}: cut short inside a record ({offset} bytes read): read the {messages} messages \
-             of the chunks whole before the cut (a chunk cut short is lost whole)",
-            path.display()
-        ));
-    } else if !state.indexed {
-        sink.warn(format!(
-            "{}: no index (a recording that did not finish?): read the {messages} messages \
-             it holds",
+            "{}: {what}: read the {messages} messages of the records whole before its end",
             path.display()
         ));
     }
@@ -307,82 +381,4 @@ pub fn read(mut source: impl Read, path: &Path, sink: &mut Collector) -> Result<
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A record header or connection block of `fields`.
-    fn block(fields: &[(&str, &[u8])]) -> Vec<u8> {
-        let mut out = Vec::new();
-        for (name, value) in fields {
-            out.extend_from_slice(&((name.len() + 1 + value.len()) as u32).to_le_bytes());
-            out.extend_from_slice(name.as_bytes());
-            out.push(b'=');
-            out.extend_from_slice(value);
-        }
-        out
-    }
-
-    #[test]
-    fn types_are_named_the_ros2_way() {
-        assert_eq!(
-            ros2_type_name("sensor_msgs/LaserScan"),
-            "sensor_msgs/msg/LaserScan"
-        );
-        assert_eq!(
-            ros2_type_name("tf2_msgs/msg/TFMessage"),
-            "tf2_msgs/msg/TFMessage"
-        );
-        assert_eq!(ros2_type_name("Untyped"), "Untyped");
-        assert_eq!(ros2_type_name("tf/tfMessage"), "tf2_msgs/msg/TFMessage");
-    }
-
-    #[test]
-    fn fields_split_at_the_first_equals_sign_and_stop_at_a_short_one() {
-        let mut header = block(&[("op", &[OP_CHUNK]), ("topic", b"/a=b")]);
-        let found: Vec<_> = fields(&header).collect();
-        assert_eq!(
-            found,
-            [(&b"op"[..], &[OP_CHUNK][..]), (&b"topic"[..], &b"/a=b"[..])]
-        );
-        header.extend_from_slice(&100u32.to_le_bytes());
-        header.extend_from_slice(b"size=1");
-        assert_eq!(fields(&header).count(), 2, "a field that runs past the end");
-    }
-
-    #[test]
-    fn a_chunk_is_checked_against_its_compression_and_size() {
-        let chunk = |compression: &[u8], size: u32, data: &[u8]| Record {
-            header: block(&[
-                ("op", &[OP_CHUNK]),
-                ("compression", compression),
-                ("size", &size.to_le_bytes()),
-            ]),
-            data: data.to_vec(),
-        };
-        assert_eq!(decompress(&chunk(b"none", 3, b"abc")).unwrap(), b"abc");
-        let err = decompress(&chunk(b"none", 4, b"abc")).unwrap_err();
-        assert!(err.contains("decompresses to 3 bytes, not the 4"), "{err}");
-        let err = decompress(&chunk(b"zstd", 3, b"abc")).unwrap_err();
-        assert!(
-            err.contains("`zstd`, which is not none, bz2 or lz4"),
-            "{err}"
-        );
-        let err = decompress(&chunk(b"bz2", 3, b"abc")).unwrap_err();
-        assert!(err.starts_with("a bz2 chunk does not decompress"), "{err}");
-    }
-
-    #[test]
-    fn a_message_before_its_connection_is_corrupt() {
-        let message = Record {
-            header: block(&[("op", &[OP_MESSAGE]), ("conn", &3u32.to_le_bytes())]),
-            data: Vec::new(),
-        };
-        let keep = |_: &str, _: &str| true;
-        let mut sink = Collector::new(&keep);
-        let err = State::default().record(&message, &mut sink).unwrap_err();
-        assert!(
-            err.contains("connection 3, which no connection record names"),
-            "{err}"
-        );
-    }
-}
+mod tests;

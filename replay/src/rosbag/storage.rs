@@ -9,8 +9,7 @@
 //! Each file's format comes from its first bytes, not its name: MCAP, SQLite, either
 //! compressed whole with zstd (rosbag2's `file` compression mode), or a ROS 1 bag. A
 //! message whose bytes are a zstd frame (the `message` compression mode) is decompressed on
-//! the way in. A folder without `metadata.yaml` may hold ROS 1 `.bag` files too (a bag
-//! split by size).
+//! the way in.
 
 use super::cdr::Serialization;
 use super::mcap_storage::{self, Stream};
@@ -114,6 +113,18 @@ impl<'k> Collector<'k> {
             kept: Vec::new(),
         }
     }
+
+    /// Starts reading the storage file `path`: the messages that follow are its.
+    pub fn start_file(&mut self, path: &Path) {
+        self.contents.files.push(path.to_path_buf());
+    }
+
+    /// What was collected.
+    #[cfg(test)]
+    pub fn into_contents(self) -> Contents {
+        self.contents
+    }
+
     /// The index of topic `name` of type `type_name`, registered on first sight.
     pub fn topic(&mut self, name: &str, type_name: &str, encoding: &str) -> usize {
         let key = (name.to_string(), type_name.to_string());
@@ -171,7 +182,8 @@ impl<'k> Collector<'k> {
     }
 }
 
-/// Reads the bag at `path` (a rosbag2 folder, or one `.mcap` / `.db3` file), keeping the
+/// Reads the bag at `path` (a rosbag2 folder, one `.mcap` / `.db3` file, or a ROS 1 `.bag`
+/// file), keeping the
 /// messages of the topics for which `keep(name, type)` holds.
 ///
 /// # Errors
@@ -181,7 +193,7 @@ pub fn read(path: &Path, keep: &dyn Fn(&str, &str) -> bool) -> Result<Contents> 
     let files = storage_files(path)?;
     let mut sink = Collector::new(keep);
     for file in files {
-        sink.contents.files.push(file.clone());
+        sink.start_file(&file);
         read_file(&file, &mut sink)?;
     }
     Ok(sink.contents)
@@ -219,14 +231,14 @@ fn storage_files(path: &Path) -> Result<Vec<PathBuf>> {
     for entry in std::fs::read_dir(path).map_err(io)? {
         let file = entry.map_err(io)?.path();
         let name = file.file_name().unwrap_or_default().to_string_lossy();
-        let storage = [".mcap", ".db3", ".mcap.zstd", ".db3.zstd", ".bag"];
+        let storage = [".mcap", ".db3", ".mcap.zstd", ".db3.zstd"];
         if file.is_file() && storage.iter().any(|s| name.ends_with(s)) {
             files.push(file);
         }
     }
     if files.is_empty() {
         return Err(DataError::Unusable(format!(
-            "{}: not a bag: no metadata.yaml and no .mcap, .db3 or .bag file",
+            "{}: not a rosbag2 bag: no metadata.yaml and no .mcap or .db3 file",
             path.display()
         )));
     }
@@ -328,12 +340,22 @@ fn read_file(path: &Path, sink: &mut Collector) -> Result<()> {
     }
 }
 
-/// The error for a file that is neither MCAP nor SQLite, showing its first bytes.
+/// The error for a file that is neither MCAP, SQLite nor a ROS 1 bag, showing its first
+/// bytes.
 fn unknown_storage(path: &Path, head: &[u8]) -> DataError {
+    if head.starts_with(b"#ROS") {
+        let line = head.split(|&b| b == b'\n').next().unwrap_or_default();
+        return DataError::Unusable(format!(
+            "{}: a ROS 1 bag of another format than 2.0 (`{}`); ROS 1's `rosbag filter \
+             IN OUT True` rewrites it as 2.0",
+            path.display(),
+            String::from_utf8_lossy(line)
+        ));
+    }
     let shown: Vec<String> = head.iter().take(8).map(|b| format!("{b:02x}")).collect();
     DataError::Unusable(format!(
-        "{}: unknown storage: neither MCAP nor SQLite (nor either compressed with zstd); \
-         it starts with {}",
+        "{}: unknown storage: neither MCAP, SQLite (nor either compressed with zstd) nor a \
+         ROS 1 bag; it starts with {}",
         path.display(),
         if shown.is_empty() {
             "nothing (empty file)".to_string()
@@ -569,7 +591,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("rosbag-none-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let err = read(&dir, &|_, _| true).unwrap_err().to_string();
-        assert!(err.contains("not a bag: no metadata.yaml"), "{err}");
+        assert!(err.contains("not a rosbag2 bag"), "{err}");
         let file = dir.join("notes.mcap");
         std::fs::write(&file, b"hello").unwrap();
         let err = read(&file, &|_, _| true).unwrap_err().to_string();
