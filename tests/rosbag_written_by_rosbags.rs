@@ -369,6 +369,14 @@ mod written_by_rosbags {
                 bag.summary()
             );
         }
+        // Its frames named as they were recorded, with tf's slash, read the same.
+        let slashed = TopicChoice {
+            odom_frame: Some("/odom".into()),
+            base_frame: Some("/base_link".into()),
+            ..TopicChoice::default()
+        };
+        let bag = load("tf1.bag", &slashed).unwrap();
+        assert!(same(&bag.data, &rosbag2.data), "tf1.bag with slashed flags");
     }
 
     #[test]

@@ -216,6 +216,21 @@ pub fn load(path: &Path, topics: &TopicChoice) -> Result<Bag> {
             || (type_name == TF_MESSAGE && (name == TF_TOPIC || name == TF_STATIC_TOPIC))
     };
     let contents = storage::read(path, &keep)?;
+    // A ROS 1 bag's frames lose tf's leading slash (`cdr`); so do the flags naming them.
+    let ros1 = (contents.topics.iter()).any(|t| t.serialization() == Some(Serialization::Ros1));
+    let unslashed = |frame: &Option<String>| {
+        frame.as_deref().map(|f| {
+            f.strip_prefix('/')
+                .filter(|_| ros1)
+                .unwrap_or(f)
+                .to_string()
+        })
+    };
+    let topics = &TopicChoice {
+        odom_frame: unslashed(&topics.odom_frame),
+        base_frame: unslashed(&topics.base_frame),
+        ..topics.clone()
+    };
     let bag = Reader {
         path,
         contents: &contents,
