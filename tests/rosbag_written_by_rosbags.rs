@@ -10,27 +10,13 @@
 
 mod common;
 
-use common::{rosbags_bin, rosbags_convert};
+use common::{rosbags_bin, rosbags_convert, run_ok};
 use fastslam_replay::rosbag::{self, OdometrySource, TopicChoice};
 use fastslam_replay::text::DataError;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
-
-/// Runs `cmd`, failing the test with its output when it fails.
-fn run(what: &str, cmd: &mut Command) {
-    let out = cmd
-        .output()
-        .unwrap_or_else(|e| panic!("{what} could not start (is python3 installed?): {e}"));
-    assert!(
-        out.status.success(),
-        "{what} failed ({}):\n{}{}",
-        out.status,
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
 
 /// The ROS 1 bags converted from the `mcap` bag, by chunk compression: `ros1_none.bag`…
 const ROS1_COMPRESSIONS: [&str; 3] = ["none", "bz2", "lz4"];
@@ -48,7 +34,7 @@ fn bags() -> &'static (PathBuf, Value) {
         let _ = std::fs::remove_dir_all(&out);
         std::fs::create_dir_all(&out).unwrap();
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/write_bag.py");
-        run("write_bag.py", Command::new(python).arg(script).arg(&out));
+        run_ok("write_bag.py", Command::new(python).arg(script).arg(&out));
         let expected = std::fs::read_to_string(out.join("expected.json")).unwrap();
         let mut expected: Value = serde_json::from_str(&expected).unwrap();
         let convert = |source: &str, target: String, compression: &str| {
@@ -61,7 +47,7 @@ fn bags() -> &'static (PathBuf, Value) {
         }
         convert("long_file_zstd", "long.bag".into(), "lz4");
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/tf1_bag.py");
-        run(
+        run_ok(
             "tf1_bag.py",
             Command::new(rosbags_bin().join("python3"))
                 .arg(script)

@@ -160,9 +160,14 @@ pub fn assert_no_leftovers_and_remove(prefix: &str, dir: &Path) {
 
 /// Fails the test with the launcher's output unless it exited 0.
 pub fn assert_success(out: &Output) {
+    assert_exited_ok("launcher", out);
+}
+
+/// Fails the test with `out` unless the command `what` names exited 0.
+pub fn assert_exited_ok(what: &str, out: &Output) {
     assert!(
         out.status.success(),
-        "launcher failed ({}):\nstdout:\n{}\nstderr:\n{}",
+        "{what} failed ({}):\nstdout:\n{}\nstderr:\n{}",
         out.status,
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr)
@@ -206,17 +211,8 @@ with open(sys.argv[1], 'rb') as f:
 print(json.dumps({'counts': counts, 'schemas': schemas, 'encodings': encodings, 'metrics': metrics}))
 ";
     let python = python_venv("mcap-1.6.0", MCAP).join("bin").join("python3");
-    let out = Command::new(python)
-        .args(["-c", READER])
-        .arg(path)
-        .output()
-        .expect("running the mcap reader");
-    assert!(
-        out.status.success(),
-        "the mcap reader failed on {}: {}",
-        path.display(),
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let what = format!("the mcap reader on {}", path.display());
+    let out = run_ok(&what, Command::new(python).args(["-c", READER]).arg(path));
     serde_json::from_slice(&out.stdout).expect("the reader prints JSON")
 }
 
@@ -262,16 +258,7 @@ pub fn python_venv(name: &str, requirement: &str) -> PathBuf {
     }
     let _ = std::fs::remove_dir_all(&venv); // a build that did not finish
     let step = |what: &str, cmd: &mut Command| {
-        let out = cmd
-            .output()
-            .unwrap_or_else(|e| panic!("Python bootstrap: {what} could not start: {e}"));
-        assert!(
-            out.status.success(),
-            "Python bootstrap: {what} failed ({}):\n{}{}",
-            out.status,
-            String::from_utf8_lossy(&out.stdout),
-            String::from_utf8_lossy(&out.stderr)
-        );
+        run_ok(&format!("Python bootstrap: {what}"), cmd);
     };
     step(
         "python3 -m venv",
@@ -653,19 +640,23 @@ pub fn rosbags_bin() -> PathBuf {
 /// Converts the bag `source` into `target` with `rosbags-convert` (a ROS 1 `.bag` for a
 /// target so named; `--compress compression`), panicking with its output when it fails.
 pub fn rosbags_convert(source: &Path, target: &Path, compression: &str) {
-    let out = Command::new(rosbags_bin().join("rosbags-convert"))
-        .arg("--src")
-        .arg(source)
-        .arg("--dst")
-        .arg(target)
-        .args(["--dst-typestore", "ros1_noetic", "--compress", compression])
-        .output()
-        .expect("starting rosbags-convert");
-    assert!(
-        out.status.success(),
-        "rosbags-convert {} failed: {}{}",
-        source.display(),
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
+    run_ok(
+        &format!("rosbags-convert {}", source.display()),
+        Command::new(rosbags_bin().join("rosbags-convert"))
+            .arg("--src")
+            .arg(source)
+            .arg("--dst")
+            .arg(target)
+            .args(["--dst-typestore", "ros1_noetic", "--compress", compression]),
     );
+}
+
+/// Runs `cmd` (`what` names it) and returns its output, failing the test with that output
+/// when it cannot start or fails.
+pub fn run_ok(what: &str, cmd: &mut Command) -> Output {
+    let out = cmd
+        .output()
+        .unwrap_or_else(|e| panic!("{what} could not start: {e}"));
+    assert_exited_ok(what, &out);
+    out
 }
