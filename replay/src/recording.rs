@@ -71,6 +71,12 @@ impl Recording {
                 self.path().display()
             )));
         }
+        let mut loaded = loaded;
+        if let Some(still) = still_odometry(&loaded.data) {
+            loaded
+                .warnings
+                .push(format!("{}: {still}", self.path().display()));
+        }
         Ok(loaded)
     }
 
@@ -80,6 +86,37 @@ impl Recording {
             Self::Rosbag { path, .. } | Self::Carmen { path } => path,
         }
     }
+}
+
+/// How far the odometry must move from its first pose, at most, for a recording to
+/// count as never moving (m, rad): a standing robot's odometry noise stays well inside.
+const STILL_ODOMETRY: (f64, f64) = (0.01, 0.01);
+
+/// Why the run will map little, when the odometry never moves while the scans go on for
+/// more than a minute (a laser-only log, or an odometry source that publishes zeros):
+/// grid FastSLAM maps a scan once the odometry has moved (`[grid] keyframe_distance`,
+/// `keyframe_angle`), so the map holds the first scan alone. `None` otherwise.
+fn still_odometry(data: &DataSet) -> Option<String> {
+    let first = data.odometry.first()?;
+    let moved = data.odometry.iter().any(|o| {
+        let turned = fastslam_estimation::wrap_angle(o.theta - first.theta).abs();
+        (o.x - first.x).hypot(o.y - first.y) > STILL_ODOMETRY.0 || turned > STILL_ODOMETRY.1
+    });
+    let stamps = data.raw_scans.iter().map(|s| s.header.header.stamp_ns);
+    let (start, end) = (stamps.clone().min()?, stamps.max()?);
+    let seconds = (end - start) as f64 * 1e-9;
+    (!moved && seconds > 60.0).then(|| {
+        format!(
+            "the odometry never moves ({} poses, within {} m and {} rad of the first, while \
+             the scans go on for {seconds:.0} s): grid FastSLAM maps a scan once the odometry \
+             has moved, so the map will hold the first scan alone; replay the recording with \
+             the robot's odometry (an Odometry topic, or tf from the odometry frame to the \
+             base)",
+            data.odometry.len(),
+            STILL_ODOMETRY.0,
+            STILL_ODOMETRY.1
+        )
+    })
 }
 
 /// Cell size of the planar-laser grid (m): GMapping's `delta`, fine enough for indoor
@@ -198,6 +235,43 @@ mod tests {
         assert_eq!(t["grid"]["max_range"].as_float(), Some(30.0));
         assert_eq!(t["map"]["matching"]["stride"].as_integer(), Some(2));
         assert!(planar_laser_settings(&DataSet::default()).is_err());
+    }
+
+    #[test]
+    fn odometry_that_never_moves_while_scans_go_on_is_named() {
+        let at = |seconds: u64, x: f64| {
+            let mut scan = scan(10, 0.1, 10.0);
+            scan.header.header.stamp_ns = seconds * 1_000_000_000;
+            let odometry = fastslam_protocol::Odometry {
+                x,
+                ..fastslam_protocol::Odometry::default()
+            };
+            (scan, odometry)
+        };
+        let data = |xs: &[(u64, f64)]| {
+            let (raw_scans, odometry) = xs.iter().map(|&(t, x)| at(t, x)).unzip();
+            DataSet {
+                raw_scans,
+                odometry,
+                ..DataSet::default()
+            }
+        };
+        let still = still_odometry(&data(&[(0, 0.0), (30, 0.005), (90, 0.0)])).unwrap();
+        assert!(
+            still.starts_with("the odometry never moves (3 poses"),
+            "{still}"
+        );
+        assert!(still.contains("for 90 s"), "{still}");
+        assert_eq!(
+            still_odometry(&data(&[(0, 0.0), (90, 0.02)])),
+            None,
+            "it moves"
+        );
+        assert_eq!(
+            still_odometry(&data(&[(0, 0.0), (50, 0.0)])),
+            None,
+            "a short one"
+        );
     }
 
     #[test]
