@@ -141,7 +141,7 @@ fn a_carmen_log_replays_without_truth_and_is_scored_on_its_relations() {
 fn a_ros2_bag_and_its_ros1_conversion_replay_alike_with_default_flags_and_mount_from_tf() {
     let bag = data("ros2/mit-csail");
     let ros1 = folder(&prefix("ros1conv")).join("mit-csail.bag");
-    rosbags_convert(&bag, &ros1, "lz4");
+    rosbags_convert(&bag, &ros1, "lz4", &[]);
     let relations = data("freiburg/mit-csail/mit-csail.relations");
     let run = |name: &str, bag: &Path| {
         replay_recording(

@@ -38,7 +38,7 @@ fn bags() -> &'static (PathBuf, Value) {
         let expected = std::fs::read_to_string(out.join("expected.json")).unwrap();
         let mut expected: Value = serde_json::from_str(&expected).unwrap();
         let convert = |source: &str, target: String, compression: &str| {
-            rosbags_convert(&out.join(source), &out.join(target), compression);
+            rosbags_convert(&out.join(source), &out.join(target), compression, &[]);
         };
         for compression in ROS1_COMPRESSIONS {
             let name = format!("ros1_{compression}.bag");
@@ -46,6 +46,17 @@ fn bags() -> &'static (PathBuf, Value) {
             expected[name] = expected["mcap"].clone();
         }
         convert("long_file_zstd", "long.bag".into(), "lz4");
+        // One recording in two files, a folder of its own: the scans, then the transforms.
+        let split = out.join("ros1_split");
+        std::fs::create_dir_all(&split).unwrap();
+        for (file, topics) in [
+            ("part_2.bag", &["/tf", "/tf_static"][..]),
+            ("part_10.bag", &["/base_scan", "/chatter"][..]),
+        ] {
+            let include = [&["--include-topic"][..], topics].concat();
+            rosbags_convert(&out.join("mcap"), &split.join(file), "bz2", &include);
+        }
+        expected["ros1_split"] = expected["mcap"].clone();
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/tf1_bag.py");
         run_ok(
             "tf1_bag.py",
@@ -355,6 +366,20 @@ mod written_by_rosbags {
                 bag.summary()
             );
         }
+        // A folder of ROS 1 bags reads as one bag; a folder that mixes them with rosbag2
+        // files is refused.
+        assert!(same(&check_tf_only_bag("ros1_split").data, &rosbag2.data));
+        let mixed = bags().0.join("mixed");
+        std::fs::create_dir_all(&mixed).unwrap();
+        std::fs::copy(bags().0.join("ros1_none.bag"), mixed.join("a.bag")).unwrap();
+        std::fs::copy(bags().0.join("mcap/mcap.mcap"), mixed.join("a.mcap")).unwrap();
+        let err = load("mixed", &TopicChoice::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("holds both rosbag2 storage files (a.mcap…) and ROS 1 bags (a.bag…)"),
+            "{err}"
+        );
         // Its frames named as they were recorded, with tf's slash, read the same.
         let slashed = TopicChoice {
             odom_frame: Some("/odom".into()),

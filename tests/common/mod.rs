@@ -638,8 +638,9 @@ pub fn rosbags_bin() -> PathBuf {
 }
 
 /// Converts the bag `source` into `target` with `rosbags-convert` (a ROS 1 `.bag` for a
-/// target so named; `--compress compression`), panicking with its output when it fails.
-pub fn rosbags_convert(source: &Path, target: &Path, compression: &str) {
+/// target so named; `--compress compression`, then `more` flags), panicking with its
+/// output when it fails.
+pub fn rosbags_convert(source: &Path, target: &Path, compression: &str, more: &[&str]) {
     run_ok(
         &format!("rosbags-convert {}", source.display()),
         Command::new(rosbags_bin().join("rosbags-convert"))
@@ -647,7 +648,8 @@ pub fn rosbags_convert(source: &Path, target: &Path, compression: &str) {
             .arg(source)
             .arg("--dst")
             .arg(target)
-            .args(["--dst-typestore", "ros1_noetic", "--compress", compression]),
+            .args(["--dst-typestore", "ros1_noetic", "--compress", compression])
+            .args(more),
     );
 }
 

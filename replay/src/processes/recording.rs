@@ -20,7 +20,8 @@ end-of-stream message per stream. No ground truth.";
 #[derive(Debug, Clone, clap::Args)]
 #[group(required = true, multiple = false, id = "recording")]
 pub struct Source {
-    /// A rosbag2 folder (with metadata.yaml), one .mcap / .db3 file, or a ROS 1 .bag file.
+    /// A rosbag2 folder (with metadata.yaml), one .mcap / .db3 file, or a ROS 1 .bag file
+    /// (or a folder of the .bag files of one split recording).
     #[arg(long, group = "recording")]
     pub rosbag: Option<PathBuf>,
     /// A CARMEN log (.clf / .log, gzipped or not).
@@ -157,7 +158,8 @@ Freiburg benchmark's; no ground truth needed (docs/REPLAYS.md)",
 /// `replay rosbag`'s own flags.
 #[derive(Debug, Clone, clap::Args)]
 struct RosbagFlags {
-    /// A rosbag2 folder (with metadata.yaml), one .mcap / .db3 file, or a ROS 1 .bag file.
+    /// A rosbag2 folder (with metadata.yaml), one .mcap / .db3 file, or a ROS 1 .bag file
+    /// (or a folder of the .bag files of one split recording).
     path: PathBuf,
     /// Topics and frames, where the bag leaves a choice.
     #[command(flatten)]

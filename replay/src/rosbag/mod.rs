@@ -3,9 +3,9 @@
 //! ships.
 //!
 //! [`load`] reads a rosbag2 folder (`metadata.yaml` and its MCAP or SQLite storage files),
-//! one `.mcap` / `.db3` file, or a ROS 1 `.bag` file (`ros1_storage`) ([`storage`]),
-//! decodes the CDR or ROS 1 messages it needs ([`cdr`]) and turns them into the stack's
-//! messages:
+//! one `.mcap` / `.db3` file, or a ROS 1 `.bag` file or a folder of them
+//! (`ros1_storage`), through [`storage`]; decodes the CDR or ROS 1 messages it needs
+//! ([`cdr`]) and turns them into the stack's messages:
 //! - **Scans**: the one `sensor_msgs/msg/LaserScan` topic (or the one named) becomes
 //!   [`DataSet::raw_scans`], ranges after REP-117 and beams counter-clockwise
 //!   ([`streams`]); intensities are dropped; a scan without beams is skipped.

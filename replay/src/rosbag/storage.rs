@@ -9,7 +9,8 @@
 //! Each file's format comes from its first bytes, not its name: MCAP, SQLite, either
 //! compressed whole with zstd (rosbag2's `file` compression mode), or a ROS 1 bag. A
 //! message whose bytes are a zstd frame (the `message` compression mode) is decompressed on
-//! the way in.
+//! the way in. A folder without `metadata.yaml` may instead hold ROS 1 bags: the files of
+//! one recording split by size or time, read in name order.
 
 use super::cdr::Serialization;
 use super::mcap_storage::{self, Stream};
@@ -227,22 +228,50 @@ fn storage_files(path: &Path) -> Result<Vec<PathBuf>> {
         path: path.to_path_buf(),
         reason: e.to_string(),
     };
-    let mut files = Vec::new();
+    // rosbag2 storage files, and ROS 1 bags (one recording split by `rosbag record
+    // --split`): one kind or the other.
+    let (mut rosbag2, mut ros1) = (Vec::new(), Vec::new());
     for entry in std::fs::read_dir(path).map_err(io)? {
         let file = entry.map_err(io)?.path();
         let name = file.file_name().unwrap_or_default().to_string_lossy();
         let storage = [".mcap", ".db3", ".mcap.zstd", ".db3.zstd"];
         if file.is_file() && storage.iter().any(|s| name.ends_with(s)) {
-            files.push(file);
+            rosbag2.push(file);
+        } else if file.is_file() && name.ends_with(".bag") {
+            ros1.push(file);
         }
     }
-    if files.is_empty() {
-        return Err(DataError::Unusable(format!(
-            "{}: not a rosbag2 bag: no metadata.yaml and no .mcap or .db3 file",
-            path.display()
-        )));
+    for files in [&mut rosbag2, &mut ros1] {
+        files.sort_by_cached_key(|f| {
+            natural_key(&f.file_name().unwrap_or_default().to_string_lossy())
+        });
     }
-    files.sort_by_cached_key(|f| natural_key(&f.file_name().unwrap_or_default().to_string_lossy()));
+    let name = |files: &[PathBuf]| {
+        files[0]
+            .file_name()
+            .unwrap_or_default()
+            .display()
+            .to_string()
+    };
+    let files = match (rosbag2.is_empty(), ros1.is_empty()) {
+        (true, true) => {
+            return Err(DataError::Unusable(format!(
+                "{}: not a bag: no metadata.yaml and no .mcap, .db3 or .bag file",
+                path.display()
+            )));
+        }
+        (false, false) => {
+            return Err(DataError::Unusable(format!(
+                "{}: holds both rosbag2 storage files ({}…) and ROS 1 bags ({}…): give the \
+                 one file, or a folder of one kind",
+                path.display(),
+                name(&rosbag2),
+                name(&ros1)
+            )));
+        }
+        (false, true) => rosbag2,
+        (true, false) => ros1,
+    };
     Ok(files)
 }
 
@@ -591,7 +620,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("rosbag-none-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let err = read(&dir, &|_, _| true).unwrap_err().to_string();
-        assert!(err.contains("not a rosbag2 bag"), "{err}");
+        assert!(err.contains("not a bag: no metadata.yaml"), "{err}");
         let file = dir.join("notes.mcap");
         std::fs::write(&file, b"hello").unwrap();
         let err = read(&file, &|_, _| true).unwrap_err().to_string();
