@@ -34,33 +34,33 @@ fn bags() -> &'static (PathBuf, Value) {
         let _ = std::fs::remove_dir_all(&out);
         std::fs::create_dir_all(&out).unwrap();
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/write_bag.py");
-        run_ok("write_bag.py", Command::new(python).arg(script).arg(&out));
+        run_ok("write_bag.py", Command::new(&python).arg(script).arg(&out));
         let expected = std::fs::read_to_string(out.join("expected.json")).unwrap();
         let mut expected: Value = serde_json::from_str(&expected).unwrap();
-        let convert = |source: &str, target: String, compression: &str| {
-            rosbags_convert(&out.join(source), &out.join(target), compression, &[]);
+        let convert = |source: &str, target: &Path, compression: &str, more: &[&str]| {
+            rosbags_convert(&out.join(source), &out.join(target), compression, more);
         };
         for compression in ROS1_COMPRESSIONS {
             let name = format!("ros1_{compression}.bag");
-            convert("mcap", name.clone(), compression);
+            convert("mcap", Path::new(&name), compression, &[]);
             expected[name] = expected["mcap"].clone();
         }
-        convert("long_file_zstd", "long.bag".into(), "lz4");
+        convert("long_file_zstd", Path::new("long.bag"), "lz4", &[]);
         // One recording in two files, a folder of its own: the scans, then the transforms.
-        let split = out.join("ros1_split");
-        std::fs::create_dir_all(&split).unwrap();
+        let split = Path::new("ros1_split");
+        std::fs::create_dir_all(out.join(split)).unwrap();
         for (file, topics) in [
             ("part_2.bag", &["/tf", "/tf_static"][..]),
             ("part_10.bag", &["/base_scan", "/chatter"][..]),
         ] {
             let include = [&["--include-topic"][..], topics].concat();
-            rosbags_convert(&out.join("mcap"), &split.join(file), "bz2", &include);
+            convert("mcap", &split.join(file), "bz2", &include);
         }
         expected["ros1_split"] = expected["mcap"].clone();
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/tf1_bag.py");
         run_ok(
             "tf1_bag.py",
-            Command::new(rosbags_bin().join("python3"))
+            Command::new(&python)
                 .arg(script)
                 .arg(out.join("ros1_none.bag"))
                 .arg(out.join("tf1.bag")),

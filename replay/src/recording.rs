@@ -47,7 +47,7 @@ impl Recording {
     /// The reader's [`DataError`]: a missing, truncated or malformed file (named, with
     /// the line or the topic and message index), no scan topic, ambiguous topics.
     pub fn load(&self) -> Result<Loaded> {
-        let loaded = match self {
+        let mut loaded = match self {
             Self::Rosbag { path, topics } => {
                 let bag = crate::rosbag::load(path, topics)?;
                 Loaded {
@@ -71,7 +71,6 @@ impl Recording {
                 self.path().display()
             )));
         }
-        let mut loaded = loaded;
         if let Some(still) = still_odometry(&loaded.data) {
             loaded
                 .warnings

@@ -39,16 +39,14 @@ def main():
                 store.register(get_types_from_msg(c.msgdef.data, c.msgtype))
         store.register(get_types_from_msg('geometry_msgs/TransformStamped[] transforms', TF1))
         with Writer(target) as writer:
-            out = {}
-            for c in reader.connections:
-                msgtype = TF1 if c.msgtype == TF2 else c.msgtype
-                out[c.id] = writer.add_connection(c.topic, msgtype, typestore=store)
+            msgtypes = {c.id: TF1 if c.msgtype == TF2 else c.msgtype for c in reader.connections}
+            out = {c.id: writer.add_connection(c.topic, msgtypes[c.id], typestore=store)
+                   for c in reader.connections}
             for c, ns, data in reader.messages():
                 msg = with_slashes(store.deserialize_ros1(data, c.msgtype))
-                msgtype = TF1 if c.msgtype == TF2 else c.msgtype
-                if msgtype == TF1:
+                if msgtypes[c.id] == TF1:
                     msg = store.types[TF1](transforms=msg.transforms)
-                writer.write(out[c.id], ns, store.serialize_ros1(msg, msgtype))
+                writer.write(out[c.id], ns, store.serialize_ros1(msg, msgtypes[c.id]))
 
 
 if __name__ == '__main__':

@@ -179,9 +179,10 @@ impl State {
                 Ok(())
             }
             OP_CHUNK => self.chunk(&decompress(record)?, sink),
+            OP_CONNECTION | OP_MESSAGE => self.connection_or_message(record, sink),
             // Index data and chunk information: where things are, which one pass does not
             // need.
-            _ => self.inside_chunk(record, sink, true),
+            _ => Ok(()),
         }
     }
 
@@ -190,16 +191,16 @@ impl State {
         let mut read = 0;
         loop {
             match next_record(&mut records, &mut read)? {
-                Next::Record(record) => self.inside_chunk(&record, sink, false)?,
+                Next::Record(record) => self.connection_or_message(&record, sink)?,
                 Next::End => return Ok(()),
                 Next::Cut => return Err("a chunk's last record runs past its end".into()),
             }
         }
     }
 
-    /// Takes a connection or a message; with `others`, skips any other record, else
-    /// refuses it (a chunk holds only connections and messages).
-    fn inside_chunk(&mut self, record: &Record, sink: &mut Collector, others: bool) -> Corrupt {
+    /// Takes a connection or a message, and refuses any other record (a chunk holds only
+    /// connections and messages).
+    fn connection_or_message(&mut self, record: &Record, sink: &mut Collector) -> Corrupt {
         match record.op()? {
             OP_CONNECTION => {
                 let id = record.u32("conn")?;
@@ -224,7 +225,6 @@ impl State {
                 sink.message(topic, record.time_ns()?, &record.data);
                 self.messages += 1;
             }
-            _ if others => {}
             op => return Err(format!("a chunk holds a record of op {op:#04x}")),
         }
         Ok(())
@@ -233,41 +233,41 @@ impl State {
     /// Reads the records of the chunk a recording left open, which run from `source`'s
     /// position to its end (compressed as `chunk` says), up to the last whole one.
     fn open_chunk(&mut self, chunk: &Record, source: impl Read, sink: &mut Collector) -> Corrupt {
-        let mut stream: Box<dyn Read> = match chunk.field("compression").unwrap_or(b"none") {
-            b"none" => Box::new(source),
-            b"bz2" => Box::new(bzip2::read::BzDecoder::new(source)),
-            b"lz4" => Box::new(lz4_flex::frame::FrameDecoder::new(source)),
-            other => return Err(unknown_compression(other)),
-        };
+        let mut stream = decoder(chunk.field("compression").unwrap_or(b"none"), source)?;
         let mut read = 0;
         // The stream ends where the recorder stopped: inside a record, or in the middle of
         // a compressed block, which does not decompress.
         while let Ok(Next::Record(record)) = next_record(&mut stream, &mut read) {
-            self.inside_chunk(&record, sink, false)?;
+            self.connection_or_message(&record, sink)?;
         }
         Ok(())
     }
 }
 
-/// The reason for a chunk compressed in a way that is not read.
-fn unknown_compression(name: &[u8]) -> String {
-    format!(
-        "a chunk compressed with `{}`, which is not none, bz2 or lz4",
-        String::from_utf8_lossy(name)
-    )
+/// The records of a chunk compressed with `compression` (none, bz2 or lz4), read from
+/// `source`.
+fn decoder<'r>(
+    compression: &[u8],
+    source: impl Read + 'r,
+) -> std::result::Result<Box<dyn Read + 'r>, String> {
+    Ok(match compression {
+        b"none" => Box::new(source),
+        b"bz2" => Box::new(bzip2::read::BzDecoder::new(source)),
+        b"lz4" => Box::new(lz4_flex::frame::FrameDecoder::new(source)),
+        other => {
+            return Err(format!(
+                "a chunk compressed with `{}`, which is not none, bz2 or lz4",
+                String::from_utf8_lossy(other)
+            ));
+        }
+    })
 }
 
 /// A chunk's records, decompressed and checked against the chunk's stated size.
 fn decompress(chunk: &Record) -> std::result::Result<Vec<u8>, String> {
     let size = chunk.u32("size")?;
     let compression = chunk.field("compression").unwrap_or(b"none");
-    let data = chunk.data.as_slice();
-    let decoder: Box<dyn Read> = match compression {
-        b"none" => Box::new(data),
-        b"bz2" => Box::new(bzip2::read::BzDecoder::new(data)),
-        b"lz4" => Box::new(lz4_flex::frame::FrameDecoder::new(data)),
-        other => return Err(unknown_compression(other)),
-    };
+    let decoder = decoder(compression, chunk.data.as_slice())?;
     let name = String::from_utf8_lossy(compression);
     // At most one byte more than stated: enough to tell, never more memory than that.
     let mut out = Vec::new();
@@ -351,12 +351,8 @@ pub fn read(mut source: impl Read, path: &Path, sink: &mut Collector) -> Result<
                 "the record at byte {start} runs past the end of the file"
             )));
         }
-        Ending::Cut(_) | Ending::OpenChunk if messages == 0 => {
-            return Err(bad(format!(
-                "ROS 1 bag cut short before its first message ({offset} bytes read)"
-            )));
-        }
-        Ending::Whole if messages == 0 && cut_before_index => {
+        // Ended early with nothing read.
+        _ if messages == 0 && (cut_before_index || !matches!(ending, Ending::Whole)) => {
             return Err(bad(format!(
                 "ROS 1 bag cut short before its first message ({offset} bytes read)"
             )));

@@ -184,8 +184,8 @@ impl<'k> Collector<'k> {
 }
 
 /// Reads the bag at `path` (a rosbag2 folder, one `.mcap` / `.db3` file, or a ROS 1 `.bag`
-/// file), keeping the
-/// messages of the topics for which `keep(name, type)` holds.
+/// file or folder of them), keeping the messages of the topics for which
+/// `keep(name, type)` holds.
 ///
 /// # Errors
 /// [`DataError`] naming the file: a missing or unknown storage file, a bad
@@ -572,15 +572,8 @@ mod tests {
     #[test]
     fn a_compressed_message_cut_short_is_kept_with_why_it_does_not_decompress() {
         let keep = |_: &str, _: &str| true;
-        let mut sink = Collector {
-            keep: &keep,
-            contents: Contents {
-                files: vec![PathBuf::from("bag.mcap")],
-                ..Contents::default()
-            },
-            by_key: HashMap::new(),
-            kept: Vec::new(),
-        };
+        let mut sink = Collector::new(&keep);
+        sink.start_file(Path::new("bag.mcap"));
         let topic = sink.topic("/scan", "sensor_msgs/msg/LaserScan", "cdr");
         let whole = frame(b"hello");
         sink.message(topic, 0, &whole);
