@@ -168,6 +168,39 @@ fn a_ros2_bag_and_its_ros1_conversion_replay_alike_with_default_flags_and_mount_
     assert_eq!(reproducible(&out), reproducible(&ros1_out));
 }
 
+#[test]
+fn a_bag_without_odometry_is_refused_and_mapped_with_the_laser_s_odometry() {
+    // The MIT CSAIL bag without its odometry (`/odom` and the odometry in `/tf`), written
+    // by rosbags: only the scans and the laser's mounting are left.
+    let bag = folder(&prefix("laseronly")).join("scans.bag");
+    let drop_odometry = ["--exclude-topic", "/odom", "/tf"];
+    rosbags_convert(&data("ros2/mit-csail"), &bag, "lz4", &drop_odometry);
+    let bag = bag.to_str().unwrap();
+    assert_refused("laseronly0", &["rosbag", bag], "--odometry laser");
+    let relations = data("freiburg/mit-csail/mit-csail.relations");
+    let (_, m, _) = replay_recording(
+        "laseronly1",
+        &[
+            "rosbag",
+            bag,
+            "--odometry",
+            "laser",
+            "--relations",
+            relations.to_str().unwrap(),
+            "--particles",
+            "5",
+        ],
+    );
+    // The odometry made from the scans, scored as dead reckoning: well below the wheels'
+    // 1.681 m on the same relations. The map built on it: within centimetres.
+    let odometry = num(&m, "/dead_reckoning/relations/trans_mean_m");
+    assert!(odometry < 0.5, "{odometry} m");
+    for trajectory in ["estimate", "smoothed"] {
+        let error = num(&m, &format!("/{trajectory}/relations/trans_mean_m"));
+        assert!(error < 0.1, "{trajectory}: {error} m");
+    }
+}
+
 /// A failed replay: non-zero exit, one `error:` line naming `what`, no panic.
 fn assert_refused(name: &str, args: &[&str], what: &str) {
     let prefix = prefix(name);

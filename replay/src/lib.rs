@@ -16,6 +16,7 @@
 pub mod args;
 pub mod carmen;
 pub mod dataset;
+pub mod laser_odometry;
 pub mod mrclam;
 pub mod player;
 pub mod processes;

@@ -99,8 +99,33 @@ pub fn schedule(data: &DataSet) -> Vec<(u64, Next)> {
 /// # Errors
 /// IPC failures, a timeout waiting for consumers, or a shutdown signal.
 pub fn play(ipc: &Ipc, data: &DataSet, pacing: Pacing, consumers: usize) -> Result<(), IpcError> {
+    let out = open(ipc, data)?;
+    publish(ipc, &out, data, pacing, consumers)
+}
+
+/// [`play`] of `data` once `finish` has completed it: `finish` runs after the publishers
+/// exist, so that consumers waiting for them do not time out while it works (the
+/// odometry made from a recording's scans). It must not change whether `data` has truth
+/// or raw scans.
+///
+/// # Errors
+/// As [`play`].
+pub fn play_after(
+    ipc: &Ipc,
+    data: &mut DataSet,
+    finish: impl FnOnce(&mut DataSet),
+    pacing: Pacing,
+    consumers: usize,
+) -> Result<(), IpcError> {
+    let out = open(ipc, data)?;
+    finish(data);
+    publish(ipc, &out, data, pacing, consumers)
+}
+
+/// The publishers `data` needs.
+fn open(ipc: &Ipc, data: &DataSet) -> Result<Outputs, IpcError> {
     let has_truth = !(data.truth.is_empty() && data.landmarks.is_empty());
-    let out = Outputs {
+    Ok(Outputs {
         truth: match has_truth {
             true => Some(Truth {
                 poses: ipc.publisher(&topics::GROUND_TRUTH)?.kept_for_client(ipc)?,
@@ -120,7 +145,18 @@ pub fn play(ipc: &Ipc, data: &DataSet, pacing: Pacing, consumers: usize) -> Resu
         eos: ipc
             .publisher(&topics::END_OF_STREAM)?
             .kept_for_client(ipc)?,
-    };
+    })
+}
+
+/// Waits for `consumers` and publishes `data` on `out` with `pacing`, then the
+/// end-of-stream messages.
+fn publish(
+    ipc: &Ipc,
+    out: &Outputs,
+    data: &DataSet,
+    pacing: Pacing,
+    consumers: usize,
+) -> Result<(), IpcError> {
     out.odometry.wait_for_subscribers(ipc, consumers)?;
     match &out.laser {
         Laser::Observations(p) => p.wait_for_subscribers(ipc, consumers)?,
@@ -177,7 +213,7 @@ pub fn play(ipc: &Ipc, data: &DataSet, pacing: Pacing, consumers: usize) -> Resu
     }
     let last_ns = order.last().map_or(0, |(stamp, _)| *stamp);
     send_map(last_ns, 1)?;
-    let laser = match out.laser {
+    let laser = match &out.laser {
         Laser::Observations(_) => (
             StreamId::Observations,
             data.scans.last().map(|s| s.header.header),

@@ -7,6 +7,7 @@
 //! scans only, and the run is scored without truth (or on a relations file).
 
 use crate::dataset::DataSet;
+use crate::laser_odometry::{self, OdometryChoice};
 use crate::rosbag::TopicChoice;
 use crate::text::{DataError, Result};
 use std::path::PathBuf;
@@ -19,13 +20,16 @@ pub enum Recording {
     Rosbag {
         /// The bag.
         path: PathBuf,
-        /// Scan and odometry topics, odometry frames (`None`: chosen from the bag).
+        /// Scan and odometry topics, odometry frames (`None`: chosen from the bag), and
+        /// where the odometry comes from.
         topics: TopicChoice,
     },
     /// A CARMEN log (`.clf` / `.log`, gzipped or not).
     Carmen {
         /// The log file.
         path: PathBuf,
+        /// Where the odometry comes from.
+        odometry: OdometryChoice,
     },
 }
 
@@ -41,12 +45,33 @@ pub struct Loaded {
 }
 
 impl Recording {
-    /// Reads the recording.
+    /// Reads the recording, with the odometry made from its scans where
+    /// [`OdometryChoice::Laser`] asks for it ([`Recording::read`], then
+    /// [`Recording::finish`]).
+    ///
+    /// # Errors
+    /// As [`Recording::read`].
+    pub fn load(&self) -> Result<Loaded> {
+        let mut loaded = self.read()?;
+        self.finish(&mut loaded);
+        Ok(loaded)
+    }
+
+    /// Makes the odometry from the scans where [`OdometryChoice::Laser`] asks for it
+    /// (slow: every scan is matched), saying so in the summary; does nothing otherwise.
+    pub fn finish(&self, loaded: &mut Loaded) {
+        if self.odometry() == OdometryChoice::Laser {
+            self.odometry_from_laser(loaded);
+        }
+    }
+
+    /// Reads the recording; with [`OdometryChoice::Laser`] its data set has no odometry
+    /// yet ([`Recording::finish`] makes it).
     ///
     /// # Errors
     /// The reader's [`DataError`]: a missing, truncated or malformed file (named, with
     /// the line or the topic and message index), no scan topic, ambiguous topics.
-    pub fn load(&self) -> Result<Loaded> {
+    pub fn read(&self) -> Result<Loaded> {
         let mut loaded = match self {
             Self::Rosbag { path, topics } => {
                 let bag = crate::rosbag::load(path, topics)?;
@@ -56,7 +81,7 @@ impl Recording {
                     data: bag.data,
                 }
             }
-            Self::Carmen { path } => {
+            Self::Carmen { path, .. } => {
                 let log = crate::carmen::load(path)?;
                 Loaded {
                     summary: log.to_string(),
@@ -71,7 +96,9 @@ impl Recording {
                 self.path().display()
             )));
         }
-        if let Some(still) = still_odometry(&loaded.data) {
+        if self.odometry() == OdometryChoice::Recorded
+            && let Some(still) = still_odometry(&loaded.data)
+        {
             loaded
                 .warnings
                 .push(format!("{}: {still}", self.path().display()));
@@ -82,7 +109,38 @@ impl Recording {
     /// The file or folder read.
     pub fn path(&self) -> &std::path::Path {
         match self {
-            Self::Rosbag { path, .. } | Self::Carmen { path } => path,
+            Self::Rosbag { path, .. } | Self::Carmen { path, .. } => path,
+        }
+    }
+
+    /// Where the odometry comes from.
+    pub fn odometry(&self) -> OdometryChoice {
+        match self {
+            Self::Rosbag { topics, .. } => topics.odometry,
+            Self::Carmen { odometry, .. } => *odometry,
+        }
+    }
+
+    /// Replaces `loaded`'s odometry with the laser's, saying so in its summary, and warns
+    /// when many scans did not match.
+    fn odometry_from_laser(&self, loaded: &mut Loaded) {
+        let (odometry, counts) =
+            laser_odometry::from_scans(&loaded.data, usable_range(&loaded.data));
+        loaded.data.odometry = odometry;
+        loaded.summary += &format!(
+            " · odometry from the laser: {} of {} scans matched, {} in the local map",
+            counts.matched, counts.scans, counts.inserted
+        );
+        // Every scan after the first should match; a few misses are rounding.
+        let missed = counts.scans.saturating_sub(counts.matched + 1);
+        if missed * 20 > counts.scans {
+            loaded.warnings.push(format!(
+                "{}: odometry from the laser: {missed} of {} scans matched nothing in their \
+                 window and kept the pose predicted at constant velocity (the robot moved \
+                 faster than the window between two scans, or saw too little structure)",
+                self.path().display(),
+                counts.scans
+            ));
         }
     }
 }
@@ -110,7 +168,7 @@ fn still_odometry(data: &DataSet) -> Option<String> {
              the scans go on for {seconds:.0} s): grid FastSLAM maps a scan once the odometry \
              has moved, so the map will hold the first scan alone; replay the recording with \
              the robot's odometry (an Odometry topic, or tf from the odometry frame to the \
-             base)",
+             base), or with --odometry laser to make it from the scans",
             data.odometry.len(),
             STILL_ODOMETRY.0,
             STILL_ODOMETRY.1
@@ -145,26 +203,16 @@ pub const SPACING_CELLS: f64 = 10.0;
 /// # Errors
 /// [`DataError::Unusable`] when the data set has no scan.
 pub fn planar_laser_settings(data: &DataSet) -> Result<toml::Table> {
-    let Some(first) = data.raw_scans.first() else {
+    if data.raw_scans.is_empty() {
         return Err(DataError::Unusable(
             "no laser scan to derive settings from".into(),
         ));
-    };
+    }
     let beams = (data.raw_scans.iter())
         .map(|s| s.items.len())
         .max()
         .unwrap_or(0);
-    let increment = f64::from(first.header.angle_increment.abs()).max(1e-6);
-    let range_max = (data.raw_scans.iter())
-        .map(|s| f64::from(s.header.range_max))
-        .filter(|r| r.is_finite() && *r > 0.0)
-        .fold(0.0, f64::max);
-    let spacing_limit = SPACING_CELLS * GRID_RESOLUTION_M / increment;
-    let max_range = if range_max > 0.0 {
-        range_max.min(spacing_limit)
-    } else {
-        spacing_limit
-    };
+    let max_range = usable_range(data);
     let stride = (beams / MATCH_POINTS).max(1) as i64;
     let round = |v: f64| (v * 1000.0).round() / 1000.0;
     let m = data.laser_mount;
@@ -177,6 +225,25 @@ pub fn planar_laser_settings(data: &DataSet) -> Result<toml::Table> {
         m.theta
     );
     toml::from_str(&text).map_err(|e| DataError::Unusable(format!("derived settings: {e}")))
+}
+
+/// How far a beam of `data`'s laser is used (m): the shorter of the sensor's `range_max`
+/// and the range at which neighbouring beams' ends lie [`SPACING_CELLS`] cells apart
+/// (the latter alone when no scan states a finite `range_max`).
+fn usable_range(data: &DataSet) -> f64 {
+    let increment = (data.raw_scans.first()).map_or(1e-6, |s| {
+        f64::from(s.header.angle_increment.abs()).max(1e-6)
+    });
+    let range_max = (data.raw_scans.iter())
+        .map(|s| f64::from(s.header.range_max))
+        .filter(|r| r.is_finite() && *r > 0.0)
+        .fold(0.0, f64::max);
+    let spacing_limit = SPACING_CELLS * GRID_RESOLUTION_M / increment;
+    if range_max > 0.0 {
+        range_max.min(spacing_limit)
+    } else {
+        spacing_limit
+    }
 }
 
 /// Merges `overlay` into `base`, key by key (tables recursively; `overlay` wins).

@@ -130,7 +130,8 @@ pub fn replay(data_set: DataSet) -> anyhow::Result<u8> {
              times are on the recording's own clock"
         );
     }
-    let loaded = plan.recording.as_ref().map(Recording::load).transpose()?;
+    // The odometry made from the scans (`--odometry laser`) is left to the replay process.
+    let loaded = plan.recording.as_ref().map(Recording::read).transpose()?;
     if let Some(loaded) = &loaded {
         for warning in &loaded.warnings {
             eprintln!("warning: {warning}");

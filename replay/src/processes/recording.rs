@@ -4,6 +4,7 @@
 
 use crate::args::ReplayArgs;
 use crate::dataset::Association;
+use crate::laser_odometry::OdometryChoice;
 use crate::player;
 use crate::recording::Recording;
 use crate::registry::{self, DataSetKind, Plan, Process};
@@ -46,6 +47,31 @@ pub struct TopicArgs {
     /// measured from (default: the odometry's child frame, else `base_link`).
     #[arg(long)]
     pub base_frame: Option<String>,
+    /// Where the odometry comes from: the bag's own, or the laser (each scan matched
+    /// against the scans before it; the bag's odometry is not read).
+    #[command(flatten)]
+    pub odometry: OdometryArgs,
+}
+
+/// Where the odometry comes from, for a bag and a log alike.
+#[derive(Debug, Clone, Copy, Default, clap::Args)]
+pub struct OdometryArgs {
+    /// Where the odometry comes from: `recorded` (the recording's own: an Odometry topic or
+    /// tf, a log's ODOM lines) or `laser` (each scan matched against the local map of the
+    /// scans before it, for a recording without wheel odometry or with odometry not to be
+    /// trusted; the recording's own is then not read).
+    #[arg(long, value_enum, default_value_t = OdometryChoice::Recorded)]
+    pub odometry: OdometryChoice,
+}
+
+impl OdometryArgs {
+    /// The flags that give this choice to a replay process.
+    pub fn flags(&self) -> Vec<String> {
+        match self.odometry {
+            OdometryChoice::Recorded => Vec::new(),
+            OdometryChoice::Laser => vec!["--odometry".into(), "laser".into()],
+        }
+    }
 }
 
 impl TopicArgs {
@@ -56,6 +82,7 @@ impl TopicArgs {
             odom_topic: self.odom_topic.clone(),
             odom_frame: self.odom_frame.clone(),
             base_frame: self.base_frame.clone(),
+            odometry: self.odometry.odometry,
         }
     }
 
@@ -70,6 +97,7 @@ impl TopicArgs {
         .into_iter()
         .filter_map(|(flag, value)| value.as_ref().map(|v| [flag.to_string(), v.clone()]))
         .flatten()
+        .chain(self.odometry.flags())
         .collect()
     }
 }
@@ -102,7 +130,10 @@ fn recording(source: &Source, topics: &TopicArgs) -> Recording {
             path: path.clone(),
             topics: topics.choice(),
         },
-        (None, Some(path)) => Recording::Carmen { path: path.clone() },
+        (None, Some(path)) => Recording::Carmen {
+            path: path.clone(),
+            odometry: topics.odometry.odometry,
+        },
         (None, None) => unreachable!("clap requires one of --rosbag and --carmen"),
     }
 }
@@ -113,13 +144,26 @@ fn recording(source: &Source, topics: &TopicArgs) -> Recording {
 /// Data or IPC errors, with their reason.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let pacing = args.replay.pacing();
-    let loaded = args.recording().load()?;
-    tracing::info!("{}", loaded.summary);
-    for warning in &loaded.warnings {
-        tracing::warn!("{warning}");
-    }
+    let recording = args.recording();
+    let mut loaded = recording.read()?;
     let ipc = args.replay.join(PROCESS.name)?;
-    player::play(&ipc, &loaded.data, pacing, args.replay.wait_subscribers)?;
+    let mut data = std::mem::take(&mut loaded.data);
+    let finish = |data: &mut crate::dataset::DataSet| {
+        loaded.data = std::mem::take(data);
+        recording.finish(&mut loaded);
+        tracing::info!("{}", loaded.summary);
+        for warning in &loaded.warnings {
+            tracing::warn!("{warning}");
+        }
+        *data = std::mem::take(&mut loaded.data);
+    };
+    player::play_after(
+        &ipc,
+        &mut data,
+        finish,
+        pacing,
+        args.replay.wait_subscribers,
+    )?;
     Ok(())
 }
 
@@ -188,6 +232,9 @@ impl RosbagFlags {
 struct CarmenFlags {
     /// The log file.
     file: PathBuf,
+    /// Where the odometry comes from.
+    #[command(flatten)]
+    odometry: OdometryArgs,
 }
 
 impl CarmenFlags {
@@ -196,8 +243,15 @@ impl CarmenFlags {
         Ok(Plan {
             label: registry::stem(&self.file),
             association: Association::Unknown,
-            flags: vec!["--carmen".into(), registry::canonical(&self.file)?],
-            recording: Some(Recording::Carmen { path: self.file }),
+            flags: [
+                vec!["--carmen".into(), registry::canonical(&self.file)?],
+                self.odometry.flags(),
+            ]
+            .concat(),
+            recording: Some(Recording::Carmen {
+                path: self.file,
+                odometry: self.odometry.odometry,
+            }),
         })
     }
 }

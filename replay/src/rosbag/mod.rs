@@ -38,6 +38,7 @@
 //! early is read up to where it is whole, with a warning (`mcap_storage`,
 //! `ros1_storage`).
 
+mod bag;
 pub mod cdr;
 pub mod frames;
 mod mcap_storage;
@@ -49,13 +50,15 @@ pub mod streams;
 mod tests;
 
 use crate::dataset::{Clock, DataSet, RawScan};
+use crate::laser_odometry::OdometryChoice;
 use crate::text::{DataError, Result, Skipped};
+pub use bag::{Bag, OdometrySource, TopicCount};
 use cdr::Serialization;
 use fastslam_estimation::Pose2;
 use fastslam_protocol::{Header, Odometry};
 use frames::{TfTree, Transform};
 use std::collections::BTreeSet;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use storage::{Contents, RawMessage, Topic};
 pub use streams::StampRepairs;
 
@@ -87,132 +90,25 @@ pub struct TopicChoice {
     /// The robot's frame: whose pose the odometry is and where the laser mounting is
     /// measured from (`--base-frame`).
     pub base_frame: Option<String>,
-}
-
-/// Where the odometry came from.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum OdometrySource {
-    /// A `nav_msgs/msg/Odometry` topic.
-    Topic(String),
-    /// The transform between two frames on `/tf`.
-    Tf {
-        /// The odometry frame.
-        odom_frame: String,
-        /// The base frame.
-        base_frame: String,
-    },
-}
-
-impl std::fmt::Display for OdometrySource {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Self::Topic(topic) => write!(f, "{topic}"),
-            Self::Tf {
-                odom_frame,
-                base_frame,
-            } => write!(f, "tf {odom_frame}→{base_frame}"),
-        }
-    }
-}
-
-/// A topic and its message count.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct TopicCount {
-    /// The topic name.
-    pub name: String,
-    /// Its message type.
-    pub type_name: String,
-    /// Its messages in the bag.
-    pub count: usize,
-}
-
-/// A bag read into a data set, with what a caller reports about it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Bag {
-    /// The messages to publish.
-    pub data: DataSet,
-    /// The storage files read, in order.
-    pub files: Vec<PathBuf>,
-    /// The scan topic used.
-    pub scan_topic: String,
-    /// Where the odometry came from.
-    pub odometry: OdometrySource,
-    /// The scans' frame (`header.frame_id`).
-    pub laser_frame: String,
-    /// The robot's base frame.
-    pub base_frame: String,
-    /// Whether the mounting came from tf (else it is the identity).
-    pub mount_from_tf: bool,
-    /// The topics not read, with their types and counts.
-    pub skipped: Vec<TopicCount>,
-    /// How the scans' stamps were put in order.
-    pub scan_stamps: StampRepairs,
-    /// How the odometry's stamps were put in order.
-    pub odometry_stamps: StampRepairs,
-    /// Things a user should know (no mounting found, a file without summary…).
-    pub warnings: Vec<String>,
-}
-
-impl Bag {
-    /// One line saying what was read.
-    pub fn summary(&self) -> String {
-        let m = self.data.laser_mount;
-        let mount = if self.mount_from_tf {
-            format!(
-                "mounted at x {:.3} m, y {:.3} m, yaw {:.2}° in {}",
-                m.x,
-                m.y,
-                m.theta.to_degrees(),
-                self.base_frame
-            )
-        } else {
-            format!("mount not in tf: at {}'s origin", self.base_frame)
-        };
-        let skipped = if self.skipped.is_empty() {
-            "none".to_string()
-        } else {
-            (self.skipped.iter())
-                .map(|t| format!("{} ({}, {})", t.name, t.type_name, t.count))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
-        let mut line = format!(
-            "{} scans from {} (frame {}, {mount}) · {} odometry from {} · epoch {:.6} s · \
-             skipped: {skipped}",
-            self.data.raw_scans.len(),
-            self.scan_topic,
-            self.laser_frame,
-            self.data.odometry.len(),
-            self.odometry,
-            self.data.epoch_s,
-        );
-        for (stream, repairs) in [
-            ("scan", self.scan_stamps),
-            ("odometry", self.odometry_stamps),
-        ] {
-            if !repairs.is_clean() {
-                line += &format!(" · {stream} stamps: {repairs}");
-            }
-        }
-        if !self.warnings.is_empty() {
-            line += &format!(" · {} warning(s)", self.warnings.len());
-        }
-        line
-    }
+    /// Whether the bag's odometry is read (`--odometry`).
+    pub odometry: OdometryChoice,
 }
 
 /// Reads the bag at `path` (a rosbag2 folder, one `.mcap` / `.db3` file or a ROS 1 `.bag`
 /// file) with the topics and frames of `topics` (see the module doc); a message that does
-/// not decode is skipped with a warning.
+/// not decode is skipped with a warning. With `topics.odometry` [`OdometryChoice::Laser`]
+/// the bag's odometry is not read (the data set has none; the base frame is
+/// `topics.base_frame`, else `base_link`).
 ///
 /// # Errors
 /// [`DataError`] naming the file: a missing, unknown, truncated or corrupt storage file;
 /// no scan topic, no odometry, or several candidates without a choice
 /// ([`DataError::Unusable`], listing them and the flag that picks one).
 pub fn load(path: &Path, topics: &TopicChoice) -> Result<Bag> {
+    let recorded_odometry = topics.odometry == OdometryChoice::Recorded;
     let keep = |name: &str, type_name: &str| {
         type_name == LASER_SCAN
-            || type_name == ODOMETRY
+            || (recorded_odometry && type_name == ODOMETRY)
             || (type_name == TF_MESSAGE && (name == TF_TOPIC || name == TF_STATIC_TOPIC))
     };
     let contents = storage::read(path, &keep)?;
@@ -282,8 +178,10 @@ impl<'a> Reader<'a> {
 
     /// [`Reader::build`]'s work.
     fn assemble(&mut self, choice: &TopicChoice) -> Result<Bag> {
+        let recorded_odometry = choice.odometry == OdometryChoice::Recorded;
         let scan_topic = self.choose(LASER_SCAN, choice.scan_topic.as_deref(), "--scan-topic")?;
         let odom_topic = match choice.odom_topic.as_deref() {
+            _ if !recorded_odometry => None,
             Some(TF_TOPIC) => None,
             wanted => {
                 let none_is_fine = wanted.is_none() && self.candidates(ODOMETRY).is_empty();
@@ -308,8 +206,12 @@ impl<'a> Reader<'a> {
             ));
         }
         let mut full_tf = None;
-        let (odometry_source, base_frame, samples) =
-            self.odometry(choice, odom_topic, &mut full_tf)?;
+        let (odometry_source, base_frame, samples) = if recorded_odometry {
+            self.odometry(choice, odom_topic, &mut full_tf)?
+        } else {
+            let base = (choice.base_frame.clone()).unwrap_or_else(|| "base_link".into());
+            (OdometrySource::Laser, base, Samples::new())
+        };
         let first_scan_ns = scans.iter().map(|(t, _, _)| *t).min().unwrap_or(0);
         let mount = self.find_mount(&base_frame, &laser_frame, first_scan_ns, full_tf)?;
         let (mount_pose, mirrored) = self.mount(mount, &base_frame, &laser_frame);
@@ -317,21 +219,30 @@ impl<'a> Reader<'a> {
         let (raw_scans, scan_stamps) = streams::order(raw_scans, same_scan);
         let (samples, odometry_stamps) = streams::order(samples, |a, b| a == b);
         let path = self.path.display();
-        let (Some(first_scan), Some(first_sample)) = (raw_scans.first(), samples.first()) else {
+        // Without the recorded odometry the scans alone set the epoch.
+        let first_sample_ns = match samples.first() {
+            Some((t, _)) => Some(*t),
+            None if !recorded_odometry => raw_scans.first().map(|(t, _)| *t),
+            None => None,
+        };
+        let (Some(first_scan), Some(first_sample_ns)) = (raw_scans.first(), first_sample_ns) else {
             let what = if raw_scans.is_empty() {
                 format!(
                     "no scan with beams on {}",
                     self.contents.topics[scan_topic].name
                 )
             } else {
-                format!("no odometry from {odometry_source}")
+                format!(
+                    "no odometry from {odometry_source} (without wheel odometry, --odometry \
+                     laser makes it from the scans)"
+                )
             };
             return Err(DataError::Unusable(format!("{path}: {what}")));
         };
         let rejected = self.rejected_messages();
         self.warnings
             .extend(rejected.map(|r| format!("{path}: {r}")));
-        let epoch_ns = first_scan.0.min(first_sample.0);
+        let epoch_ns = first_scan.0.min(first_sample_ns);
         let clock = Clock::starting_at([epoch_ns as f64 * 1e-9])?;
         let data = DataSet {
             odometry: (samples.iter().enumerate())
@@ -641,7 +552,8 @@ impl<'a> Reader<'a> {
         DataError::Unusable(format!(
             "{}: no odometry: no {ODOMETRY} topic, and no moving transform {odom}→{base} on \
              {TF_TOPIC} ({seen}); name the frames with --odom-frame and --base-frame, or a \
-             topic with --odom-topic",
+             topic with --odom-topic; without wheel odometry, --odometry laser makes it from \
+             the scans",
             self.path.display()
         ))
     }

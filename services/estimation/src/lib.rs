@@ -12,6 +12,7 @@ pub mod features;
 pub mod graph;
 pub mod grid;
 pub mod gridslam;
+pub mod laser_odometry;
 pub mod loop_closure;
 
 pub mod motion;

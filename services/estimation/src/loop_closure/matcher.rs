@@ -29,6 +29,20 @@ pub struct SearchWindow {
     pub angular: f64,
 }
 
+/// A Gaussian pull towards the initial pose, for matching where the scan may not fix every
+/// direction (a featureless corridor): a pose `Δ` from the initial one scores
+/// `cost · ((|Δt| / sigma_linear)² + (Δθ / sigma_angular)²)` less, as a fraction of a
+/// full score (every point on a cell of probability 1).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MatchPrior {
+    /// The translation one unit of `cost` stands for (m).
+    pub sigma_linear: f64,
+    /// The rotation one unit of `cost` stands for (rad).
+    pub sigma_angular: f64,
+    /// The share of a full score one σ² costs.
+    pub cost: f64,
+}
+
 /// The outcome of a match.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ScanMatch {
@@ -66,10 +80,20 @@ struct Lattice {
     /// Translations within `±reach` cells each way.
     reach: i32,
     angular_step: f64,
+    /// The prior's cost (summed-score units) per squared cell of translation and per
+    /// squared heading step; zero without a prior.
+    cost_per_cell: f64,
+    cost_per_step: f64,
 }
 
 impl Lattice {
-    fn new(grid: &MatchGrid, points: &[[f64; 2]], initial: &Pose2, window: &SearchWindow) -> Self {
+    fn new(
+        grid: &MatchGrid,
+        points: &[[f64; 2]],
+        initial: &Pose2,
+        window: &SearchWindow,
+        prior: Option<&MatchPrior>,
+    ) -> Self {
         let p = grid.probabilities();
         let resolution = p.resolution();
         let farthest = points
@@ -100,6 +124,13 @@ impl Lattice {
                 Cast::new(cells)
             })
             .collect();
+        let full = f64::from(FULL) * points.len() as f64;
+        let (cost_per_cell, cost_per_step) = prior.map_or((0.0, 0.0), |p| {
+            (
+                full * p.cost * (resolution / p.sigma_linear).powi(2),
+                full * p.cost * (angular_step / p.sigma_angular).powi(2),
+            )
+        });
         Self {
             initial: *initial,
             resolution,
@@ -107,15 +138,25 @@ impl Lattice {
             cells,
             reach: (window.linear / resolution).ceil() as i32,
             angular_step,
+            cost_per_cell,
+            cost_per_step,
         }
     }
 
+    /// The node's score at `level` (a bound of the `2^level` translations from `dx`, `dy`
+    /// each way): the summed cells less the prior's cost at the node's translation nearest
+    /// the initial one.
     fn score(&self, grid: &MatchGrid, level: usize, angle: usize, dx: i32, dy: i32) -> Candidate {
+        let sum = grid.sum(level, &self.cells[angle], (dx, dy));
+        let nearest = |d: i32| f64::from(0.clamp(d, d + (1 << level) - 1));
+        let steps = angle as f64 - (self.headings.len() / 2) as f64;
+        let cost = self.cost_per_cell * (nearest(dx).powi(2) + nearest(dy).powi(2))
+            + self.cost_per_step * steps * steps;
         Candidate {
             angle,
             dx,
             dy,
-            score: grid.sum(level, &self.cells[angle], (dx, dy)),
+            score: sum.saturating_sub(cost.round() as u32),
         }
     }
 
@@ -181,10 +222,24 @@ impl MatchGrid {
         window: &SearchWindow,
         min_score: f64,
     ) -> Option<ScanMatch> {
+        self.match_scan_near(points, initial, window, min_score, None)
+    }
+
+    /// [`match_scan`](Self::match_scan) with every pose's score less `prior`'s cost of
+    /// its distance from `initial` (none without a prior); `score` is then the scored
+    /// pose's, cost included. With a prior, `initial` wins ties.
+    pub fn match_scan_near(
+        &self,
+        points: &[[f64; 2]],
+        initial: &Pose2,
+        window: &SearchWindow,
+        min_score: f64,
+        prior: Option<&MatchPrior>,
+    ) -> Option<ScanMatch> {
         if points.is_empty() {
             return None;
         }
-        let lattice = Lattice::new(self, points, initial, window);
+        let lattice = Lattice::new(self, points, initial, window, prior);
         let top = self.depth() - 1;
         let block = 1i32 << top;
         let reach = lattice.reach;
@@ -197,7 +252,11 @@ impl MatchGrid {
             }
         }
         let threshold = lattice.threshold(points.len(), min_score);
-        let mut best = None;
+        // With a prior the initial pose is the first to beat: a candidate must score
+        // higher, which cuts most of the window early and keeps the initial pose on ties.
+        let mut best = prior
+            .map(|_| lattice.score(self, 0, lattice.headings.len() / 2, 0, 0))
+            .filter(|c| c.score >= threshold);
         self.branch(&lattice, roots, top, threshold, &mut best);
         let best = best?;
         let coarse = lattice.pose(&best);
@@ -263,7 +322,7 @@ impl MatchGrid {
         if points.is_empty() {
             return None;
         }
-        let lattice = Lattice::new(self, points, initial, window);
+        let lattice = Lattice::new(self, points, initial, window, None);
         let reach = lattice.reach;
         let mut best: Option<Candidate> = None;
         for angle in 0..lattice.headings.len() {

@@ -62,7 +62,7 @@ pub use mapper::{
     Finished, Keyframe, KeyframeReport, LoopClosure, Odometry, OdometryFit, OdometryWeight,
     PoseGraphMapper, Solution,
 };
-pub use matcher::{ScanMatch, SearchWindow};
+pub use matcher::{MatchPrior, ScanMatch, SearchWindow};
 pub use probability::{FULL, ProbabilityGrid};
 pub use pyramid::MatchGrid;
 pub use robust::{LoopEdge, WEIGHT_TOLERANCE};

@@ -123,6 +123,25 @@ impl ProbabilityGrid {
         }
     }
 
+    /// The grid over `width × height` cells of side `resolution` from `origin` with the
+    /// values `cells` (row-major from the lower left; `width · height` of them).
+    pub(crate) fn from_cells(
+        resolution: f64,
+        origin: [f64; 2],
+        width: usize,
+        height: usize,
+        cells: Vec<u8>,
+    ) -> Self {
+        debug_assert_eq!(cells.len(), width * height);
+        Self {
+            resolution,
+            origin,
+            width,
+            height,
+            cells,
+        }
+    }
+
     /// Side of a cell (m).
     pub fn resolution(&self) -> f64 {
         self.resolution

@@ -27,3 +27,60 @@ pub fn cast(world: &[Segment], x: f64, y: f64, a: f64) -> f64 {
         })
         .fold(f64::INFINITY, f64::min)
 }
+
+/// The four sides of an axis-aligned box `[x1, y1, x2, y2]`.
+pub fn rectangle(b: [f64; 4]) -> [Segment; 4] {
+    [
+        [b[0], b[1], b[2], b[1]],
+        [b[2], b[1], b[2], b[3]],
+        [b[2], b[3], b[0], b[3]],
+        [b[0], b[3], b[0], b[1]],
+    ]
+}
+
+/// A square ring corridor 2 m wide around the path (0,0) → (10,0) → (10,10) → (0,10),
+/// with 0.3 m boxes against its walls at uneven places so that no stretch is featureless.
+pub fn corridor_world() -> Vec<Segment> {
+    let mut world = Vec::new();
+    world.extend(rectangle([-1.0, -1.0, 11.0, 11.0]));
+    world.extend(rectangle([1.0, 1.0, 9.0, 9.0]));
+    // (position along the side, outer wall?) per side; sides run counter-clockwise.
+    let boxes: [&[(f64, bool)]; 4] = [
+        &[
+            (1.3, true),
+            (2.7, false),
+            (4.1, true),
+            (6.2, false),
+            (8.6, true),
+        ],
+        &[(1.8, false), (3.2, true), (5.9, true), (7.4, false)],
+        &[(2.2, true), (4.6, false), (6.9, true), (8.1, false)],
+        &[(1.6, true), (3.9, false), (5.3, true), (7.7, true)],
+    ];
+    let s = 0.3;
+    for (side, list) in boxes.iter().enumerate() {
+        for &(along, outer) in *list {
+            // In the side's frame: x along the side, y towards the outer wall is negative.
+            let (y0, y1) = if outer {
+                (-1.0, -1.0 + s)
+            } else {
+                (1.0 - s, 1.0)
+            };
+            let corners = [(along, y0), (along + s, y1)];
+            let map = |(u, v): (f64, f64)| match side {
+                0 => (u, v),
+                1 => (10.0 - v, u),
+                2 => (10.0 - u, 10.0 - v),
+                _ => (v, 10.0 - u),
+            };
+            let (a, b) = (map(corners[0]), map(corners[1]));
+            world.extend(rectangle([
+                a.0.min(b.0),
+                a.1.min(b.1),
+                a.0.max(b.0),
+                a.1.max(b.1),
+            ]));
+        }
+    }
+    world
+}
