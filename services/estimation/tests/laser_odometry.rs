@@ -3,17 +3,12 @@
 
 mod common;
 
-use common::{Segment, cast, corridor_world};
+use common::{BEAMS, Segment, beam_angle, corridor_world, scan};
 use fastslam_estimation::Pose2;
 use fastslam_estimation::laser_odometry::{LaserOdometry, LaserOdometryConfig};
-use fastslam_estimation::rng::seeded;
 use fastslam_estimation::scan::RangeScan;
 use fastslam_estimation::wrap_angle;
-use rand::RngExt;
-use rand_distr::StandardNormal;
 
-/// Beams per scan over a full turn, as a 1° laser.
-const BEAMS: usize = 360;
 /// Scans per second.
 const RATE: f64 = 10.0;
 
@@ -39,37 +34,22 @@ fn lap(speed: f64, turn_rate: f64) -> Vec<Pose2> {
     path
 }
 
-/// The ranges a laser at `mount` on a base at `pose` in `world` measures, with 1 cm of
-/// noise.
-fn ranges(world: &[Segment], pose: &Pose2, mount: &Pose2, seed: u64) -> Vec<f32> {
-    let laser = pose.compose(mount);
-    let mut rng = seeded(seed);
-    (0..BEAMS)
-        .map(|i| {
-            let a = laser.theta + beam_angle(i);
-            let r = cast(world, laser.x, laser.y, a);
-            (r + 0.01 * rng.sample::<f64, _>(StandardNormal)) as f32
-        })
-        .collect()
-}
-
-fn beam_angle(i: usize) -> f64 {
-    -std::f64::consts::PI + i as f64 * std::f64::consts::TAU / BEAMS as f64
-}
-
-/// Each scan's pose by the laser odometry, for the base driven along `path` in `world`,
-/// scan `k` at `k / RATE` seconds, and how many scans matched.
+/// Each scan's pose by the laser odometry, for the base driven along `path` round the
+/// ring corridor, scan `k` at `k / RATE` seconds, and how many scans matched.
 fn track(path: &[Pose2], mount: &Pose2) -> (Vec<Pose2>, usize) {
     let scans: Vec<(usize, Pose2)> = path.iter().copied().enumerate().collect();
     track_in(&corridor_world(), &scans, mount)
 }
 
-/// [`track`] of the scans `(k, pose)` in `world`.
+/// [`track`] of the scans `(k, pose)` in `world`, each with 1 cm of range noise.
 fn track_in(world: &[Segment], scans: &[(usize, Pose2)], mount: &Pose2) -> (Vec<Pose2>, usize) {
     let mut odometry = LaserOdometry::new(LaserOdometryConfig::default(), *mount);
     let poses = (scans.iter())
         .map(|&(k, ref pose)| {
-            let ranges = ranges(world, pose, mount, k as u64);
+            let ranges: Vec<f32> = scan(world, &pose.compose(mount), 0.01, k as u64)
+                .into_iter()
+                .map(|r| r as f32)
+                .collect();
             let scan = RangeScan {
                 angle_min: beam_angle(0),
                 angle_increment: std::f64::consts::TAU / BEAMS as f64,

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{Segment, cast, corridor_world};
+use common::{Segment, beam_angle, corridor_world, scan};
 use fastslam_estimation::Pose2;
 use fastslam_estimation::grid::{GridConfig, KeptBeam, LogOddsGrid, OccupancyGrid};
 use fastslam_estimation::loop_closure::{
@@ -17,26 +17,8 @@ use rand::RngExt;
 use rand_distr::StandardNormal;
 use std::time::Instant;
 
-/// Beams per scan, over a full turn.
-const BEAMS: usize = 360;
 /// The simulated laser's range (m).
 const MAX_RANGE: f64 = 12.0;
-
-/// A scan from `pose` in `world`: ranges with `noise` (m, 1σ) drawn from `seed`.
-fn scan(world: &[Segment], pose: &Pose2, noise: f64, seed: u64) -> Vec<f64> {
-    let mut rng = seeded(seed);
-    (0..BEAMS)
-        .map(|i| {
-            let a = pose.theta + beam_angle(i);
-            let r = cast(world, pose.x, pose.y, a);
-            r + noise * rng.sample::<f64, _>(StandardNormal)
-        })
-        .collect()
-}
-
-fn beam_angle(i: usize) -> f64 {
-    -std::f64::consts::PI + i as f64 * std::f64::consts::TAU / BEAMS as f64
-}
 
 /// Beams (returns within `MAX_RANGE`, the rest as free beams of that length) and every
 /// second return as a point, sensor = base.

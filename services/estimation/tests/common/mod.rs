@@ -1,12 +1,39 @@
 //! What the estimation crate's integration tests share: a ray cast against wall segments
-//! for their simulated lasers, and a simulated run for the FastSLAM behaviour tests.
+//! and the full-turn laser that scans them, a ring corridor to drive round, and a
+//! simulated run for the FastSLAM behaviour tests.
 
 #![allow(dead_code)] // each test binary uses a different subset
 
 pub mod bailey;
 
+use fastslam_estimation::Pose2;
+use fastslam_estimation::rng::seeded;
+use rand::RngExt;
+use rand_distr::StandardNormal;
+
 /// A wall from `(x1, y1)` to `(x2, y2)`: `[x1, y1, x2, y2]` (m).
 pub type Segment = [f64; 4];
+
+/// Beams per scan of the simulated laser, evenly over a full turn (1° apart).
+pub const BEAMS: usize = 360;
+
+/// Direction of beam `i` of the simulated laser (rad, sensor frame), from −π.
+pub fn beam_angle(i: usize) -> f64 {
+    -std::f64::consts::PI + i as f64 * std::f64::consts::TAU / BEAMS as f64
+}
+
+/// A scan of the simulated laser at `pose` in `world`: ranges with `noise` (m, 1σ)
+/// drawn from `seed`.
+pub fn scan(world: &[Segment], pose: &Pose2, noise: f64, seed: u64) -> Vec<f64> {
+    let mut rng = seeded(seed);
+    (0..BEAMS)
+        .map(|i| {
+            let a = pose.theta + beam_angle(i);
+            let r = cast(world, pose.x, pose.y, a);
+            r + noise * rng.sample::<f64, _>(StandardNormal)
+        })
+        .collect()
+}
 
 /// Range along the ray from `(x, y)` at angle `a` to the nearest segment of `world`
 /// (∞ if none).
