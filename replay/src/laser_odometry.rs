@@ -41,7 +41,7 @@ pub fn from_scans(data: &DataSet, max_range: f64) -> (Vec<Odometry>, TrackingCou
             range_max: h.range_max.into(),
             ranges: h.ranges_of(&scan.items),
         };
-        let pose = tracker.track(stamp_ns as f64 * 1e-9, &range_scan).pose;
+        let pose = tracker.track(stamp_ns as f64 * 1e-9, &range_scan);
         let (v, omega) = odometry.last().map_or((0.0, 0.0), |last| {
             let dt = (stamp_ns.saturating_sub(last.header.stamp_ns)) as f64 * 1e-9;
             if dt <= 0.0 {

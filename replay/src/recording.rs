@@ -45,28 +45,34 @@ pub struct Loaded {
 }
 
 impl Recording {
-    /// Reads the recording, with the odometry made from its scans where
-    /// [`OdometryChoice::Laser`] asks for it ([`Recording::read`], then
-    /// [`Recording::finish`]).
-    ///
-    /// # Errors
-    /// As [`Recording::read`].
-    pub fn load(&self) -> Result<Loaded> {
-        let mut loaded = self.read()?;
-        self.finish(&mut loaded);
-        Ok(loaded)
-    }
-
-    /// Makes the odometry from the scans where [`OdometryChoice::Laser`] asks for it
-    /// (slow: every scan is matched), saying so in the summary; does nothing otherwise.
-    pub fn finish(&self, loaded: &mut Loaded) {
-        if self.odometry() == OdometryChoice::Laser {
-            self.odometry_from_laser(loaded);
+    /// Makes `data`'s odometry from its scans where [`OdometryChoice::Laser`] asks for it
+    /// (slow: every scan is matched), saying so at the end of `summary` and in `warnings`
+    /// when many scans did not match; does nothing otherwise.
+    pub fn finish(&self, data: &mut DataSet, summary: &mut String, warnings: &mut Vec<String>) {
+        if self.odometry() != OdometryChoice::Laser {
+            return;
+        }
+        let (odometry, counts) = laser_odometry::from_scans(data, usable_range(data));
+        data.odometry = odometry;
+        *summary += &format!(
+            " · odometry from the laser: {} of {} scans matched, {} in the local map",
+            counts.matched, counts.scans, counts.inserted
+        );
+        // Every scan after the first should match; a few misses are rounding.
+        let missed = counts.scans.saturating_sub(counts.matched + 1);
+        if missed * 20 > counts.scans {
+            warnings.push(format!(
+                "{}: odometry from the laser: {missed} of {} scans matched nothing in their \
+                 window and kept the pose predicted at constant velocity (the robot moved \
+                 faster than the window between two scans, or saw too little structure)",
+                self.path().display(),
+                counts.scans
+            ));
         }
     }
 
     /// Reads the recording; with [`OdometryChoice::Laser`] its data set has no odometry
-    /// yet ([`Recording::finish`] makes it).
+    /// yet ([`Recording::finish`] makes it, slowly, so the launcher only reads).
     ///
     /// # Errors
     /// The reader's [`DataError`]: a missing, truncated or malformed file (named, with
@@ -118,29 +124,6 @@ impl Recording {
         match self {
             Self::Rosbag { topics, .. } => topics.odometry,
             Self::Carmen { odometry, .. } => *odometry,
-        }
-    }
-
-    /// Replaces `loaded`'s odometry with the laser's, saying so in its summary, and warns
-    /// when many scans did not match.
-    fn odometry_from_laser(&self, loaded: &mut Loaded) {
-        let (odometry, counts) =
-            laser_odometry::from_scans(&loaded.data, usable_range(&loaded.data));
-        loaded.data.odometry = odometry;
-        loaded.summary += &format!(
-            " · odometry from the laser: {} of {} scans matched, {} in the local map",
-            counts.matched, counts.scans, counts.inserted
-        );
-        // Every scan after the first should match; a few misses are rounding.
-        let missed = counts.scans.saturating_sub(counts.matched + 1);
-        if missed * 20 > counts.scans {
-            loaded.warnings.push(format!(
-                "{}: odometry from the laser: {missed} of {} scans matched nothing in their \
-                 window and kept the pose predicted at constant velocity (the robot moved \
-                 faster than the window between two scans, or saw too little structure)",
-                self.path().display(),
-                counts.scans
-            ));
         }
     }
 }

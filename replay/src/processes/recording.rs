@@ -3,10 +3,10 @@
 //! rows of both formats in the [`crate::registry`].
 
 use crate::args::ReplayArgs;
-use crate::dataset::Association;
+use crate::dataset::{Association, DataSet};
 use crate::laser_odometry::OdometryChoice;
 use crate::player;
-use crate::recording::Recording;
+use crate::recording::{Loaded, Recording};
 use crate::registry::{self, DataSetKind, Plan, Process};
 use crate::rosbag::TopicChoice;
 use clap::FromArgMatches;
@@ -145,17 +145,18 @@ fn recording(source: &Source, topics: &TopicArgs) -> Recording {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let pacing = args.replay.pacing();
     let recording = args.recording();
-    let mut loaded = recording.read()?;
+    let Loaded {
+        mut data,
+        mut summary,
+        mut warnings,
+    } = recording.read()?;
     let ipc = args.replay.join(PROCESS.name)?;
-    let mut data = std::mem::take(&mut loaded.data);
-    let finish = |data: &mut crate::dataset::DataSet| {
-        loaded.data = std::mem::take(data);
-        recording.finish(&mut loaded);
-        tracing::info!("{}", loaded.summary);
-        for warning in &loaded.warnings {
+    let finish = |data: &mut DataSet| {
+        recording.finish(data, &mut summary, &mut warnings);
+        tracing::info!("{summary}");
+        for warning in &warnings {
             tracing::warn!("{warning}");
         }
-        *data = std::mem::take(&mut loaded.data);
     };
     player::play_after(
         &ipc,

@@ -98,16 +98,6 @@ impl Default for LaserOdometryConfig {
     }
 }
 
-/// What [`LaserOdometry::track`] made of one scan.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Tracked {
-    /// The base's pose in the odometry frame.
-    pub pose: Pose2,
-    /// The match's score, `None` when the scan kept the prediction (the first scan, no
-    /// point, or no pose in the window scoring `min_score`).
-    pub score: Option<f64>,
-}
-
 /// Scans tracked so far.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct TrackingCounts {
@@ -125,7 +115,7 @@ pub struct LaserOdometry {
     config: LaserOdometryConfig,
     /// The laser's pose on the base.
     mount: Pose2,
-    /// The reference scans' end points (odometry frame), oldest first.
+    /// The reference scans' surfaces (odometry frame), oldest first.
     reference: VecDeque<Vec<[f64; 2]>>,
     /// The reference rasterised, with its max-pooled levels.
     target: Option<MatchGrid>,
@@ -156,12 +146,14 @@ impl LaserOdometry {
         self.counts
     }
 
-    /// The pose of the base when `scan` was taken at `stamp_s` (s); scans come in stamp
-    /// order. The first scan is the odometry frame's origin.
-    pub fn track(&mut self, stamp_s: f64, scan: &RangeScan<'_>) -> Tracked {
+    /// The pose of the base when `scan` was taken at `stamp_s` (s), in the odometry frame;
+    /// scans come in stamp order. The first scan is the odometry frame's origin; a scan
+    /// with no pose scoring `min_score` in its window keeps the prediction (counted in
+    /// [`LaserOdometry::counts`]).
+    pub fn track(&mut self, stamp_s: f64, scan: &RangeScan<'_>) -> Pose2 {
         self.counts.scans += 1;
         let (predicted, periods) = self.predict(stamp_s);
-        let points = self.points(scan, self.config.max_points);
+        let points = self.points(scan);
         // After a gap in the scans the motion since is known that much less well.
         let widen = periods.max(1.0);
         let matched = (self.target.as_ref()).and_then(|grid| {
@@ -177,12 +169,12 @@ impl LaserOdometry {
             let min_score = self.config.min_score;
             grid.match_scan_near(&points, &predicted, &window, min_score, Some(&prior))
         });
-        let (pose, score) = match matched {
+        let pose = match matched {
             Some(m) => {
                 self.counts.matched += 1;
-                (m.pose, Some(m.score))
+                m.pose
             }
-            None => (predicted, None),
+            None => predicted,
         };
         self.recent.push_back((stamp_s, pose));
         while self.recent.len() > 2 && stamp_s - self.recent[1].0 >= self.config.velocity_window {
@@ -192,7 +184,7 @@ impl LaserOdometry {
             let surface = self.surface(scan);
             self.insert(&pose, &surface);
         }
-        Tracked { pose, score }
+        pose
     }
 
     /// The last pose moved on at the recent velocity to `stamp_s` (for at most two scan
@@ -234,38 +226,26 @@ impl LaserOdometry {
     }
 
     /// The end points of `scan`'s returns within half of `max_range`, in the base frame,
-    /// at most `most` of them: the reference holds surfaces out to `max_range`, so a
-    /// point matched is one the reference has seen, however far the scan moved on.
-    fn points(&self, scan: &RangeScan<'_>, most: usize) -> Vec<[f64; 2]> {
-        let stride = scan.len().div_ceil(most).max(1);
+    /// at most `max_points` of them: the reference holds surfaces out to `max_range`, so
+    /// a point matched is one the reference has seen, however far the scan moved on.
+    fn points(&self, scan: &RangeScan<'_>) -> Vec<[f64; 2]> {
+        let stride = scan.len().div_ceil(self.config.max_points).max(1);
         (0..scan.len())
             .step_by(stride)
-            .filter_map(|i| match scan.beam(i) {
-                Beam::Hit(r) if r <= 0.5 * self.config.max_range => {
-                    let a = scan.angle(i);
-                    Some(self.mount.transform_point([r * a.cos(), r * a.sin()]))
-                }
-                _ => None,
-            })
+            .filter_map(|i| self.end_point(scan, i, 0.5 * self.config.max_range))
             .collect()
     }
 
-    /// `scan`'s end points within `max_range` in the base frame, with points every half
-    /// cell between neighbouring beams' ends at most `max_gap` apart.
+    /// `scan`'s end points within `max_range` in the base frame, with points every eighth
+    /// of a cell between neighbouring beams' ends at most `max_gap` apart.
     fn surface(&self, scan: &RangeScan<'_>) -> Vec<[f64; 2]> {
         let step = self.config.resolution / 8.0;
         let mut out = Vec::with_capacity(scan.len());
         let mut previous: Option<[f64; 2]> = None;
         for i in 0..scan.len() {
-            let point = match scan.beam(i) {
-                Beam::Hit(r) if r <= self.config.max_range => {
-                    let a = scan.angle(i);
-                    self.mount.transform_point([r * a.cos(), r * a.sin()])
-                }
-                _ => {
-                    previous = None;
-                    continue;
-                }
+            let Some(point) = self.end_point(scan, i, self.config.max_range) else {
+                previous = None;
+                continue;
             };
             if let Some(p) = previous {
                 let gap = (point[0] - p[0]).hypot(point[1] - p[1]);
@@ -281,6 +261,17 @@ impl LaserOdometry {
             previous = Some(point);
         }
         out
+    }
+
+    /// Where beam `i` of `scan` ended, in the base frame, when it returned within `reach`.
+    fn end_point(&self, scan: &RangeScan<'_>, i: usize, reach: f64) -> Option<[f64; 2]> {
+        match scan.beam(i) {
+            Beam::Hit(r) if r <= reach => {
+                let a = scan.angle(i);
+                Some(self.mount.transform_point([r * a.cos(), r * a.sin()]))
+            }
+            _ => None,
+        }
     }
 
     /// True when a scan at `pose` goes into the local map.

@@ -57,7 +57,7 @@ fn track_in(world: &[Segment], scans: &[(usize, Pose2)], mount: &Pose2) -> (Vec<
                 range_max: 30.0,
                 ranges: &ranges,
             };
-            odometry.track(k as f64 / RATE, &scan).pose
+            odometry.track(k as f64 / RATE, &scan)
         })
         .collect();
     (poses, odometry.counts().matched)
