@@ -46,6 +46,8 @@ fn bags() -> &'static (PathBuf, Value) {
             expected[name] = expected["mcap"].clone();
         }
         convert("long_file_zstd", Path::new("long.bag"), "lz4", &[]);
+        convert("multi_echo", Path::new("multi_echo.bag"), "lz4", &[]);
+        expected["multi_echo.bag"] = expected["multi_echo"].clone();
         // One recording in two files, a folder of its own: the scans, then the transforms.
         let split = Path::new("ros1_split");
         std::fs::create_dir_all(out.join(split)).unwrap();
@@ -190,11 +192,26 @@ mod written_by_rosbags {
     }
 
     #[test]
+    fn multi_echo_scans_read_their_first_echo_in_rosbag2_and_ros1_bags() {
+        let plain = check_tf_only_bag("mcap");
+        for name in ["multi_echo", "multi_echo.bag"] {
+            let bag = check_tf_only_bag(name);
+            assert!(same(&bag.data, &plain.data), "{name} differs");
+            assert!(bag.warnings.is_empty(), "{name}: {:?}", bag.warnings);
+        }
+    }
+
+    #[test]
     fn two_scan_topics_need_a_choice() {
         let err = load("two_scans", &TopicChoice::default())
             .unwrap_err()
             .to_string();
-        assert!(err.contains("2 sensor_msgs/msg/LaserScan topics"), "{err}");
+        assert!(
+            err.contains(
+                "2 sensor_msgs/msg/LaserScan or sensor_msgs/msg/MultiEchoLaserScan topics"
+            ),
+            "{err}"
+        );
         assert!(
             err.contains("/front/scan (sensor_msgs/msg/LaserScan, 4 messages)"),
             "{err}"

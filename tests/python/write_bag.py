@@ -16,6 +16,9 @@ Bags written under OUT_DIR (each a rosbag2 folder):
 - long_sqlite_file_zstd: the same in SQLite storage.
 - two_scans:       MCAP with /front/scan and /rear/scan, odometry on /odom.
 - bad_message:     MCAP whose /scan message 2 is cut short.
+- multi_echo:      the same as mcap with the scans as sensor_msgs/msg/MultiEchoLaserScan:
+                   each beam's first echo is the mcap bag's reading, a second echo lies
+                   beyond it, and the NaN beam has no echo at all.
 
 OUT_DIR/expected.json says what the readers should get: stamps relative to the epoch,
 ranges after REP-117 (as strings, so inf and nan survive JSON), poses, mounts.
@@ -33,6 +36,7 @@ from rosbags.typesys import Stores, get_typestore
 TS = get_typestore(Stores.ROS2_HUMBLE)
 T = TS.types
 SCAN = 'sensor_msgs/msg/LaserScan'
+MULTI_ECHO = 'sensor_msgs/msg/MultiEchoLaserScan'
 ODOM = 'nav_msgs/msg/Odometry'
 TF = 'tf2_msgs/msg/TFMessage'
 STRING = 'std_msgs/msg/String'
@@ -111,6 +115,26 @@ def scan(ns, frame, ranges):
     )
 
 
+def multi_echo_scan(ns, frame, ranges):
+    """The scan with `ranges` as first echoes: a second, farther echo on every beam but
+    the NaN one, which has none."""
+    echo = T['sensor_msgs/msg/LaserEcho']
+    echoes = [[] if math.isnan(r) else [r, r + 2.0] for r in ranges.tolist()]
+    plain = scan(ns, frame, ranges)
+    return T[MULTI_ECHO](
+        header=plain.header,
+        angle_min=plain.angle_min,
+        angle_max=plain.angle_max,
+        angle_increment=plain.angle_increment,
+        time_increment=plain.time_increment,
+        scan_time=plain.scan_time,
+        range_min=plain.range_min,
+        range_max=plain.range_max,
+        ranges=[echo(echoes=np.array(e, dtype=np.float32)) for e in echoes],
+        intensities=[echo(echoes=np.ones(len(e), dtype=np.float32)) for e in echoes],
+    )
+
+
 def footprint_pose(j):
     return (0.1 * j, 0.02 * j * j, 0.05 * j - 0.3)
 
@@ -143,13 +167,15 @@ def write(writer, conns, topic, receive_ns, msgtype, msg):
     writer.write(conns[topic], receive_ns, TS.serialize_cdr(msg, msgtype))
 
 
-def tf_only_bag(path, plugin, compression=None, extras=False):
-    """Scans on /base_scan and odometry on /tf; returns what a reader should find."""
+def tf_only_bag(path, plugin, compression=None, extras=False, multi_echo=False):
+    """Scans on /base_scan (multi-echo ones with `multi_echo`) and odometry on /tf;
+    returns what a reader should find."""
+    scan_type, scan_msg = (MULTI_ECHO, multi_echo_scan) if multi_echo else (SCAN, scan)
     writer = open_writer(path, plugin, compression=compression)
     with writer:
         conns = {
             topic: writer.add_connection(topic, msgtype, typestore=TS)
-            for topic, msgtype in [('/base_scan', SCAN), ('/tf', TF), ('/tf_static', TF), ('/chatter', STRING)]
+            for topic, msgtype in [('/base_scan', scan_type), ('/tf', TF), ('/tf_static', TF), ('/chatter', STRING)]
         }
         statics = tf_message([
             transform(0, 'base_footprint', 'base_link', *FOOTPRINT_TO_LINK[:2], 0.1, FOOTPRINT_TO_LINK[2]),
@@ -167,14 +193,14 @@ def tf_only_bag(path, plugin, compression=None, extras=False):
             ranges = scan_ranges(k)
             # Scan 3 has no header stamp: the reader falls back to the receive time.
             stamp = 0 if k == 3 else ns
-            events.append((ns, '/base_scan', SCAN, scan(stamp, 'laser', ranges)))
+            events.append((ns, '/base_scan', scan_type, scan_msg(stamp, 'laser', ranges)))
             scans.append({'stamp_ns': ns + (RECEIVE_DELAY if k == 3 else 0), 'ranges': rep117(ranges)})
             if extras and k == 5:
-                events.append((ns + 1, '/base_scan', SCAN, scan(ns, 'laser', ranges)))
+                events.append((ns + 1, '/base_scan', scan_type, scan_msg(ns, 'laser', ranges)))
         if extras:
             ns = T0 + 50_000_000 + (N_SCANS - 1) * 100_000_000
             ranges = scan_ranges(N_SCANS - 1) + np.float32(0.5)
-            events.append((ns + 2, '/base_scan', SCAN, scan(ns, 'laser', ranges)))
+            events.append((ns + 2, '/base_scan', scan_type, scan_msg(ns, 'laser', ranges)))
             scans.append({'stamp_ns': ns + 1, 'ranges': rep117(ranges)})
         events.append((T0 + 10, '/chatter', STRING, T[STRING](data='hello')))
         events.sort(key=lambda e: e[0])
@@ -239,6 +265,7 @@ def main():
         'sqlite_file_zstd': tf_only_bag(out / 'sqlite_file_zstd', StoragePlugin.SQLITE3, CompressionMode.FILE),
         'mcap_message_zstd': tf_only_bag(out / 'mcap_message_zstd', StoragePlugin.MCAP, CompressionMode.MESSAGE),
         'two_scans': two_scans_bag(out / 'two_scans'),
+        'multi_echo': tf_only_bag(out / 'multi_echo', StoragePlugin.MCAP, multi_echo=True),
     }
     bad_message_bag(out / 'bad_message')
     long_bag(out / 'long_file_zstd', StoragePlugin.MCAP, CompressionMode.FILE)

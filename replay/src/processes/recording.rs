@@ -33,7 +33,8 @@ pub struct Source {
 /// The bag's topics and frames, where it leaves a choice.
 #[derive(Debug, Clone, Default, clap::Args)]
 pub struct TopicArgs {
-    /// The `sensor_msgs/msg/LaserScan` topic (default: the bag's only one).
+    /// The `sensor_msgs/msg/LaserScan` or `MultiEchoLaserScan` topic (default: the bag's
+    /// only one; a multi-echo beam reads its first echo).
     #[arg(long)]
     pub scan_topic: Option<String>,
     /// The `nav_msgs/msg/Odometry` topic (default: the bag's only one; without any, the

@@ -276,6 +276,44 @@ pub struct LaserScan {
 /// # Errors
 /// When the bytes do not hold one (short, bad header, intensities cut off).
 pub fn laser_scan(bytes: &[u8], serialization: Serialization) -> DecodeResult<LaserScan> {
+    scan_with(bytes, serialization, |c| {
+        let ranges = c.f32_seq()?;
+        c.skip_f32_seq()?;
+        Ok(ranges)
+    })
+}
+
+/// Decodes a `sensor_msgs/msg/MultiEchoLaserScan` as the [`LaserScan`] of each beam's
+/// first echo, the one Cartographer reads too (a beam without an echo reads NaN: no
+/// reading, REP-117).
+///
+/// # Errors
+/// When the bytes do not hold one (short, bad header, echoes or intensities cut off).
+pub fn multi_echo_laser_scan(
+    bytes: &[u8],
+    serialization: Serialization,
+) -> DecodeResult<LaserScan> {
+    scan_with(bytes, serialization, |c| {
+        c.align(4)?;
+        let beams = c.count(4)?;
+        let ranges = (0..beams)
+            .map(|_| Ok(c.f32_seq()?.first().copied().unwrap_or(f32::NAN)))
+            .collect::<DecodeResult<Vec<f32>>>()?;
+        let intensities = c.count(4)?;
+        for _ in 0..intensities {
+            c.skip_f32_seq()?;
+        }
+        Ok(ranges)
+    })
+}
+
+/// A scan message: the header and the seven numbers both scan types begin with, then
+/// the ranges as `ranges` reads them.
+fn scan_with(
+    bytes: &[u8],
+    serialization: Serialization,
+    ranges: impl FnOnce(&mut Cdr) -> DecodeResult<Vec<f32>>,
+) -> DecodeResult<LaserScan> {
     let mut c = Cdr::new(bytes, serialization)?;
     let header = header(&mut c)?;
     let mut f = [0f32; 7];
@@ -291,8 +329,7 @@ pub fn laser_scan(bytes: &[u8], serialization: Serialization) -> DecodeResult<La
         range_min,
         range_max,
     ] = f;
-    let ranges = c.f32_seq()?;
-    c.skip_f32_seq()?;
+    let ranges = ranges(&mut c)?;
     Ok(LaserScan {
         header,
         angle_min,
@@ -473,6 +510,29 @@ pub(crate) mod tests {
             assert_eq!(scan.angle_increment, 0.5);
             assert_eq!(scan.range_max, 30.0);
             assert_eq!(scan.ranges, [1.0, f32::INFINITY, 3.0]);
+        }
+    }
+
+    #[test]
+    fn a_multi_echo_scan_reads_each_beam_s_first_echo() {
+        let fields = [-1.5, 1.5, 1.5, 0.0, 0.1, 0.2, 30.0];
+        for little in [true, false] {
+            let mut w = Writer::new(little);
+            w.header(12, 500, "horizontal_laser_link");
+            for v in fields {
+                w.f32(v);
+            }
+            // Three beams: two echoes, none, one; then intensities for the first beam only.
+            w.u32(3).u32(2).f32(1.0).f32(2.5).u32(0).u32(1).f32(3.0);
+            w.u32(1).u32(2).f32(7.0).f32(8.0);
+            let scan = multi_echo_laser_scan(&w.bytes, Serialization::Cdr).unwrap();
+            assert_eq!(scan.header.frame_id, "horizontal_laser_link");
+            assert_eq!((scan.angle_min, scan.angle_increment), (-1.5, 1.5));
+            assert_eq!(scan.ranges.len(), 3);
+            assert_eq!((scan.ranges[0], scan.ranges[2]), (1.0, 3.0));
+            assert!(scan.ranges[1].is_nan());
+            let cut = &w.bytes[..w.bytes.len() - 4];
+            assert!(multi_echo_laser_scan(cut, Serialization::Cdr).is_err());
         }
     }
 

@@ -6,9 +6,11 @@
 //! one `.mcap` / `.db3` file, or a ROS 1 `.bag` file or a folder of them
 //! (`ros1_storage`), through [`storage`]; decodes the CDR or ROS 1 messages it needs
 //! ([`cdr`]) and turns them into the stack's messages:
-//! - **Scans**: the one `sensor_msgs/msg/LaserScan` topic (or the one named) becomes
-//!   [`DataSet::raw_scans`], ranges after REP-117 and beams counter-clockwise
-//!   ([`streams`]); intensities are dropped; a scan without beams is skipped.
+//! - **Scans**: the one `sensor_msgs/msg/LaserScan` or `sensor_msgs/msg/MultiEchoLaserScan`
+//!   topic (or the one named) becomes [`DataSet::raw_scans`], ranges after REP-117 and
+//!   beams counter-clockwise ([`streams`]); a multi-echo beam reads its first echo
+//!   ([`cdr::multi_echo_laser_scan`]); intensities are dropped; a scan without beams is
+//!   skipped.
 //! - **Odometry**: the one `nav_msgs/msg/Odometry` topic (or the one named) becomes one
 //!   [`Odometry`] per message: `x`, `y`, `theta` the 2D pose in the odometry frame (yaw
 //!   from the quaternion), `v` = `twist.linear.x`, `omega` = `twist.angular.z`, steering
@@ -64,6 +66,10 @@ pub use streams::StampRepairs;
 
 /// The laser scan message type.
 pub const LASER_SCAN: &str = "sensor_msgs/msg/LaserScan";
+/// The multi-echo laser scan message type (Cartographer's backpack bags).
+pub const MULTI_ECHO_LASER_SCAN: &str = "sensor_msgs/msg/MultiEchoLaserScan";
+/// The message types read as scans.
+pub const SCAN_TYPES: &[&str] = &[LASER_SCAN, MULTI_ECHO_LASER_SCAN];
 /// The odometry message type.
 pub const ODOMETRY: &str = "nav_msgs/msg/Odometry";
 /// The tf message type.
@@ -81,7 +87,7 @@ const TILT_WARNING_RAD: f64 = 5.0 * std::f64::consts::PI / 180.0;
 /// there is (see the module doc).
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct TopicChoice {
-    /// The `sensor_msgs/msg/LaserScan` topic (`--scan-topic`).
+    /// The scan topic, of one of the [`SCAN_TYPES`] (`--scan-topic`).
     pub scan_topic: Option<String>,
     /// The `nav_msgs/msg/Odometry` topic, or `/tf` for odometry from tf (`--odom-topic`).
     pub odom_topic: Option<String>,
@@ -107,7 +113,7 @@ pub struct TopicChoice {
 pub fn load(path: &Path, topics: &TopicChoice) -> Result<Bag> {
     let recorded_odometry = topics.odometry == OdometryChoice::Recorded;
     let keep = |name: &str, type_name: &str| {
-        type_name == LASER_SCAN
+        SCAN_TYPES.contains(&type_name)
             || (recorded_odometry && type_name == ODOMETRY)
             || (type_name == TF_MESSAGE && (name == TF_TOPIC || name == TF_STATIC_TOPIC))
     };
@@ -179,20 +185,24 @@ impl<'a> Reader<'a> {
     /// [`Reader::build`]'s work.
     fn assemble(&mut self, choice: &TopicChoice) -> Result<Bag> {
         let recorded_odometry = choice.odometry == OdometryChoice::Recorded;
-        let scan_topic = self.choose(LASER_SCAN, choice.scan_topic.as_deref(), "--scan-topic")?;
+        let scan_topic = self.choose(SCAN_TYPES, choice.scan_topic.as_deref(), "--scan-topic")?;
         let odom_topic = match choice.odom_topic.as_deref() {
             _ if !recorded_odometry => None,
             Some(TF_TOPIC) => None,
             wanted => {
-                let none_is_fine = wanted.is_none() && self.candidates(ODOMETRY).is_empty();
+                let none_is_fine = wanted.is_none() && self.candidates(&[ODOMETRY]).is_empty();
                 if none_is_fine {
                     None
                 } else {
-                    Some(self.choose(ODOMETRY, wanted, ODOM_FLAG)?)
+                    Some(self.choose(&[ODOMETRY], wanted, ODOM_FLAG)?)
                 }
             }
         };
-        let scans = self.decode(scan_topic, cdr::laser_scan);
+        let scans = if self.contents.topics[scan_topic].type_name == MULTI_ECHO_LASER_SCAN {
+            self.decode(scan_topic, cdr::multi_echo_laser_scan)
+        } else {
+            self.decode(scan_topic, cdr::laser_scan)
+        };
         let laser_frame = (scans.first())
             .map(|(_, s, _)| s.header.frame_id.clone())
             .unwrap_or_default();
@@ -352,17 +362,18 @@ impl<'a> Reader<'a> {
         Ok(mount)
     }
 
-    /// The topics of type `type_name` in a serialisation the decoders read.
-    fn candidates(&self, type_name: &str) -> Vec<usize> {
+    /// The topics of one of the types `types` in a serialisation the decoders read.
+    fn candidates(&self, types: &[&str]) -> Vec<usize> {
         (self.contents.topics.iter().enumerate())
-            .filter(|(_, t)| t.type_name == type_name && t.serialization().is_some())
+            .filter(|(_, t)| types.contains(&t.type_name.as_str()) && t.serialization().is_some())
             .map(|(k, _)| k)
             .collect()
     }
 
-    /// The topic of type `type_name`: the one named `wanted`, else the only one.
-    fn choose(&mut self, type_name: &str, wanted: Option<&str>, flag: &str) -> Result<usize> {
-        let candidates = self.candidates(type_name);
+    /// The topic of one of the types `types`: the one named `wanted`, else the only one.
+    fn choose(&mut self, types: &[&str], wanted: Option<&str>, flag: &str) -> Result<usize> {
+        let candidates = self.candidates(types);
+        let type_name = types.join(" or ");
         let topics = &self.contents.topics;
         let list = |ks: &[usize]| listing(ks.iter().map(|&k| &topics[k]));
         let all: Vec<usize> = (0..topics.len()).collect();

@@ -47,9 +47,9 @@ fn the_one_topic_of_a_type_is_chosen_and_several_are_listed_with_the_flag() {
         ..Contents::default()
     };
     let mut r = reader(&contents);
-    assert_eq!(r.choose(ODOMETRY, None, "--odom-topic").unwrap(), 2);
+    assert_eq!(r.choose(&[ODOMETRY], None, "--odom-topic").unwrap(), 2);
     let err = r
-        .choose(LASER_SCAN, None, "--scan-topic")
+        .choose(&[LASER_SCAN], None, "--scan-topic")
         .unwrap_err()
         .to_string();
     assert!(
@@ -66,12 +66,12 @@ fn the_one_topic_of_a_type_is_chosen_and_several_are_listed_with_the_flag() {
     );
     assert!(err.ends_with("pick one with --scan-topic"), "{err}");
     assert_eq!(
-        r.choose(LASER_SCAN, Some("/rear/scan"), "--scan-topic")
+        r.choose(&[LASER_SCAN], Some("/rear/scan"), "--scan-topic")
             .unwrap(),
         1
     );
     let err = r
-        .choose(LASER_SCAN, Some("/chatter"), "--scan-topic")
+        .choose(&[LASER_SCAN], Some("/chatter"), "--scan-topic")
         .unwrap_err();
     assert!(
         err.to_string()
@@ -94,7 +94,10 @@ fn no_scan_topic_lists_what_the_bag_holds() {
         .unwrap_err()
         .to_string();
     assert!(
-        err.contains("no sensor_msgs/msg/LaserScan topic; the bag's topics:"),
+        err.contains(
+            "no sensor_msgs/msg/LaserScan or sensor_msgs/msg/MultiEchoLaserScan topic; \
+             the bag's topics:"
+        ),
         "{err}"
     );
     assert!(
