@@ -236,6 +236,16 @@ fn publish(
     }
     // A client that dies now and is started again asks for what it missed.
     ipc.wait_for_client()?;
+    // A slice topic's samples live in this process's data segment until each subscriber
+    // has received them: a short recording is sent before the service takes its first
+    // scan, and would be lost were this process to exit now.
+    match &out.laser {
+        Laser::Observations(p) => p.wait_until_unsubscribed(ipc)?,
+        Laser::Scans(p) => p.wait_until_unsubscribed(ipc)?,
+    }
+    if let Some(truth) = &out.truth {
+        truth.landmarks.wait_until_unsubscribed(ipc)?;
+    }
     tracing::info!(
         data_s = (last_ns - first_ns) as f64 * 1e-9,
         wall_s = started.elapsed().as_secs_f64(),
