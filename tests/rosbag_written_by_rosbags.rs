@@ -198,7 +198,96 @@ mod written_by_rosbags {
             let bag = check_tf_only_bag(name);
             assert!(same(&bag.data, &plain.data), "{name} differs");
             assert!(bag.warnings.is_empty(), "{name}: {:?}", bag.warnings);
+            let summary = bag.summary();
+            assert!(
+                summary.contains("MultiEchoLaserScan's first echoes"),
+                "{summary}"
+            );
+            let summary = bag.summary();
+            assert!(
+                summary.contains("MultiEchoLaserScan's first echoes"),
+                "{summary}"
+            );
         }
+    }
+
+    #[test]
+    fn a_point_cloud_named_by_the_flag_is_cut_to_a_scan_and_never_picked_unasked() {
+        let err = load("cloud", &TopicChoice::default())
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("no sensor_msgs/msg/LaserScan or"), "{err}");
+        assert!(
+            err.contains("a sensor_msgs/msg/PointCloud2 topic named there is cut to a scan"),
+            "{err}"
+        );
+        assert!(
+            err.contains("/points (sensor_msgs/msg/PointCloud2, 5 messages)"),
+            "{err}"
+        );
+        let choice = TopicChoice {
+            scan_topic: Some("/points".into()),
+            ..TopicChoice::default()
+        };
+        let bag = load("cloud", &choice).unwrap();
+        assert_eq!(
+            (bag.scan_topic.as_str(), bag.laser_frame.as_str()),
+            ("/points", "velodyne")
+        );
+        assert!(bag.mount_from_tf);
+        assert!((bag.data.laser_mount.x - 0.1).abs() < 1e-12);
+        let expected = bags().1["cloud"]["clouds"].as_array().unwrap();
+        assert_eq!(bag.data.raw_scans.len(), expected.len());
+        for (scan, want) in bag.data.raw_scans.iter().zip(expected) {
+            assert_eq!(
+                scan.header.header.stamp_ns,
+                want["stamp_ns"].as_u64().unwrap()
+            );
+            assert_eq!(scan.items.len(), 720);
+            let beams = want["beams"].as_object().unwrap();
+            for (i, r) in scan.items.iter().enumerate() {
+                match beams.get(&i.to_string()) {
+                    Some(w) => {
+                        let w = w.as_f64().unwrap();
+                        assert!((f64::from(*r) - w).abs() < 1e-5, "beam {i}: {r} vs {w}");
+                    }
+                    None => assert!(r.is_nan(), "beam {i} holds {r}"),
+                }
+            }
+        }
+        let summary = bag.summary();
+        assert!(summary.contains("PointCloud2 cut to scans"), "{summary}");
+        // The camera's cloud was never read.
+        assert!(bag.skipped.iter().any(|t| t.name == "/camera/points"));
+    }
+
+    #[test]
+    fn a_few_point_clouds_replay_through_the_processes_to_the_end() {
+        // Five messages are sent before the service takes its first: the replay stays
+        // until they are received.
+        let prefix = common::prefix("cloud_replay");
+        let dir = common::folder(&prefix);
+        let out = dir.join("run");
+        let result = Command::new(common::LAUNCHER)
+            .args(["replay", "rosbag"])
+            .arg(bags().0.join("cloud"))
+            .args([
+                "--scan-topic",
+                "/points",
+                "--prefix",
+                &prefix,
+                "--timeout-s",
+                "120",
+            ])
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .expect("starting the launcher");
+        common::assert_success(&result);
+        let m = common::metrics(&out);
+        assert_eq!(m["complete"], true);
+        assert_eq!(common::num(&m, "/estimate/poses"), 5.0);
+        common::assert_no_leftovers_and_remove(&prefix, &dir);
     }
 
     #[test]

@@ -19,6 +19,11 @@ Bags written under OUT_DIR (each a rosbag2 folder):
 - multi_echo:      the same as mcap with the scans as sensor_msgs/msg/MultiEchoLaserScan:
                    each beam's first echo is the mcap bag's reading, a second echo lies
                    beyond it, and the NaN beam has no echo at all.
+- cloud:           MCAP with two sensor_msgs/msg/PointCloud2 topics, /points (a 3D lidar,
+                   frame velodyne) and /camera/points, odometry on /odom and the lidar's
+                   mounting on /tf_static; no 2D scan. expected.json gives, per cloud, the
+                   beams that hold a point of the +-0.2 m band (720 beams over the turn)
+                   and their ranges.
 
 OUT_DIR/expected.json says what the readers should get: stamps relative to the epoch,
 ranges after REP-117 (as strings, so inf and nan survive JSON), poses, mounts.
@@ -133,6 +138,48 @@ def multi_echo_scan(ns, frame, ranges):
         ranges=[echo(echoes=np.array(e, dtype=np.float32)) for e in echoes],
         intensities=[echo(echoes=np.ones(len(e), dtype=np.float32)) for e in echoes],
     )
+
+
+def cloud(ns, frame, points):
+    """A PointCloud2 of `points` (x, y, z), float32 fields x, y, z and intensity."""
+    field = T['sensor_msgs/msg/PointField']
+    fields = [field(name=n, offset=4 * k, datatype=7, count=1) for k, n in enumerate('xyzi')]
+    data = np.array([(x, y, z, 1.0) for x, y, z in points], dtype=np.float32)
+    return T['sensor_msgs/msg/PointCloud2'](
+        header=header(ns, frame), height=1, width=len(points), fields=fields, is_bigendian=False,
+        point_step=16, row_step=16 * len(points), data=data.view(np.uint8).reshape(-1), is_dense=True)
+
+
+def cloud_bag(path):
+    """Point clouds and odometry, no 2D scan; returns each cloud's expected beams."""
+    cloud_type = 'sensor_msgs/msg/PointCloud2'
+    increment = 2 * math.pi / 720
+    writer = open_writer(path, StoragePlugin.MCAP)
+    clouds = []
+    with writer:
+        conns = {
+            topic: writer.add_connection(topic, msgtype, typestore=TS)
+            for topic, msgtype in [('/points', cloud_type), ('/camera/points', cloud_type), ('/odom', ODOM), ('/tf_static', TF)]
+        }
+        write(writer, conns, '/tf_static', T0, TF, tf_message([transform(T0, 'base_link', 'velodyne', 0.1, 0.0, 0.5, 0.0)]))
+        for k in range(5):
+            ns = T0 + k * 100_000_000
+            write(writer, conns, '/odom', ns, ODOM, odom_msg(ns, 0.1 * k, 0.0, 0.0, 1.0, 0.0))
+            beams = {}
+            points = []
+            for beam, r in [(10, 4.0 + k), (200, 2.5), (360, 3.0), (600, 7.25)]:
+                bearing = -math.pi + (beam + 0.5) * increment
+                x, y = np.float32(r * math.cos(bearing)), np.float32(r * math.sin(bearing))
+                points.append((x, y, 0.1 * (k % 3 - 1)))
+                # Farther in the same beam, and nearer but off the band (floor, ceiling).
+                points.append((np.float32(1.5 * x), np.float32(1.5 * y), 0.0))
+                points.append((np.float32(0.5 * x), np.float32(0.5 * y), -0.45))
+                points.append((np.float32(0.5 * x), np.float32(0.5 * y), 0.8))
+                beams[beam] = float(np.float32(math.hypot(float(x), float(y))))
+            write(writer, conns, '/points', ns + 1, cloud_type, cloud(ns + 1, 'velodyne', points))
+            write(writer, conns, '/camera/points', ns + 2, cloud_type, cloud(ns + 2, 'camera', [(0.0, 0.0, 1.0)]))
+            clouds.append({'stamp_ns': ns + 1 - T0, 'beams': {str(b): r for b, r in beams.items()}})
+    return {'clouds': clouds}
 
 
 def footprint_pose(j):
@@ -266,6 +313,7 @@ def main():
         'mcap_message_zstd': tf_only_bag(out / 'mcap_message_zstd', StoragePlugin.MCAP, CompressionMode.MESSAGE),
         'two_scans': two_scans_bag(out / 'two_scans'),
         'multi_echo': tf_only_bag(out / 'multi_echo', StoragePlugin.MCAP, multi_echo=True),
+        'cloud': cloud_bag(out / 'cloud'),
     }
     bad_message_bag(out / 'bad_message')
     long_bag(out / 'long_file_zstd', StoragePlugin.MCAP, CompressionMode.FILE)

@@ -34,7 +34,9 @@ pub struct Source {
 #[derive(Debug, Clone, Default, clap::Args)]
 pub struct TopicArgs {
     /// The `sensor_msgs/msg/LaserScan` or `MultiEchoLaserScan` topic (default: the bag's
-    /// only one; a multi-echo beam reads its first echo).
+    /// only one; a multi-echo beam reads its first echo), or a 3D lidar's
+    /// `sensor_msgs/msg/PointCloud2` topic, cut to a scan (points within 0.2 m of the
+    /// sensor's plane, 720 beams).
     #[arg(long)]
     pub scan_topic: Option<String>,
     /// The `nav_msgs/msg/Odometry` topic (default: the bag's only one; without any, the

@@ -54,6 +54,8 @@ pub struct Bag {
     pub files: Vec<PathBuf>,
     /// The scan topic used.
     pub scan_topic: String,
+    /// Its message type (`sensor_msgs/msg/LaserScan`, …).
+    pub scan_type: String,
     /// Where the odometry came from.
     pub odometry: OdometrySource,
     /// The scans' frame (`header.frame_id`).
@@ -99,9 +101,15 @@ impl Bag {
             OdometrySource::Laser => String::new(),
             ref source => format!(" · {} odometry from {source}", self.data.odometry.len()),
         };
+        // A plain scan goes without saying; the others say how they became scans.
+        let made_from = match self.scan_type.as_str() {
+            super::LASER_SCAN => String::new(),
+            super::POINT_CLOUD => format!("{} cut to scans, ", super::POINT_CLOUD),
+            other => format!("{other}'s first echoes, "),
+        };
         let mut line = format!(
-            "{} scans from {} (frame {}, {mount}){odometry} · epoch {:.6} s · skipped: \
-             {skipped}",
+            "{} scans from {} ({made_from}frame {}, {mount}){odometry} · epoch {:.6} s · \
+             skipped: {skipped}",
             self.data.raw_scans.len(),
             self.scan_topic,
             self.laser_frame,

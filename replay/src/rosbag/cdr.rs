@@ -1,6 +1,7 @@
-//! The three ROS messages the bag reader needs, decoded from their CDR bytes (ROS 2) or
-//! their ROS 1 bytes: `sensor_msgs/msg/LaserScan`, `nav_msgs/msg/Odometry` and
-//! `tf2_msgs/msg/TFMessage`.
+//! The ROS messages the bag reader needs, decoded from their CDR bytes (ROS 2) or their
+//! ROS 1 bytes: `sensor_msgs/msg/LaserScan` (and `MultiEchoLaserScan`),
+//! `nav_msgs/msg/Odometry` and `tf2_msgs/msg/TFMessage`; `sensor_msgs/msg/PointCloud2`
+//! is read through this module's cursor by [`super::cloud`].
 //!
 //! ROS 2 serialises messages as plain CDR (XCDR1): a 4-byte encapsulation header (`00 01`
 //! little-endian, `00 00` big-endian, then two option bytes), then the fields in order,
@@ -129,6 +130,17 @@ impl<'a> Cdr<'a> {
         self.primitive().map(i32::from_le_bytes)
     }
 
+    /// A `uint8` (or a `bool`, which is one byte).
+    pub fn u8(&mut self) -> DecodeResult<u8> {
+        self.primitive().map(u8::from_le_bytes)
+    }
+
+    /// A `uint8[]` sequence, borrowed from the message.
+    pub fn byte_seq(&mut self) -> DecodeResult<&'a [u8]> {
+        let n = self.count(1)?;
+        self.take(n)
+    }
+
     /// A `float32`.
     pub fn f32(&mut self) -> DecodeResult<f32> {
         self.primitive().map(f32::from_le_bytes)
@@ -230,7 +242,7 @@ pub struct Header {
 }
 
 /// Decodes a `std_msgs/msg/Header` (ROS 1: its sequence number skipped).
-fn header(c: &mut Cdr) -> DecodeResult<Header> {
+pub(crate) fn header(c: &mut Cdr) -> DecodeResult<Header> {
     let sec = if c.serialization == Serialization::Ros1 {
         c.u32()?; // seq
         let sec = c.u32()?;
@@ -448,6 +460,9 @@ pub(crate) mod tests {
             }
             self.bytes.extend_from_slice(&raw);
             self
+        }
+        pub(crate) fn u8(&mut self, v: u8) -> &mut Self {
+            self.put([v])
         }
         pub(crate) fn u32(&mut self, v: u32) -> &mut Self {
             self.put(v.to_le_bytes())

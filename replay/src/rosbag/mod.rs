@@ -10,7 +10,9 @@
 //!   topic (or the one named) becomes [`DataSet::raw_scans`], ranges after REP-117 and
 //!   beams counter-clockwise ([`streams`]); a multi-echo beam reads its first echo
 //!   ([`cdr::multi_echo_laser_scan`]); intensities are dropped; a scan without beams is
-//!   skipped.
+//!   skipped. A `sensor_msgs/msg/PointCloud2` topic named by `--scan-topic` (a 3D lidar)
+//!   is cut to a scan ([`cloud`]); without the flag clouds are not read (a depth
+//!   camera's would be no lidar), and a bag without a 2D scan names them in its refusal.
 //! - **Odometry**: the one `nav_msgs/msg/Odometry` topic (or the one named) becomes one
 //!   [`Odometry`] per message: `x`, `y`, `theta` the 2D pose in the odometry frame (yaw
 //!   from the quaternion), `v` = `twist.linear.x`, `omega` = `twist.angular.z`, steering
@@ -42,6 +44,7 @@
 
 mod bag;
 pub mod cdr;
+pub mod cloud;
 pub mod frames;
 mod mcap_storage;
 mod ros1_storage;
@@ -70,6 +73,8 @@ pub const LASER_SCAN: &str = "sensor_msgs/msg/LaserScan";
 pub const MULTI_ECHO_LASER_SCAN: &str = "sensor_msgs/msg/MultiEchoLaserScan";
 /// The message types read as scans.
 pub const SCAN_TYPES: &[&str] = &[LASER_SCAN, MULTI_ECHO_LASER_SCAN];
+/// The point cloud message type, read as a scan when `--scan-topic` names it.
+pub const POINT_CLOUD: &str = "sensor_msgs/msg/PointCloud2";
 /// The odometry message type.
 pub const ODOMETRY: &str = "nav_msgs/msg/Odometry";
 /// The tf message type.
@@ -114,6 +119,7 @@ pub fn load(path: &Path, topics: &TopicChoice) -> Result<Bag> {
     let recorded_odometry = topics.odometry == OdometryChoice::Recorded;
     let keep = |name: &str, type_name: &str| {
         SCAN_TYPES.contains(&type_name)
+            || (type_name == POINT_CLOUD && topics.scan_topic.as_deref() == Some(name))
             || (recorded_odometry && type_name == ODOMETRY)
             || (type_name == TF_MESSAGE && (name == TF_TOPIC || name == TF_STATIC_TOPIC))
     };
@@ -185,7 +191,7 @@ impl<'a> Reader<'a> {
     /// [`Reader::build`]'s work.
     fn assemble(&mut self, choice: &TopicChoice) -> Result<Bag> {
         let recorded_odometry = choice.odometry == OdometryChoice::Recorded;
-        let scan_topic = self.choose(SCAN_TYPES, choice.scan_topic.as_deref(), "--scan-topic")?;
+        let scan_topic = self.scan_topic(choice.scan_topic.as_deref())?;
         let odom_topic = match choice.odom_topic.as_deref() {
             _ if !recorded_odometry => None,
             Some(TF_TOPIC) => None,
@@ -198,10 +204,10 @@ impl<'a> Reader<'a> {
                 }
             }
         };
-        let scans = if self.contents.topics[scan_topic].type_name == MULTI_ECHO_LASER_SCAN {
-            self.decode(scan_topic, cdr::multi_echo_laser_scan)
-        } else {
-            self.decode(scan_topic, cdr::laser_scan)
+        let scans = match self.contents.topics[scan_topic].type_name.as_str() {
+            MULTI_ECHO_LASER_SCAN => self.decode(scan_topic, cdr::multi_echo_laser_scan),
+            POINT_CLOUD => self.decode(scan_topic, cloud::cloud_scan),
+            _ => self.decode(scan_topic, cdr::laser_scan),
         };
         let laser_frame = (scans.first())
             .map(|(_, s, _)| s.header.frame_id.clone())
@@ -288,6 +294,7 @@ impl<'a> Reader<'a> {
             data,
             files: self.contents.files.clone(),
             scan_topic: self.contents.topics[scan_topic].name.clone(),
+            scan_type: self.contents.topics[scan_topic].type_name.clone(),
             odometry: odometry_source,
             laser_frame,
             base_frame,
@@ -360,6 +367,31 @@ impl<'a> Reader<'a> {
             ));
         }
         Ok(mount)
+    }
+
+    /// The scan topic: the point cloud topic `wanted` names, else the one of the
+    /// [`SCAN_TYPES`] `wanted` names or the only one; a refusal for a bag without a 2D
+    /// scan names its point cloud topics.
+    fn scan_topic(&mut self, wanted: Option<&str>) -> Result<usize> {
+        let clouds = self.candidates(&[POINT_CLOUD]);
+        let topics = &self.contents.topics;
+        if let Some(k) = clouds
+            .iter()
+            .copied()
+            .find(|&k| Some(topics[k].name.as_str()) == wanted)
+        {
+            self.used.insert(k);
+            return Ok(k);
+        }
+        let flag = if clouds.is_empty() {
+            "--scan-topic".to_string()
+        } else {
+            format!(
+                "--scan-topic (a {POINT_CLOUD} topic named there is cut to a scan: {})",
+                listing(clouds.iter().map(|&k| &topics[k]))
+            )
+        };
+        self.choose(SCAN_TYPES, wanted, &flag)
     }
 
     /// The topics of one of the types `types` in a serialisation the decoders read.

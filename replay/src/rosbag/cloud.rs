@@ -1,0 +1,220 @@
+//! A 3D lidar's `sensor_msgs/msg/PointCloud2` as a 2D scan, as ROS's
+//! `pointcloud_to_laserscan` makes one: the points within [`BAND_M`] of the sensor's
+//! horizontal plane (`|z|` in the cloud's frame), binned by bearing into [`BEAMS`] beams
+//! over the full turn, the nearest point per beam. A beam no point falls in reads NaN
+//! (no reading: a sparse ring leaves gaps that are not free space); points nearer than
+//! [`RANGE_MIN_M`] (the robot itself) are dropped. The cloud's `x`, `y` and `z` fields
+//! are read whatever else it holds (float32 or float64, either byte order); a point
+//! with a non-finite coordinate is skipped.
+//!
+//! The band is taken in the cloud's own frame, so the sensor is taken to be mounted level
+//! (the bag reader warns about a tilted mounting).
+
+use super::cdr::{self, Cdr, DecodeResult, LaserScan, Serialization};
+
+/// Half the height of the band of points kept (m): a 16-ring lidar's rings at ±1° stay
+/// in it out to 11 m, the floor under a sensor 0.3 m up stays out of it.
+pub const BAND_M: f64 = 0.2;
+/// Beams over the full turn (0.5° apart).
+pub const BEAMS: usize = 720;
+/// Points nearer than this are dropped (m).
+pub const RANGE_MIN_M: f32 = 0.2;
+/// The scan's `range_max` (m): every point of the band is a return.
+pub const RANGE_MAX_M: f32 = 1000.0;
+
+/// `PointField` datatype of a `float32`.
+const FLOAT32: u8 = 7;
+/// `PointField` datatype of a `float64`.
+const FLOAT64: u8 = 8;
+
+/// One coordinate's place in a point: byte offset and whether it is a `float64`.
+#[derive(Debug, Clone, Copy)]
+struct Field {
+    offset: usize,
+    wide: bool,
+}
+
+/// Decodes a `sensor_msgs/msg/PointCloud2` and cuts it to a scan (see the module doc).
+///
+/// # Errors
+/// When the bytes do not hold one, it lacks a float `x`, `y` or `z` field, or its data is
+/// shorter than its points.
+pub fn cloud_scan(bytes: &[u8], serialization: Serialization) -> DecodeResult<LaserScan> {
+    let mut c = Cdr::new(bytes, serialization)?;
+    let header = cdr::header(&mut c)?;
+    let height = c.u32()? as usize;
+    let width = c.u32()? as usize;
+    let fields = c.u32()?;
+    let (mut x, mut y, mut z) = (None, None, None);
+    for _ in 0..fields {
+        let name = c.string()?;
+        let offset = c.u32()? as usize;
+        let datatype = c.u8()?;
+        c.u32()?; // count: 1 for a coordinate
+        let field = match datatype {
+            FLOAT32 => Some(Field {
+                offset,
+                wide: false,
+            }),
+            FLOAT64 => Some(Field { offset, wide: true }),
+            _ => None,
+        };
+        match name.as_str() {
+            "x" => x = field,
+            "y" => y = field,
+            "z" => z = field,
+            _ => {}
+        }
+    }
+    let (Some(x), Some(y), Some(z)) = (x, y, z) else {
+        return Err("the cloud has no float32 or float64 x, y and z fields".into());
+    };
+    let big_endian = c.u8()? != 0;
+    let point_step = c.u32()? as usize;
+    let row_step = c.u32()? as usize;
+    let data = c.byte_seq()?;
+    let increment = std::f64::consts::TAU / BEAMS as f64;
+    let mut ranges = vec![f32::NAN; BEAMS];
+    for row in 0..height {
+        for column in 0..width {
+            let start = row * row_step + column * point_step;
+            let read = |f: Field| coordinate(data, start + f.offset, f.wide, big_endian);
+            let (px, py, pz) = (read(x)?, read(y)?, read(z)?);
+            if !(px.is_finite() && py.is_finite() && pz.is_finite()) || pz.abs() > BAND_M {
+                continue;
+            }
+            let range = px.hypot(py) as f32;
+            if range < RANGE_MIN_M {
+                continue;
+            }
+            let bearing = py.atan2(px) + std::f64::consts::PI;
+            let beam = ((bearing / increment) as usize).min(BEAMS - 1);
+            if ranges[beam].is_nan() || range < ranges[beam] {
+                ranges[beam] = range;
+            }
+        }
+    }
+    let angle_min = -std::f64::consts::PI + 0.5 * increment;
+    Ok(LaserScan {
+        header,
+        angle_min: angle_min as f32,
+        angle_max: (angle_min + (BEAMS - 1) as f64 * increment) as f32,
+        angle_increment: increment as f32,
+        time_increment: 0.0,
+        scan_time: 0.0,
+        range_min: RANGE_MIN_M,
+        range_max: RANGE_MAX_M,
+        ranges,
+    })
+}
+
+/// The float at byte `at` of `data` (a `float64` when `wide`).
+fn coordinate(data: &[u8], at: usize, wide: bool, big_endian: bool) -> DecodeResult<f64> {
+    let size = if wide { 8 } else { 4 };
+    let Some(raw) = data.get(at..at + size) else {
+        return Err(format!(
+            "the cloud's data ends after {} bytes, a point's coordinate is at byte {at}",
+            data.len()
+        ));
+    };
+    let mut buffer = [0u8; 8];
+    buffer[..size].copy_from_slice(raw);
+    if big_endian {
+        buffer[..size].reverse();
+    }
+    let [a, b, c, d, ..] = buffer;
+    Ok(if wide {
+        f64::from_le_bytes(buffer)
+    } else {
+        f64::from(f32::from_le_bytes([a, b, c, d]))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rosbag::cdr::tests::Writer;
+
+    /// A cloud of `points` (x, y, z) with fields x, y, z (float32 or float64) and an
+    /// intensity between them and the next point, in `little` or big byte order.
+    fn cloud_bytes(little: bool, wide: bool, points: &[[f64; 3]]) -> Vec<u8> {
+        let size = if wide { 8 } else { 4 };
+        let datatype = if wide { FLOAT64 } else { FLOAT32 };
+        let point_step = 4 * size;
+        let mut w = Writer::new(little);
+        w.header(3, 0, "velodyne").u32(1).u32(points.len() as u32);
+        w.u32(4);
+        for (k, name) in ["x", "intensity", "y", "z"].iter().enumerate() {
+            let datatype = if *name == "intensity" { 2 } else { datatype };
+            w.string(name).u32(k as u32 * size).u8(datatype).u32(1);
+        }
+        w.u8(u8::from(!little))
+            .u32(point_step)
+            .u32(point_step * points.len() as u32);
+        let mut data = Vec::new();
+        for p in points {
+            for v in [p[0], 9.0, p[1], p[2]] {
+                let mut raw = if wide {
+                    v.to_le_bytes().to_vec()
+                } else {
+                    (v as f32).to_le_bytes().to_vec()
+                };
+                if !little {
+                    raw.reverse();
+                }
+                data.extend(raw);
+            }
+        }
+        w.u32(data.len() as u32);
+        w.bytes.extend(data);
+        w.u8(1);
+        w.bytes
+    }
+
+    #[test]
+    fn a_cloud_keeps_the_nearest_point_of_the_band_per_beam() {
+        let points = [
+            [2.0, 0.0, 0.0],      // straight ahead
+            [3.0, 0.0, 0.1],      // behind it, in the band
+            [1.0, 0.001, 0.5],    // nearer, above the band
+            [1.0, 0.0, -0.3],     // nearer, below the band (the floor)
+            [0.0, -4.0, -0.15],   // to the right
+            [-5.0, 0.0, 0.0],     // behind the sensor
+            [0.1, 0.0, 0.0],      // the robot itself
+            [f64::NAN, 1.0, 0.0], // no point
+        ];
+        for (little, wide) in [(true, false), (false, false), (true, true), (false, true)] {
+            let bytes = cloud_bytes(little, wide, &points);
+            let scan = cloud_scan(&bytes, Serialization::Cdr).unwrap();
+            assert_eq!(scan.header.frame_id, "velodyne");
+            assert_eq!(scan.ranges.len(), BEAMS);
+            let beam = |bearing: f64| {
+                ((bearing - f64::from(scan.angle_min)) / f64::from(scan.angle_increment)).round()
+                    as usize
+            };
+            let ahead = beam(0.0);
+            assert!(
+                (f64::from(scan.angle_min) + ahead as f64 * f64::from(scan.angle_increment)).abs()
+                    < 0.005
+            );
+            assert_eq!(scan.ranges[ahead], 2.0);
+            assert_eq!(scan.ranges[beam(-std::f64::consts::FRAC_PI_2)], 4.0);
+            assert_eq!(scan.ranges[BEAMS - 1], 5.0, "behind: the last beam");
+            let returns = scan.ranges.iter().filter(|r| !r.is_nan()).count();
+            assert_eq!(returns, 3, "little {little} wide {wide}");
+        }
+    }
+
+    #[test]
+    fn a_cloud_without_coordinates_or_with_short_data_is_an_error() {
+        let bytes = cloud_bytes(true, false, &[[1.0, 0.0, 0.0]]);
+        let cut = &bytes[..bytes.len() - 6];
+        assert!(cloud_scan(cut, Serialization::Cdr).is_err());
+        let mut w = Writer::new(true);
+        w.header(3, 0, "velodyne").u32(1).u32(1).u32(1);
+        w.string("x").u32(0).u8(FLOAT32).u32(1);
+        w.u8(0).u32(4).u32(4).u32(4).f32(1.0).u8(1);
+        let err = cloud_scan(&w.bytes, Serialization::Cdr).unwrap_err();
+        assert!(err.contains("x, y and z"), "{err}");
+    }
+}
