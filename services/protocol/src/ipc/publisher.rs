@@ -121,7 +121,7 @@ pub struct Subscribers {
 /// joins a stack takes another name: the stack's processes do not wait for its
 /// subscribers at their end beyond [`OUTSIDE_GRACE`], and the client does not count it
 /// among the stack's processes.
-pub const STACK_NODES: [&str; 9] = [
+pub const STACK_NODES: [&str; 10] = [
     "truth-sim",
     "odometry-sim",
     "lidar-sim",
@@ -129,6 +129,7 @@ pub const STACK_NODES: [&str; 9] = [
     "client",
     "replay-mrclam",
     "replay-victoria-park",
+    "replay-recording",
     "viewer",
     "bridge",
 ];
