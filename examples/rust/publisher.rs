@@ -1,6 +1,7 @@
 //! A sensor of your own in Rust: a robot driving a circle among four landmarks publishes
 //! odometry, landmark observations with their ids and (for the metrics client) its true
-//! pose and the true landmarks, then the end of each stream.
+//! pose and the true landmarks, then the end of each stream, and stays until its
+//! observations and map have been taken.
 //! Start the service (known association) and a client under the same prefix, then
 //! `FASTSLAM_PREFIX=mine cargo run --release --example publisher`. Only `fastslam-protocol`
 //! is needed; `FASTSLAM_IOX_ROOT` names the stack's iceoryx2 root if it has its own.
@@ -66,5 +67,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     eos.send(EndOfStream::new(StreamId::Odometry, last_pose))?;
     eos.send(EndOfStream::new(StreamId::GroundTruth, last_pose))?;
     eos.send(EndOfStream::new(StreamId::Observations, last_scan))?;
+    // Slice samples live in this process's memory until received: stay until taken.
+    scans.wait_until_unsubscribed(&ipc)?;
+    true_map.wait_until_unsubscribed(&ipc)?;
     Ok(())
 }
