@@ -126,15 +126,10 @@ def multi_echo_scan(ns, frame, ranges):
     echo = T['sensor_msgs/msg/LaserEcho']
     echoes = [[] if math.isnan(r) else [r, r + 2.0] for r in ranges.tolist()]
     plain = scan(ns, frame, ranges)
+    same = ('header', 'angle_min', 'angle_max', 'angle_increment', 'time_increment', 'scan_time',
+            'range_min', 'range_max')
     return T[MULTI_ECHO](
-        header=plain.header,
-        angle_min=plain.angle_min,
-        angle_max=plain.angle_max,
-        angle_increment=plain.angle_increment,
-        time_increment=plain.time_increment,
-        scan_time=plain.scan_time,
-        range_min=plain.range_min,
-        range_max=plain.range_max,
+        **{field: getattr(plain, field) for field in same},
         ranges=[echo(echoes=np.array(e, dtype=np.float32)) for e in echoes],
         intensities=[echo(echoes=np.ones(len(e), dtype=np.float32)) for e in echoes],
     )
