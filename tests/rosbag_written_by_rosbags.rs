@@ -1,8 +1,9 @@
 //! The bag reader on bags written by an independent implementation: the pure-Python
 //! `rosbags` library (`tests/python/write_bag.py`), in MCAP and SQLite storage, with
 //! zstd chunk, file and message compression, tf-only odometry through an intermediate
-//! frame, an off-centre laser, two scan topics and an undecodable message; and ROS 1 bags
-//! converted from them by `rosbags-convert` (uncompressed, bz2 and lz4 chunks).
+//! frame, an off-centre laser, two scan topics, an undecodable message, multi-echo scans
+//! and point clouds; and ROS 1 bags converted from them by `rosbags-convert`
+//! (uncompressed, bz2 and lz4 chunks).
 //!
 //! Python comes from a virtual environment under the cargo target directory, built on
 //! first use ([`common::python_venv`]); without Python, venv or PyPI the test fails
@@ -23,7 +24,8 @@ const ROS1_COMPRESSIONS: [&str; 3] = ["none", "bz2", "lz4"];
 
 /// The bags `write_bag.py` wrote (once per test run) and what they hold; beside them the
 /// ROS 1 bags `rosbags-convert` made of the `mcap` bag (each holding what it holds) and of
-/// `long_file_zstd` (`long.bag`, lz4 chunks), and `tf1.bag`, the uncompressed one as
+/// `long_file_zstd` (`long.bag`, lz4 chunks), of `multi_echo` and of `cloud`
+/// (`multi_echo.bag`, `cloud.bag`), and `tf1.bag`, the uncompressed one as
 /// `tf1_bag.py` rewrites it: frame ids with a leading slash, `tf/tfMessage`.
 fn bags() -> &'static (PathBuf, Value) {
     static BAGS: OnceLock<(PathBuf, Value)> = OnceLock::new();
@@ -47,6 +49,7 @@ fn bags() -> &'static (PathBuf, Value) {
         }
         convert("long_file_zstd", Path::new("long.bag"), "lz4", &[]);
         convert("multi_echo", Path::new("multi_echo.bag"), "lz4", &[]);
+        convert("cloud", Path::new("cloud.bag"), "bz2", &[]);
         expected["multi_echo.bag"] = expected["multi_echo"].clone();
         // One recording in two files, a folder of its own: the scans, then the transforms.
         let split = Path::new("ros1_split");
@@ -259,6 +262,9 @@ mod written_by_rosbags {
         assert!(summary.contains("PointCloud2 cut to scans"), "{summary}");
         // The camera's cloud was never read.
         assert!(bag.skipped.iter().any(|t| t.name == "/camera/points"));
+        // The same clouds in a ROS 1 bag.
+        let ros1 = load("cloud.bag", &choice).unwrap();
+        assert!(same(&ros1.data, &bag.data), "the ROS 1 bag reads otherwise");
     }
 
     #[test]

@@ -108,6 +108,17 @@ pub fn cloud_scan(bytes: &[u8], serialization: Serialization) -> DecodeResult<La
     })
 }
 
+/// The cloud's bytes cut to the bytes of its scan ([`cloud_scan`], encoded by
+/// [`cdr::encode_laser_scan`] in the same serialisation): how the bag reader keeps a
+/// cloud topic, so that a long 3D-lidar recording is never held whole.
+///
+/// # Errors
+/// As [`cloud_scan`].
+pub fn cut(bytes: &[u8], serialization: Serialization) -> DecodeResult<Vec<u8>> {
+    let scan = cloud_scan(bytes, serialization)?;
+    Ok(cdr::encode_laser_scan(&scan, serialization))
+}
+
 /// The float at byte `at` of `data` (a `float64` when `wide`).
 fn coordinate(data: &[u8], at: usize, wide: bool, big_endian: bool) -> DecodeResult<f64> {
     let size = if wide { 8 } else { 4 };

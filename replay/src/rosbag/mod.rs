@@ -11,8 +11,9 @@
 //!   beams counter-clockwise ([`streams`]); a multi-echo beam reads its first echo
 //!   ([`cdr::multi_echo_laser_scan`]); intensities are dropped; a scan without beams is
 //!   skipped. A `sensor_msgs/msg/PointCloud2` topic named by `--scan-topic` (a 3D lidar)
-//!   is cut to a scan ([`cloud`]); without the flag clouds are not read (a depth
-//!   camera's would be no lidar), and a bag without a 2D scan names them in its refusal.
+//!   is cut to a scan ([`cloud`]) as it is read, so a long 3D-lidar recording is never
+//!   held whole; without the flag clouds are not read (a depth camera's would be no
+//!   lidar), and a bag without a 2D scan names them in its refusal.
 //! - **Odometry**: the one `nav_msgs/msg/Odometry` topic (or the one named) becomes one
 //!   [`Odometry`] per message: `x`, `y`, `theta` the 2D pose in the odometry frame (yaw
 //!   from the quaternion), `v` = `twist.linear.x`, `omega` = `twist.angular.z`, steering
@@ -64,7 +65,7 @@ use fastslam_protocol::{Header, Odometry};
 use frames::{TfTree, Transform};
 use std::collections::BTreeSet;
 use std::path::Path;
-use storage::{Contents, RawMessage, Topic};
+use storage::{Contents, Keep, RawMessage, Topic};
 pub use streams::StampRepairs;
 
 /// The laser scan message type.
@@ -118,10 +119,13 @@ pub struct TopicChoice {
 pub fn load(path: &Path, topics: &TopicChoice) -> Result<Bag> {
     let recorded_odometry = topics.odometry == OdometryChoice::Recorded;
     let keep = |name: &str, type_name: &str| {
-        SCAN_TYPES.contains(&type_name)
-            || (type_name == POINT_CLOUD && topics.scan_topic.as_deref() == Some(name))
+        if type_name == POINT_CLOUD && topics.scan_topic.as_deref() == Some(name) {
+            return Keep::Reduced(cloud::cut);
+        }
+        let wanted = SCAN_TYPES.contains(&type_name)
             || (recorded_odometry && type_name == ODOMETRY)
-            || (type_name == TF_MESSAGE && (name == TF_TOPIC || name == TF_STATIC_TOPIC))
+            || (type_name == TF_MESSAGE && (name == TF_TOPIC || name == TF_STATIC_TOPIC));
+        if wanted { Keep::Bytes } else { Keep::Nothing }
     };
     let contents = storage::read(path, &keep)?;
     // A ROS 1 bag's frames lose tf's leading slash (`cdr`); so do the flags naming them.
@@ -206,7 +210,7 @@ impl<'a> Reader<'a> {
         };
         let scans = match self.contents.topics[scan_topic].type_name.as_str() {
             MULTI_ECHO_LASER_SCAN => self.decode(scan_topic, cdr::multi_echo_laser_scan),
-            POINT_CLOUD => self.decode(scan_topic, cloud::cloud_scan),
+            // A cloud was cut to its scan as it was read (`cloud::cut`).
             _ => self.decode(scan_topic, cdr::laser_scan),
         };
         let laser_frame = (scans.first())

@@ -12,7 +12,7 @@
 //! the way in. A folder without `metadata.yaml` may instead hold ROS 1 bags: the files of
 //! one recording split by size or time, read in name order.
 
-use super::cdr::Serialization;
+use super::cdr::{DecodeResult, Serialization};
 use super::mcap_storage::{self, Stream};
 use super::ros1_storage::{self, ROS1_ENCODING, ROS1_MAGIC};
 use super::sqlite_storage;
@@ -95,18 +95,30 @@ pub struct Contents {
     pub warnings: Vec<String>,
 }
 
+/// What the reader keeps of a topic's messages.
+#[derive(Debug, Clone, Copy)]
+pub enum Keep {
+    /// Nothing: the messages are only counted.
+    Nothing,
+    /// Their bytes.
+    Bytes,
+    /// What the function makes of each message's bytes (in its topic's serialisation), so
+    /// that a large message read for a small part of it is never held whole; an error
+    /// takes the bytes' place.
+    Reduced(fn(&[u8], Serialization) -> DecodeResult<Vec<u8>>),
+}
+
 /// Collects topics and messages as the storage readers find them.
 pub struct Collector<'k> {
-    keep: &'k dyn Fn(&str, &str) -> bool,
+    keep: &'k dyn Fn(&str, &str) -> Keep,
     contents: Contents,
     by_key: HashMap<(String, String), usize>,
-    kept: Vec<bool>,
+    kept: Vec<Keep>,
 }
 
 impl<'k> Collector<'k> {
-    /// An empty collector keeping the messages of the topics for which `keep(name, type)`
-    /// holds.
-    pub fn new(keep: &'k dyn Fn(&str, &str) -> bool) -> Self {
+    /// An empty collector keeping of each topic's messages what `keep(name, type)` says.
+    pub fn new(keep: &'k dyn Fn(&str, &str) -> Keep) -> Self {
         Self {
             keep,
             contents: Contents::default(),
@@ -144,15 +156,19 @@ impl<'k> Collector<'k> {
         k
     }
 
-    /// Counts a message of `topic` received at `receive_ns`, and keeps its bytes if the
-    /// topic is wanted: a zstd frame decompressed, or why it does not decompress.
+    /// Counts a message of `topic` received at `receive_ns`, and keeps what the topic's
+    /// [`Keep`] says of its bytes: a zstd frame decompressed first, or why it does not
+    /// decompress.
     pub fn message(&mut self, topic: usize, receive_ns: u64, data: &[u8]) {
         let t = &mut self.contents.topics[topic];
         let index = t.count;
         t.count += 1;
-        if !self.kept[topic] {
-            return;
-        }
+        let serialization = t.serialization();
+        let reduce = match self.kept[topic] {
+            Keep::Nothing => return,
+            Keep::Bytes => None,
+            Keep::Reduced(reduce) => Some(reduce),
+        };
         let file = self.contents.files.len() - 1;
         let data = if data.starts_with(ZSTD_MAGIC) {
             let mut out = Vec::new();
@@ -167,6 +183,11 @@ impl<'k> Collector<'k> {
                 .map_err(|e| format!("zstd-compressed message does not decompress: {e}"))
         } else {
             Ok(data.to_vec())
+        };
+        let data = match (reduce, serialization) {
+            (None, _) => data,
+            (Some(reduce), Some(serialization)) => data.and_then(|d| reduce(&d, serialization)),
+            (Some(_), None) => Err("a serialisation the decoders do not read".into()),
         };
         self.contents.messages.push(RawMessage {
             topic,
@@ -184,13 +205,12 @@ impl<'k> Collector<'k> {
 }
 
 /// Reads the bag at `path` (a rosbag2 folder, one `.mcap` / `.db3` file, or a ROS 1 `.bag`
-/// file or folder of them), keeping the messages of the topics for which
-/// `keep(name, type)` holds.
+/// file or folder of them), keeping of each topic's messages what `keep(name, type)` says.
 ///
 /// # Errors
 /// [`DataError`] naming the file: a missing or unknown storage file, a bad
 /// `metadata.yaml`, a truncated or corrupt file.
-pub fn read(path: &Path, keep: &dyn Fn(&str, &str) -> bool) -> Result<Contents> {
+pub fn read(path: &Path, keep: &dyn Fn(&str, &str) -> Keep) -> Result<Contents> {
     let files = storage_files(path)?;
     let mut sink = Collector::new(keep);
     for file in files {
@@ -571,7 +591,7 @@ mod tests {
 
     #[test]
     fn a_compressed_message_cut_short_is_kept_with_why_it_does_not_decompress() {
-        let keep = |_: &str, _: &str| true;
+        let keep = |_: &str, _: &str| Keep::Bytes;
         let mut sink = Collector::new(&keep);
         sink.start_file(Path::new("bag.mcap"));
         let topic = sink.topic("/scan", "sensor_msgs/msg/LaserScan", "cdr");
@@ -612,16 +632,16 @@ mod tests {
     fn a_path_that_is_no_bag_is_an_error_naming_it() {
         let dir = std::env::temp_dir().join(format!("rosbag-none-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let err = read(&dir, &|_, _| true).unwrap_err().to_string();
+        let err = read(&dir, &|_, _| Keep::Bytes).unwrap_err().to_string();
         assert!(err.contains("not a bag: no metadata.yaml"), "{err}");
         let file = dir.join("notes.mcap");
         std::fs::write(&file, b"hello").unwrap();
-        let err = read(&file, &|_, _| true).unwrap_err().to_string();
+        let err = read(&file, &|_, _| Keep::Bytes).unwrap_err().to_string();
         assert!(err.contains("notes.mcap: unknown storage"), "{err}");
         assert!(err.contains("68 65 6c 6c 6f"), "{err}");
         std::fs::remove_dir_all(dir).unwrap();
         assert!(matches!(
-            read(Path::new("/no/such/bag"), &|_, _| true),
+            read(Path::new("/no/such/bag"), &|_, _| Keep::Bytes),
             Err(DataError::Missing { .. })
         ));
     }

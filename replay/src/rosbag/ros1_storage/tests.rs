@@ -3,7 +3,7 @@
 //! reads bags an independent library wrote.)
 
 use super::*;
-use crate::rosbag::storage::Contents;
+use crate::rosbag::storage::{Contents, Keep};
 use std::io::Write;
 
 /// A record header or connection block of `fields`.
@@ -117,7 +117,7 @@ fn closed_bag(compression: &str) -> Vec<u8> {
 
 /// What `bytes` read as: the contents, or the error's text.
 fn read_bag(bytes: &[u8]) -> std::result::Result<Contents, String> {
-    let keep = |_: &str, _: &str| true;
+    let keep = |_: &str, _: &str| Keep::Bytes;
     let mut sink = Collector::new(&keep);
     sink.start_file(Path::new("t.bag"));
     read(bytes, Path::new("t.bag"), &mut sink).map_err(|e| e.to_string())?;
