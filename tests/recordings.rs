@@ -177,28 +177,33 @@ fn a_bag_without_odometry_is_refused_and_mapped_with_the_laser_s_odometry() {
     rosbags_convert(&data("ros2/mit-csail"), &bag, "lz4", &drop_odometry);
     let bag = bag.to_str().unwrap();
     assert_refused("laseronly0", &["rosbag", bag], "--odometry laser");
+    mapped_by_laser_odometry("laseronly1", bag, &[]);
+}
+
+/// Replays the MIT CSAIL scans of `bag` (with `flags`) on odometry made from them, five
+/// particles, scored on the log's relations; checks the odometry made is well below the
+/// wheels' 1.681 m on the same relations, and the map built on it within centimetres.
+/// Returns the run folder.
+fn mapped_by_laser_odometry(name: &str, bag: &str, flags: &[&str]) -> PathBuf {
     let relations = data("freiburg/mit-csail/mit-csail.relations");
-    let (_, m, _) = replay_recording(
-        "laseronly1",
-        &[
-            "rosbag",
-            bag,
-            "--odometry",
-            "laser",
-            "--relations",
-            relations.to_str().unwrap(),
-            "--particles",
-            "5",
-        ],
-    );
-    // The odometry made from the scans, scored as dead reckoning: well below the wheels'
-    // 1.681 m on the same relations. The map built on it: within centimetres.
+    let relations = relations.to_str().unwrap();
+    let common = [
+        "--odometry",
+        "laser",
+        "--relations",
+        relations,
+        "--particles",
+        "5",
+    ];
+    let args = [&["rosbag", bag][..], flags, &common].concat();
+    let (out, m, _) = replay_recording(name, &args);
     let odometry = num(&m, "/dead_reckoning/relations/trans_mean_m");
     assert!(odometry < 0.5, "{odometry} m");
     for trajectory in ["estimate", "smoothed"] {
         let error = num(&m, &format!("/{trajectory}/relations/trans_mean_m"));
         assert!(error < 0.1, "{trajectory}: {error} m");
     }
+    out
 }
 
 #[test]
@@ -215,35 +220,13 @@ fn a_3d_lidar_s_point_clouds_map_like_the_scans_they_hold() {
             .arg(data("ros2/mit-csail"))
             .arg(&bag),
     );
-    let relations = data("freiburg/mit-csail/mit-csail.relations");
-    let (out, m, _) = replay_recording(
-        "clouds1",
-        &[
-            "rosbag",
-            bag.to_str().unwrap(),
-            "--scan-topic",
-            "/points",
-            "--odometry",
-            "laser",
-            "--relations",
-            relations.to_str().unwrap(),
-            "--particles",
-            "5",
-        ],
-    );
+    let bag = bag.to_str().unwrap();
+    let out = mapped_by_laser_odometry("clouds1", bag, &["--scan-topic", "/points"]);
     let log = std::fs::read_to_string(out.join("logs/replay-recording.log")).unwrap();
     assert!(
         log.contains("1988 scans from /points (sensor_msgs/msg/PointCloud2 cut to scans"),
         "{log}"
     );
-    // As from the scans themselves (the test above): the laser odometry well below the
-    // wheels' 1.681 m, the map within centimetres.
-    let odometry = num(&m, "/dead_reckoning/relations/trans_mean_m");
-    assert!(odometry < 0.5, "{odometry} m");
-    for trajectory in ["estimate", "smoothed"] {
-        let error = num(&m, &format!("/{trajectory}/relations/trans_mean_m"));
-        assert!(error < 0.1, "{trajectory}: {error} m");
-    }
 }
 
 /// A failed replay: non-zero exit, one `error:` line naming `what`, no panic.
