@@ -73,6 +73,13 @@ pub fn cloud_scan(bytes: &[u8], serialization: Serialization) -> DecodeResult<La
     let point_step = c.u32()? as usize;
     let row_step = c.u32()? as usize;
     let data = c.byte_seq()?;
+    if !fits(height, width, point_step, row_step, data.len()) {
+        return Err(format!(
+            "the cloud's {height} rows of {width} points, {point_step} bytes each, do not fit \
+             rows of {row_step} bytes in its {} bytes of data",
+            data.len()
+        ));
+    }
     let increment = std::f64::consts::TAU / BEAMS as f64;
     let mut ranges = vec![f32::NAN; BEAMS];
     for row in 0..height {
@@ -117,6 +124,23 @@ pub fn cloud_scan(bytes: &[u8], serialization: Serialization) -> DecodeResult<La
 pub fn cut(bytes: &[u8], serialization: Serialization) -> DecodeResult<Vec<u8>> {
     let scan = cloud_scan(bytes, serialization)?;
     Ok(cdr::encode_laser_scan(&scan, serialization))
+}
+
+/// Whether `height` rows of `width` points of `point_step` bytes, rows `row_step` bytes
+/// apart, lie within `data_len` bytes (so that the points, each read once, are bounded
+/// by the message's size).
+fn fits(height: usize, width: usize, point_step: usize, row_step: usize, data_len: usize) -> bool {
+    if height == 0 || width == 0 {
+        return true;
+    }
+    let row = width.checked_mul(point_step);
+    let last_row = (height - 1).checked_mul(row_step);
+    let end = row
+        .zip(last_row)
+        .and_then(|(row, last)| last.checked_add(row));
+    point_step > 0
+        && row.is_some_and(|row| height == 1 || row <= row_step)
+        && end.is_some_and(|end| end <= data_len)
 }
 
 /// The float at byte `at` of `data` (a `float64` when `wide`).
@@ -227,5 +251,26 @@ mod tests {
         w.u8(0).u32(4).u32(4).u32(4).f32(1.0).u8(1);
         let err = cloud_scan(&w.bytes, Serialization::Cdr).unwrap_err();
         assert!(err.contains("x, y and z"), "{err}");
+        // Points that claim no bytes (or more than the data holds) are refused, not read
+        // over and over.
+        let mut w = Writer::new(true);
+        w.header(3, 0, "velodyne")
+            .u32(u32::MAX)
+            .u32(u32::MAX)
+            .u32(3);
+        for (k, name) in ["x", "y", "z"].iter().enumerate() {
+            w.string(name).u32(4 * k as u32).u8(FLOAT32).u32(1);
+        }
+        w.u8(0)
+            .u32(0)
+            .u32(0)
+            .u32(12)
+            .f32(1.0)
+            .f32(0.0)
+            .f32(0.0)
+            .u8(1);
+        let err = cloud_scan(&w.bytes, Serialization::Cdr).unwrap_err();
+        assert!(err.contains("do not fit"), "{err}");
+        assert!(!fits(1, 2, 12, 24, 23) && fits(1, 2, 12, 24, 24) && !fits(2, 2, 12, 12, 48));
     }
 }
