@@ -234,6 +234,11 @@ fn publish(
     {
         out.eos.send(EndOfStream::new(stream, last))?;
     }
+    tracing::info!(
+        data_s = (last_ns - first_ns) as f64 * 1e-9,
+        wall_s = started.elapsed().as_secs_f64(),
+        "data set played"
+    );
     // A client that dies now and is started again asks for what it missed.
     ipc.wait_for_client()?;
     // A slice topic's samples live in this process's data segment until each subscriber
@@ -246,11 +251,6 @@ fn publish(
     if let Some(truth) = &out.truth {
         truth.landmarks.wait_until_unsubscribed(ipc)?;
     }
-    tracing::info!(
-        data_s = (last_ns - first_ns) as f64 * 1e-9,
-        wall_s = started.elapsed().as_secs_f64(),
-        "data set played"
-    );
     Ok(())
 }
 

@@ -103,9 +103,9 @@ impl Bag {
         };
         // A plain scan goes without saying; the others say how they became scans.
         let made_from = match self.scan_type.as_str() {
-            super::LASER_SCAN => String::new(),
             super::POINT_CLOUD => format!("{} cut to scans, ", super::POINT_CLOUD),
-            other => format!("{other}'s first echoes, "),
+            super::MULTI_ECHO_LASER_SCAN => format!("{}'s first echoes, ", self.scan_type),
+            _ => String::new(),
         };
         let mut line = format!(
             "{} scans from {} ({made_from}frame {}, {mount}){odometry} · epoch {:.6} s · \

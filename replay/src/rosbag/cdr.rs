@@ -306,7 +306,6 @@ pub fn multi_echo_laser_scan(
     serialization: Serialization,
 ) -> DecodeResult<LaserScan> {
     scan_with(bytes, serialization, |c| {
-        c.align(4)?;
         let beams = c.count(4)?;
         let ranges = (0..beams)
             .map(|_| Ok(c.f32_seq()?.first().copied().unwrap_or(f32::NAN)))

@@ -1,8 +1,9 @@
-//! A 3D lidar's `sensor_msgs/msg/PointCloud2` as a 2D scan, as ROS's
+//! A 3D lidar's `sensor_msgs/msg/PointCloud2` as a 2D scan, much as ROS's
 //! `pointcloud_to_laserscan` makes one: the points within [`BAND_M`] of the sensor's
 //! horizontal plane (`|z|` in the cloud's frame), binned by bearing into [`BEAMS`] beams
-//! over the full turn, the nearest point per beam. A beam no point falls in reads NaN
-//! (no reading: a sparse ring leaves gaps that are not free space); points nearer than
+//! over the full turn (each beam's angle the middle of its bin), the nearest point per
+//! beam. A beam no point falls in reads NaN, where `pointcloud_to_laserscan` would say
+//! +∞ (no reading: a sparse ring leaves gaps that are not free space); points nearer than
 //! [`RANGE_MIN_M`] (the robot itself) are dropped. The cloud's `x`, `y` and `z` fields
 //! are read whatever else it holds (float32 or float64, either byte order); a point
 //! with a non-finite coordinate is skipped.
@@ -32,6 +33,13 @@ const FLOAT64: u8 = 8;
 struct Field {
     offset: usize,
     wide: bool,
+}
+
+impl Field {
+    /// Its size in bytes.
+    fn size(self) -> usize {
+        if self.wide { 8 } else { 4 }
+    }
 }
 
 /// Decodes a `sensor_msgs/msg/PointCloud2` and cuts it to a scan (see the module doc).
@@ -73,6 +81,8 @@ pub fn cloud_scan(bytes: &[u8], serialization: Serialization) -> DecodeResult<La
     let point_step = c.u32()? as usize;
     let row_step = c.u32()? as usize;
     let data = c.byte_seq()?;
+    let increment = std::f64::consts::TAU / BEAMS as f64;
+    let mut ranges = vec![f32::NAN; BEAMS];
     if !fits(height, width, point_step, row_step, data.len()) {
         return Err(format!(
             "the cloud's {height} rows of {width} points, {point_step} bytes each, do not fit \
@@ -80,12 +90,20 @@ pub fn cloud_scan(bytes: &[u8], serialization: Serialization) -> DecodeResult<La
             data.len()
         ));
     }
-    let increment = std::f64::consts::TAU / BEAMS as f64;
-    let mut ranges = vec![f32::NAN; BEAMS];
-    for row in 0..height {
+    let outside = [x, y, z]
+        .into_iter()
+        .find(|f| f.offset + f.size() > point_step);
+    if let Some(f) = outside.filter(|_| width > 0 && height > 0) {
+        return Err(format!(
+            "a coordinate at byte {} of a point lies past its {point_step} bytes",
+            f.offset
+        ));
+    }
+    let rows = if width == 0 { 0 } else { height };
+    for row in 0..rows {
         for column in 0..width {
             let start = row * row_step + column * point_step;
-            let read = |f: Field| coordinate(data, start + f.offset, f.wide, big_endian);
+            let read = |f: Field| coordinate(data, start + f.offset, f.size(), big_endian);
             let (px, py, pz) = (read(x)?, read(y)?, read(z)?);
             if !(px.is_finite() && py.is_finite() && pz.is_finite()) || pz.abs() > BAND_M {
                 continue;
@@ -143,9 +161,8 @@ fn fits(height: usize, width: usize, point_step: usize, row_step: usize, data_le
         && end.is_some_and(|end| end <= data_len)
 }
 
-/// The float at byte `at` of `data` (a `float64` when `wide`).
-fn coordinate(data: &[u8], at: usize, wide: bool, big_endian: bool) -> DecodeResult<f64> {
-    let size = if wide { 8 } else { 4 };
+/// The float of `size` bytes (4 or 8) at byte `at` of `data`.
+fn coordinate(data: &[u8], at: usize, size: usize, big_endian: bool) -> DecodeResult<f64> {
     let Some(raw) = data.get(at..at + size) else {
         return Err(format!(
             "the cloud's data ends after {} bytes, a point's coordinate is at byte {at}",
@@ -158,7 +175,7 @@ fn coordinate(data: &[u8], at: usize, wide: bool, big_endian: bool) -> DecodeRes
         buffer[..size].reverse();
     }
     let [a, b, c, d, ..] = buffer;
-    Ok(if wide {
+    Ok(if size == 8 {
         f64::from_le_bytes(buffer)
     } else {
         f64::from(f32::from_le_bytes([a, b, c, d]))
@@ -170,79 +187,138 @@ mod tests {
     use super::*;
     use crate::rosbag::cdr::tests::Writer;
 
-    /// A cloud of `points` (x, y, z) with fields x, y, z (float32 or float64) and an
-    /// intensity between them and the next point, in `little` or big byte order.
-    fn cloud_bytes(little: bool, wide: bool, points: &[[f64; 3]]) -> Vec<u8> {
-        let size = if wide { 8 } else { 4 };
-        let datatype = if wide { FLOAT64 } else { FLOAT32 };
+    /// How a test cloud is written: the message's serialisation and byte order (CDR), the
+    /// points' byte order and whether their coordinates are `float64`.
+    #[derive(Debug, Clone, Copy)]
+    struct Layout {
+        ros1: bool,
+        little_message: bool,
+        big_data: bool,
+        wide: bool,
+    }
+
+    /// A cloud of `points` (x, y, z) laid out as `layout` says, each point x, an
+    /// intensity, y, z.
+    fn cloud_bytes(layout: Layout, points: &[[f64; 3]]) -> Vec<u8> {
+        let size = if layout.wide { 8 } else { 4 };
+        let datatype = if layout.wide { FLOAT64 } else { FLOAT32 };
         let point_step = 4 * size;
-        let mut w = Writer::new(little);
-        w.header(3, 0, "velodyne").u32(1).u32(points.len() as u32);
-        w.u32(4);
-        for (k, name) in ["x", "intensity", "y", "z"].iter().enumerate() {
-            let datatype = if *name == "intensity" { 2 } else { datatype };
-            w.string(name).u32(k as u32 * size).u8(datatype).u32(1);
-        }
-        w.u8(u8::from(!little))
-            .u32(point_step)
-            .u32(point_step * points.len() as u32);
         let mut data = Vec::new();
         for p in points {
             for v in [p[0], 9.0, p[1], p[2]] {
-                let mut raw = if wide {
-                    v.to_le_bytes().to_vec()
-                } else {
-                    (v as f32).to_le_bytes().to_vec()
+                let mut raw = match layout.wide {
+                    true => v.to_le_bytes().to_vec(),
+                    false => (v as f32).to_le_bytes().to_vec(),
                 };
-                if !little {
+                if layout.big_data {
                     raw.reverse();
                 }
                 data.extend(raw);
             }
         }
+        let fields = ["x", "intensity", "y", "z"];
+        let n = points.len() as u32;
+        if layout.ros1 {
+            // No encapsulation, no alignment, a sequence number, strings without NUL.
+            let mut out = Vec::new();
+            let string = |out: &mut Vec<u8>, s: &str| {
+                out.extend((s.len() as u32).to_le_bytes());
+                out.extend(s.as_bytes());
+            };
+            [0u32, 3, 0]
+                .iter()
+                .for_each(|v| out.extend(v.to_le_bytes()));
+            string(&mut out, "velodyne");
+            [1, n, 4].iter().for_each(|v| out.extend(v.to_le_bytes()));
+            for (k, name) in fields.iter().enumerate() {
+                string(&mut out, name);
+                out.extend((k as u32 * size).to_le_bytes());
+                out.push(datatype);
+                out.extend(1u32.to_le_bytes());
+            }
+            out.push(u8::from(layout.big_data));
+            [point_step, point_step * n, data.len() as u32]
+                .iter()
+                .for_each(|v| out.extend(v.to_le_bytes()));
+            out.extend(data);
+            out.push(1);
+            return out;
+        }
+        let mut w = Writer::new(layout.little_message);
+        w.header(3, 0, "velodyne").u32(1).u32(n).u32(4);
+        for (k, name) in fields.iter().enumerate() {
+            w.string(name).u32(k as u32 * size).u8(datatype).u32(1);
+        }
+        w.u8(u8::from(layout.big_data))
+            .u32(point_step)
+            .u32(point_step * n);
         w.u32(data.len() as u32);
         w.bytes.extend(data);
         w.u8(1);
         w.bytes
     }
 
+    /// A point at `range` in the middle of beam `beam`, `z` above the sensor's plane.
+    fn on_beam(beam: usize, range: f64, z: f64) -> [f64; 3] {
+        let bearing = -std::f64::consts::PI + (beam as f64 + 0.5) * std::f64::consts::TAU / 720.0;
+        [range * bearing.cos(), range * bearing.sin(), z]
+    }
+
     #[test]
     fn a_cloud_keeps_the_nearest_point_of_the_band_per_beam() {
         let points = [
-            [2.0, 0.0, 0.0],      // straight ahead
-            [3.0, 0.0, 0.1],      // behind it, in the band
-            [1.0, 0.001, 0.5],    // nearer, above the band
-            [1.0, 0.0, -0.3],     // nearer, below the band (the floor)
-            [0.0, -4.0, -0.15],   // to the right
-            [-5.0, 0.0, 0.0],     // behind the sensor
-            [0.1, 0.0, 0.0],      // the robot itself
-            [f64::NAN, 1.0, 0.0], // no point
+            on_beam(360, 2.0, 0.0),   // just left of straight ahead
+            on_beam(360, 3.0, 0.1),   // behind it, in the band
+            on_beam(360, 1.0, 0.5),   // nearer, above the band
+            on_beam(360, 1.0, -0.3),  // nearer, below the band (the floor)
+            on_beam(180, 4.0, -0.15), // to the right
+            on_beam(719, 5.0, 0.0),   // behind the sensor
+            on_beam(360, 0.1, 0.0),   // the robot itself
+            [f64::NAN, 1.0, 0.0],     // no point
         ];
-        for (little, wide) in [(true, false), (false, false), (true, true), (false, true)] {
-            let bytes = cloud_bytes(little, wide, &points);
-            let scan = cloud_scan(&bytes, Serialization::Cdr).unwrap();
-            assert_eq!(scan.header.frame_id, "velodyne");
-            assert_eq!(scan.ranges.len(), BEAMS);
-            let beam = |bearing: f64| {
-                ((bearing - f64::from(scan.angle_min)) / f64::from(scan.angle_increment)).round()
-                    as usize
-            };
-            let ahead = beam(0.0);
-            assert!(
-                (f64::from(scan.angle_min) + ahead as f64 * f64::from(scan.angle_increment)).abs()
-                    < 0.005
-            );
-            assert_eq!(scan.ranges[ahead], 2.0);
-            assert_eq!(scan.ranges[beam(-std::f64::consts::FRAC_PI_2)], 4.0);
-            assert_eq!(scan.ranges[BEAMS - 1], 5.0, "behind: the last beam");
-            let returns = scan.ranges.iter().filter(|r| !r.is_nan()).count();
-            assert_eq!(returns, 3, "little {little} wide {wide}");
+        for ros1 in [false, true] {
+            for little_message in [true, false] {
+                for big_data in [false, true] {
+                    for wide in [false, true] {
+                        let layout = Layout {
+                            ros1,
+                            little_message,
+                            big_data,
+                            wide,
+                        };
+                        let serialization = match ros1 {
+                            true => Serialization::Ros1,
+                            false => Serialization::Cdr,
+                        };
+                        let bytes = cloud_bytes(layout, &points);
+                        let scan = cloud_scan(&bytes, serialization).unwrap();
+                        assert_eq!(scan.header.frame_id, "velodyne");
+                        assert_eq!(scan.ranges.len(), BEAMS);
+                        let angle = |k: usize| {
+                            f64::from(scan.angle_min) + k as f64 * f64::from(scan.angle_increment)
+                        };
+                        assert!((angle(360) - 0.25f64.to_radians()).abs() < 1e-6);
+                        let r = |k: usize| f64::from(scan.ranges[k]);
+                        assert!((r(360) - 2.0).abs() < 1e-6, "{layout:?}: {}", r(360));
+                        assert!((r(180) - 4.0).abs() < 1e-6, "{layout:?}: {}", r(180));
+                        assert!((r(719) - 5.0).abs() < 1e-6, "{layout:?}: {}", r(719));
+                        let returns = scan.ranges.iter().filter(|r| !r.is_nan()).count();
+                        assert_eq!(returns, 3, "{layout:?}");
+                    }
+                }
+            }
         }
     }
 
     #[test]
-    fn a_cloud_without_coordinates_or_with_short_data_is_an_error() {
-        let bytes = cloud_bytes(true, false, &[[1.0, 0.0, 0.0]]);
+    fn malformed_clouds_are_errors() {
+        let layout = Layout {
+            ros1: false,
+            little_message: true,
+            big_data: false,
+            wide: false,
+        };
+        let bytes = cloud_bytes(layout, &[[1.0, 0.0, 0.0]]);
         let cut = &bytes[..bytes.len() - 6];
         assert!(cloud_scan(cut, Serialization::Cdr).is_err());
         let mut w = Writer::new(true);
@@ -252,25 +328,25 @@ mod tests {
         let err = cloud_scan(&w.bytes, Serialization::Cdr).unwrap_err();
         assert!(err.contains("x, y and z"), "{err}");
         // Points that claim no bytes (or more than the data holds) are refused, not read
-        // over and over.
-        let mut w = Writer::new(true);
-        w.header(3, 0, "velodyne")
-            .u32(u32::MAX)
-            .u32(u32::MAX)
-            .u32(3);
-        for (k, name) in ["x", "y", "z"].iter().enumerate() {
-            w.string(name).u32(4 * k as u32).u8(FLOAT32).u32(1);
-        }
-        w.u8(0)
-            .u32(0)
-            .u32(0)
-            .u32(12)
-            .f32(1.0)
-            .f32(0.0)
-            .f32(0.0)
-            .u8(1);
-        let err = cloud_scan(&w.bytes, Serialization::Cdr).unwrap_err();
-        assert!(err.contains("do not fit"), "{err}");
+        // over and over; so is a coordinate past its point.
+        let cloud = |points: u32, point_step: u32, z_offset: u32| {
+            let mut w = Writer::new(true);
+            w.header(3, 0, "velodyne").u32(points).u32(points).u32(3);
+            for (name, offset) in [("x", 0), ("y", 4), ("z", z_offset)] {
+                w.string(name).u32(offset).u8(FLOAT32).u32(1);
+            }
+            w.u8(0)
+                .u32(point_step)
+                .u32(0)
+                .u32(12)
+                .f32(1.0)
+                .f32(0.0)
+                .f32(0.0)
+                .u8(1);
+            cloud_scan(&w.bytes, Serialization::Cdr).unwrap_err()
+        };
+        assert!(cloud(u32::MAX, 0, 8).contains("do not fit"));
+        assert!(cloud(1, 12, 10).contains("past its 12 bytes"));
         assert!(!fits(1, 2, 12, 24, 23) && fits(1, 2, 12, 24, 24) && !fits(2, 2, 12, 12, 48));
     }
 }

@@ -117,16 +117,7 @@ pub struct TopicChoice {
 /// no scan topic, no odometry, or several candidates without a choice
 /// ([`DataError::Unusable`], listing them and the flag that picks one).
 pub fn load(path: &Path, topics: &TopicChoice) -> Result<Bag> {
-    let recorded_odometry = topics.odometry == OdometryChoice::Recorded;
-    let keep = |name: &str, type_name: &str| {
-        if type_name == POINT_CLOUD && topics.scan_topic.as_deref() == Some(name) {
-            return Keep::Reduced(cloud::cut);
-        }
-        let wanted = SCAN_TYPES.contains(&type_name)
-            || (recorded_odometry && type_name == ODOMETRY)
-            || (type_name == TF_MESSAGE && (name == TF_TOPIC || name == TF_STATIC_TOPIC));
-        if wanted { Keep::Bytes } else { Keep::Nothing }
-    };
+    let keep = |name: &str, type_name: &str| keep(topics, name, type_name);
     let contents = storage::read(path, &keep)?;
     // A ROS 1 bag's frames lose tf's leading slash (`cdr`); so do the flags naming them.
     let ros1 = (contents.topics.iter()).any(|t| t.serialization() == Some(Serialization::Ros1));
@@ -152,6 +143,27 @@ pub fn load(path: &Path, topics: &TopicChoice) -> Result<Bag> {
         skipped_messages: Skipped::default(),
     };
     bag.build(topics)
+}
+
+/// What [`load`] keeps of topic `name` of type `type_name` with the choices `topics`:
+/// the scans (only the topic `--scan-topic` names, when it names one; a point cloud cut to
+/// its scan as it is read, and only when named), the odometry unless it is made from the
+/// laser, and tf.
+fn keep(topics: &TopicChoice, name: &str, type_name: &str) -> Keep {
+    let named = topics
+        .scan_topic
+        .as_deref()
+        .is_none_or(|wanted| wanted == name);
+    if type_name == POINT_CLOUD {
+        return match topics.scan_topic.as_deref() == Some(name) {
+            true => Keep::Reduced(cloud::cut),
+            false => Keep::Nothing,
+        };
+    }
+    let wanted = (named && SCAN_TYPES.contains(&type_name))
+        || (topics.odometry == OdometryChoice::Recorded && type_name == ODOMETRY)
+        || (type_name == TF_MESSAGE && (name == TF_TOPIC || name == TF_STATIC_TOPIC));
+    if wanted { Keep::Bytes } else { Keep::Nothing }
 }
 
 /// One load in progress.
@@ -208,10 +220,11 @@ impl<'a> Reader<'a> {
                 }
             }
         };
-        let scans = match self.contents.topics[scan_topic].type_name.as_str() {
-            MULTI_ECHO_LASER_SCAN => self.decode(scan_topic, cdr::multi_echo_laser_scan),
-            // A cloud was cut to its scan as it was read (`cloud::cut`).
-            _ => self.decode(scan_topic, cdr::laser_scan),
+        let scans = if self.contents.topics[scan_topic].type_name == MULTI_ECHO_LASER_SCAN {
+            self.decode(scan_topic, cdr::multi_echo_laser_scan)
+        } else {
+            // A LaserScan, or a cloud cut to its scan as it was read (`cloud::cut`).
+            self.decode(scan_topic, cdr::laser_scan)
         };
         let laser_frame = (scans.first())
             .map(|(_, s, _)| s.header.frame_id.clone())

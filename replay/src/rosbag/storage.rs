@@ -69,8 +69,9 @@ pub struct RawMessage {
     pub index: usize,
     /// When the recorder received it (ns, the bag's clock).
     pub receive_ns: u64,
-    /// The serialised message, or why its bytes cannot be read (a zstd frame that does
-    /// not decompress).
+    /// The serialised message (for a [`Keep::Reduced`] topic, what the reduction made of
+    /// it), or why its bytes cannot be read (a zstd frame that does not decompress, a
+    /// message the reduction refused).
     pub data: std::result::Result<Vec<u8>, String>,
 }
 
@@ -170,6 +171,12 @@ impl<'k> Collector<'k> {
             Keep::Reduced(reduce) => Some(reduce),
         };
         let file = self.contents.files.len() - 1;
+        // What is kept of the (decompressed) bytes: a copy, or their reduction read in place.
+        let kept = |bytes: &[u8]| match (reduce, serialization) {
+            (None, _) => Ok(bytes.to_vec()),
+            (Some(reduce), Some(serialization)) => reduce(bytes, serialization),
+            (Some(_), None) => Err("a serialisation the decoders do not read".to_string()),
+        };
         let data = if data.starts_with(ZSTD_MAGIC) {
             let mut out = Vec::new();
             let mut frames = ZstdFrames::new(data);
@@ -178,16 +185,16 @@ impl<'k> Collector<'k> {
                 true => Err(std::io::ErrorKind::UnexpectedEof.into()),
                 false => Ok(()),
             });
-            whole
-                .map(|()| out)
-                .map_err(|e| format!("zstd-compressed message does not decompress: {e}"))
+            (whole.map_err(|e| format!("zstd-compressed message does not decompress: {e}")))
+                .and_then(|()| {
+                    if reduce.is_some() {
+                        kept(&out)
+                    } else {
+                        Ok(out)
+                    }
+                })
         } else {
-            Ok(data.to_vec())
-        };
-        let data = match (reduce, serialization) {
-            (None, _) => data,
-            (Some(reduce), Some(serialization)) => data.and_then(|d| reduce(&d, serialization)),
-            (Some(_), None) => Err("a serialisation the decoders do not read".into()),
+            kept(data)
         };
         self.contents.messages.push(RawMessage {
             topic,

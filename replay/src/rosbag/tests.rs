@@ -273,3 +273,31 @@ fn the_sample_bag_reads_whole() {
     let file = load(&dir.join("mit-csail_mcap.mcap"), &TopicChoice::default()).unwrap();
     assert_eq!(file.data, bag.data);
 }
+
+#[test]
+fn only_the_scan_topic_named_is_kept_and_a_cloud_only_when_named() {
+    let named = |scan_topic: Option<&str>, odometry| TopicChoice {
+        scan_topic: scan_topic.map(str::to_string),
+        odometry,
+        ..TopicChoice::default()
+    };
+    let kept =
+        |choice: &TopicChoice, name: &str, type_name: &str| match keep(choice, name, type_name) {
+            Keep::Nothing => "nothing",
+            Keep::Bytes => "bytes",
+            Keep::Reduced(_) => "reduced",
+        };
+    let any = named(None, OdometryChoice::Recorded);
+    assert_eq!(kept(&any, "/scan", LASER_SCAN), "bytes");
+    assert_eq!(kept(&any, "/echoes", MULTI_ECHO_LASER_SCAN), "bytes");
+    assert_eq!(kept(&any, "/points", POINT_CLOUD), "nothing");
+    assert_eq!(kept(&any, "/odom", ODOMETRY), "bytes");
+    assert_eq!(kept(&any, TF_TOPIC, TF_MESSAGE), "bytes");
+    assert_eq!(kept(&any, "/chatter", "std_msgs/msg/String"), "nothing");
+    let points = named(Some("/points"), OdometryChoice::Laser);
+    assert_eq!(kept(&points, "/points", POINT_CLOUD), "reduced");
+    assert_eq!(kept(&points, "/camera/points", POINT_CLOUD), "nothing");
+    assert_eq!(kept(&points, "/scan", LASER_SCAN), "nothing");
+    assert_eq!(kept(&points, "/odom", ODOMETRY), "nothing");
+    assert_eq!(kept(&points, TF_STATIC_TOPIC, TF_MESSAGE), "bytes");
+}
