@@ -216,7 +216,10 @@ mod written_by_rosbags {
             .to_string();
         assert!(err.contains("no sensor_msgs/msg/LaserScan or"), "{err}");
         assert!(
-            err.contains("a sensor_msgs/msg/PointCloud2 topic named there is cut to a scan"),
+            err.contains(
+                "a sensor_msgs/msg/PointCloud2 topic named there is cut to a scan: /points, \
+                 /camera/points)"
+            ),
             "{err}"
         );
         assert!(

@@ -405,7 +405,9 @@ impl<'a> Reader<'a> {
         } else {
             format!(
                 "--scan-topic (a {POINT_CLOUD} topic named there is cut to a scan: {})",
-                listing(clouds.iter().map(|&k| &topics[k]))
+                (clouds.iter().map(|&k| topics[k].name.as_str()))
+                    .collect::<Vec<_>>()
+                    .join(", ")
             )
         };
         self.choose(SCAN_TYPES, wanted, &flag)
