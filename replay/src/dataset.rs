@@ -236,22 +236,33 @@ pub fn odometry(records: &[(f64, Control)], model: &MotionModel, clock: &Clock) 
     out
 }
 
+/// The speed along the heading and the yaw rate that take pose `from` at `from_ns` to
+/// pose `to` at `to_ns` (ns); `(0, 0)` unless `to_ns` is later.
+pub fn rates(from_ns: u64, from: &Pose2, to_ns: u64, to: &Pose2) -> (f64, f64) {
+    if to_ns <= from_ns {
+        return (0.0, 0.0);
+    }
+    let dt = (to_ns - from_ns) as f64 * 1e-9;
+    let (dx, dy) = (to.x - from.x, to.y - from.y);
+    let forward = dx * from.theta.cos() + dy * from.theta.sin();
+    let turn = fastslam_estimation::wrap_angle(to.theta - from.theta);
+    (forward / dt, turn / dt)
+}
+
 /// Ground-truth messages from poses `(stamp_ns, pose)` in stamp order, with speed and
-/// yaw rate differentiated from the previous pose (0 for the first; steering is not
-/// measured and left 0).
+/// yaw rate differentiated from the previous pose ([`rates`]; 0 for the first; steering
+/// is not measured and left 0).
 pub fn truth_track(poses: impl IntoIterator<Item = (u64, Pose2)>) -> Vec<GroundTruth> {
     let mut out: Vec<GroundTruth> = Vec::new();
     for (seq, (stamp_ns, p)) in poses.into_iter().enumerate() {
-        let (v, omega) = match out.last() {
-            Some(prev) if stamp_ns > prev.header.stamp_ns => {
-                let dt = (stamp_ns - prev.header.stamp_ns) as f64 * 1e-9;
-                let (dx, dy) = (p.x - prev.x, p.y - prev.y);
-                let forward = dx * prev.theta.cos() + dy * prev.theta.sin();
-                let turn = fastslam_estimation::wrap_angle(p.theta - prev.theta);
-                (forward / dt, turn / dt)
-            }
-            _ => (0.0, 0.0),
-        };
+        let (v, omega) = out.last().map_or((0.0, 0.0), |prev| {
+            let from = Pose2 {
+                x: prev.x,
+                y: prev.y,
+                theta: prev.theta,
+            };
+            rates(prev.header.stamp_ns, &from, stamp_ns, &p)
+        });
         out.push(GroundTruth {
             header: Header {
                 stamp_ns,

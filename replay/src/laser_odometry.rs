@@ -3,10 +3,10 @@
 //! odometry message per scan at the scan's stamp. For a recording without wheel odometry,
 //! or with odometry not to be trusted.
 
-use crate::dataset::DataSet;
+use crate::dataset::{self, DataSet};
+use fastslam_estimation::Pose2;
 use fastslam_estimation::laser_odometry::{LaserOdometry, LaserOdometryConfig, TrackingCounts};
 use fastslam_estimation::scan::RangeScan;
-use fastslam_estimation::wrap_angle;
 use fastslam_protocol::{Header, Odometry};
 
 /// Where the odometry the filter predicts with comes from (`--odometry`).
@@ -42,15 +42,13 @@ pub fn from_scans(data: &DataSet, max_range: f64) -> (Vec<Odometry>, TrackingCou
             ranges: h.ranges_of(&scan.items),
         };
         let pose = tracker.track(stamp_ns as f64 * 1e-9, &range_scan);
-        let (v, omega) = odometry.last().map_or((0.0, 0.0), |last| {
-            let dt = (stamp_ns.saturating_sub(last.header.stamp_ns)) as f64 * 1e-9;
-            if dt <= 0.0 {
-                return (0.0, 0.0);
-            }
-            let (dx, dy) = (pose.x - last.x, pose.y - last.y);
-            let (s, c) = last.theta.sin_cos();
-            let forward = c * dx + s * dy;
-            (forward / dt, wrap_angle(pose.theta - last.theta) / dt)
+        let (v, omega) = (odometry.last()).map_or((0.0, 0.0), |last| {
+            let from = Pose2 {
+                x: last.x,
+                y: last.y,
+                theta: last.theta,
+            };
+            dataset::rates(last.header.stamp_ns, &from, stamp_ns, &pose)
         });
         odometry.push(Odometry {
             header: Header {
