@@ -150,17 +150,15 @@ pub fn load(path: &Path, topics: &TopicChoice) -> Result<Bag> {
 /// its scan as it is read, and only when named), the odometry unless it is made from the
 /// laser, and tf.
 fn keep(topics: &TopicChoice, name: &str, type_name: &str) -> Keep {
-    let named = topics
-        .scan_topic
-        .as_deref()
-        .is_none_or(|wanted| wanted == name);
+    let named = topics.scan_topic.as_deref() == Some(name);
     if type_name == POINT_CLOUD {
-        return match topics.scan_topic.as_deref() == Some(name) {
-            true => Keep::Reduced(cloud::cut),
-            false => Keep::Nothing,
+        return if named {
+            Keep::Reduced(cloud::cut)
+        } else {
+            Keep::Nothing
         };
     }
-    let wanted = (named && SCAN_TYPES.contains(&type_name))
+    let wanted = ((named || topics.scan_topic.is_none()) && SCAN_TYPES.contains(&type_name))
         || (topics.odometry == OdometryChoice::Recorded && type_name == ODOMETRY)
         || (type_name == TF_MESSAGE && (name == TF_TOPIC || name == TF_STATIC_TOPIC));
     if wanted { Keep::Bytes } else { Keep::Nothing }
